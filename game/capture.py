@@ -1,0 +1,114 @@
+"""Headless frame capture (``python -m game capture``): frames, dumps and stats per CONTRACT.md.
+
+Scene -> Renderer -> Frame -> files. Frame k is rendered at scene time ``time + k / fps``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+from . import context, outputs, shadow_methods
+from .renderer import Frame, Renderer, View
+from .scene import Scene
+
+
+@dataclass
+class CaptureOptions:
+    out: Path
+    frames: int = 1
+    size: tuple[int, int] = (960, 540)
+    time: float = 0.0
+    fps: float = 30.0
+    dump: bool = False
+    stats: Path | None = None
+    debug_view: str = "none"
+    clock: str = "auto"
+    settings: shadow_methods.ShadowSettings = field(default_factory=shadow_methods.ShadowSettings)
+
+
+def frame_stats(index: int, t: float, frame: Frame) -> dict:
+    """One frame's entry of the stats file (CONTRACT.md section 4)."""
+    ms = {name: round(value, 4) for name, value in frame.ms.items()}
+    return {"frame": index, "time": t, "ms": ms, **ms,
+            "maps_rendered": frame.maps_rendered, "maps_cached": frame.maps_cached,
+            "maps_total": frame.maps_total, "triangles_to_maps": frame.triangles_to_maps,
+            "maps_per_fragment": round(frame.maps_per_fragment, 5)}
+
+
+def frame_geometry(scene: Scene, t: float) -> trimesh.Scene:
+    """All geometry at time ``t`` in world space, one node per object named as in the dumps."""
+    out = trimesh.Scene()
+    for body in scene.floors + scene.statics:
+        out.add_geometry(body.mesh, node_name=body.name, geom_name=body.name)
+    for character in scene.characters:
+        mesh = character.mesh.copy()
+        mesh.apply_transform(character.model_matrix(t))
+        out.add_geometry(mesh, node_name=character.name, geom_name=character.name)
+    return out
+
+
+def write_dump(stem: Path, scene: Scene, view: View, size: tuple[int, int], t: float,
+               frame: Frame) -> None:
+    g = frame.gbuffer
+    arrays = {
+        "position": g["position"], "normal": g["normal"], "object": g["object"],
+        "names": np.array(scene.object_names()), "lit": g["lit"],
+        "view": view.view.astype(np.float64), "proj": view.proj.astype(np.float64),
+        "size": np.array(size, dtype=np.int64), "time": np.float64(t),
+    }
+    outputs.write_npz(stem.with_suffix(".npz"), arrays)
+    glb = frame_geometry(scene, t).export(file_type="glb")
+    outputs.write_bytes(stem.with_suffix(".glb"), glb)
+
+
+def run(ctx, scene: Scene, opts: CaptureOptions, log=None) -> dict:
+    """Render ``opts.frames`` frames and write them; returns the stats document."""
+    opts.out.mkdir(parents=True, exist_ok=True)
+    renderer = Renderer(ctx, scene, opts.size, opts.settings, gbuffer=opts.dump,
+                        clock=opts.clock)
+    renderer.debug_view = opts.debug_view
+    view = View.from_camera(scene.camera, opts.size)
+    frames = []
+    try:
+        for k in range(opts.frames):
+            t = opts.time + k / opts.fps
+            frame = renderer.render(t, view)
+            stem = opts.out / f"frame_{k:04d}"
+            outputs.write_png(stem.with_suffix(".png"), frame.image)
+            if opts.dump:
+                write_dump(stem, scene, view, opts.size, t, frame)
+            frames.append(frame_stats(k, t, frame))
+            if log is not None:
+                log(k, frame)
+        stats = {
+            **context.describe(ctx), "clock": renderer.timer.clock,
+            "scene": str(scene.source) if scene.source else scene.name,
+            "method": opts.settings.method, "size": list(opts.size),
+            "settings": dataclasses.asdict(opts.settings),
+            "shadow_memory_mib": round(renderer.shadow_memory_bytes / 2**20, 3),
+            "static_triangles": renderer.geom.triangle_count(
+                range(renderer.geom.first_static, renderer.geom.first_character)),
+            "characters": renderer.geom.n_characters,
+            "frames": frames,
+        }
+    finally:
+        renderer.release()
+    if opts.stats is not None:
+        outputs.write_json(opts.stats, stats)
+    return stats
+
+
+def summary(stats: dict) -> str:
+    """One line: medians over the frames after the first."""
+    frames = stats["frames"][1:] or stats["frames"]
+    med = {k: float(np.median([f["ms"].get(k, 0.0) for f in frames]))
+           for k in ("shadow_static", "shadow_dynamic", "shade", "total")}
+    return (f"{len(stats['frames'])} frames, median ms: "
+            + ", ".join(f"{k} {v:.2f}" for k, v in med.items())
+            + f" ({stats['clock']} on {stats['renderer']})")
+

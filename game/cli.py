@@ -1,0 +1,245 @@
+"""The command line (CONTRACT.md section 2): parse, run, and turn every failure into one line.
+
+Exit status: 0 success; 1 a bad scene or a machine that cannot run it; 2 a bad argument;
+130 interrupted. Set SHADOWGAME_DEBUG=1 to see the traceback of an internal error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+from pathlib import Path
+
+from . import shadow_methods
+from .errors import GameError
+
+CAPTURE_METHODS = ("clumped", "single", "static-dynamic", "csm", "traced")
+TRACE_METHODS = ("brute", "grid", "tri-cache", "voxel-cache", "analytic")
+NOT_YET = {
+    "static-dynamic": "the static-dynamic baseline arrives with the benchmark (issue 3)",
+    "csm": "cascaded shadow maps arrive with the benchmark (issue 3)",
+    "traced": "ray-traced hard shadows arrive with the soft-shadow tracer (issue 4)",
+}
+MAX_SIZE = 16384
+DEFAULT_OUT = Path("captures")
+
+
+class ArgumentError(GameError):
+    """A bad command-line value."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that reports a bad argument in one line instead of usage plus message."""
+
+    def error(self, message: str):
+        raise ArgumentError(f"{self.prog}: {message}")
+
+
+def _size(text: str) -> tuple[int, int]:
+    parts = text.lower().split("x")
+    try:
+        w, h = (int(p) for p in parts)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"size must be WxH, like 960x540, got {text!r}") from None
+    if not (1 <= w <= MAX_SIZE and 1 <= h <= MAX_SIZE):
+        raise argparse.ArgumentTypeError(f"size must be 1..{MAX_SIZE} per side, got {text!r}")
+    return w, h
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def _finite(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be finite, got {text!r}")
+    return value
+
+
+def _positive(text: str) -> float:
+    value = _finite(text)
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"must be positive, got {text!r}")
+    return value
+
+
+def _non_negative(text: str) -> float:
+    value = _finite(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be zero or more, got {text!r}")
+    return value
+
+
+def _add_shadow_options(p: argparse.ArgumentParser) -> None:
+    d = shadow_methods.ShadowSettings()
+    g = p.add_argument_group("hard-shadow parameters")
+    g.add_argument("--clumping", choices=shadow_methods.CLUMPINGS, default=d.clumping,
+                   help="group statics by neighbourhood in world space or in light space")
+    g.add_argument("--clumps", type=_positive_int, default=None, metavar="N",
+                   help="number of clumps (default: from --texels-per-metre)")
+    g.add_argument("--texels-per-metre", type=_positive, default=d.texels_per_metre,
+                   help="texel-density target that sets the number of clumps")
+    g.add_argument("--clump-resolution", type=_positive_int, default=d.clump_resolution,
+                   help="texels per side of each clump map")
+    g.add_argument("--character-resolution", type=_positive_int,
+                   default=d.character_resolution, help="texels per side of each character map")
+    g.add_argument("--single-resolution", type=_positive_int, default=d.single_resolution,
+                   help="texels per side of the single baseline map")
+    g.add_argument("--normal-bias", type=_non_negative, default=d.normal_bias,
+                   help="normal offset in texels")
+    g.add_argument("--depth-bias", type=_non_negative, default=d.depth_bias,
+                   help="constant depth bias in texels")
+    g.add_argument("--slope-bias", type=_non_negative, default=d.slope_bias,
+                   help="slope-scaled depth bias in texels")
+    g.add_argument("--pcf", action="store_true", help="3x3 percentage-closer filtering")
+    g.add_argument("--grid", choices=("auto", "on", "off"), default=d.grid,
+                   help="light-space grid of map lists (auto: when there are many maps)")
+    g.add_argument("--debug-view", choices=("none", "map", "map-count"), default="none",
+                   help="colour pixels by the map they used, or by the number of maps read")
+    g.add_argument("--clock", choices=("auto", "cpu-finish", "gpu-query"), default="auto",
+                   help="timing clock (auto: CPU around glFinish on llvmpipe, GPU queries "
+                        "elsewhere)")
+
+
+def _settings(args) -> shadow_methods.ShadowSettings:
+    return shadow_methods.ShadowSettings(
+        method=args.method, clumping=args.clumping, clump_count=args.clumps,
+        texels_per_metre=args.texels_per_metre, clump_resolution=args.clump_resolution,
+        character_resolution=args.character_resolution,
+        single_resolution=args.single_resolution, normal_bias=args.normal_bias,
+        depth_bias=args.depth_bias, slope_bias=args.slope_bias, pcf=args.pcf, grid=args.grid)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="python -m game",
+                     description="Multi-map hard shadows and linear-light soft shadows.")
+    sub = parser.add_subparsers(dest="command", parser_class=_Parser)
+
+    play = sub.add_parser("play", help="the walkaround window")
+    play.add_argument("scene", nargs="?", help="scene file (default: the built-in scene)")
+    play.add_argument("--frames", type=_positive_int)
+    play.add_argument("--screenshot", type=Path)
+
+    cap = sub.add_parser("capture", help="render frames headless through EGL")
+    cap.add_argument("scene", nargs="?", help="scene file (default: the built-in scene)")
+    cap.add_argument("--method", choices=CAPTURE_METHODS, default="clumped")
+    cap.add_argument("--frames", type=_positive_int, default=1)
+    cap.add_argument("--size", type=_size, default=(960, 540), metavar="WxH")
+    cap.add_argument("--time", type=_finite, default=0.0, help="scene time of the first frame")
+    cap.add_argument("--fps", type=_positive, default=30.0, help="frames per scene second")
+    cap.add_argument("--out", type=Path, default=DEFAULT_OUT, metavar="DIR")
+    cap.add_argument("--dump", action="store_true", help="write npz + glb beside each frame")
+    cap.add_argument("--stats", type=Path, metavar="FILE", help="write per-frame stats JSON")
+    cap.add_argument("--overlay", action="store_true", help="draw the timing overlay")
+    _add_shadow_options(cap)
+
+    trace = sub.add_parser("trace", help="soft shadows of the linear light (compute pass)")
+    trace.add_argument("scene", nargs="?")
+    trace.add_argument("--method", choices=TRACE_METHODS, default="voxel-cache")
+
+    sub.add_parser("bench", help="speed-versus-accuracy sweeps and charts")
+    return parser
+
+
+def _load(scene_arg: str | None):
+    from .scene import default_scene_path, load_scene
+
+    return load_scene(Path(scene_arg) if scene_arg else default_scene_path())
+
+
+def _check_out(path: Path) -> None:
+    if path.exists() and not path.is_dir():
+        raise ArgumentError(f"--out {path}: exists and is not a folder")
+
+
+def cmd_capture(args) -> int:
+    from . import capture, context
+
+    if args.method in NOT_YET:
+        raise ArgumentError(f"--method {args.method}: not available yet: {NOT_YET[args.method]}")
+    if args.overlay:
+        raise ArgumentError("--overlay: the timing overlay arrives with the walkaround window "
+                            "(issue 5)")
+    _check_out(args.out)
+    if args.stats is not None and args.stats.is_dir():
+        raise ArgumentError(f"--stats {args.stats}: is a folder")
+    scene = _load(args.scene)
+    ctx = context.create_headless()
+    try:
+        for name in ("clump_resolution", "character_resolution", "single_resolution"):
+            value = getattr(args, name)
+            limit = int(ctx.info["GL_MAX_TEXTURE_SIZE"])
+            if value > limit:
+                raise ArgumentError(f"--{name.replace('_', '-')} {value}: above this GL's "
+                                    f"GL_MAX_TEXTURE_SIZE {limit}")
+        opts = capture.CaptureOptions(
+            out=args.out, frames=args.frames, size=args.size, time=args.time, fps=args.fps,
+            dump=args.dump, stats=args.stats, debug_view=args.debug_view, clock=args.clock,
+            settings=_settings(args))
+        stats = capture.run(ctx, scene, opts)
+    finally:
+        ctx.release()
+    print(f"wrote {args.frames} frame(s) to {args.out}/: {capture.summary(stats)}")
+    return 0
+
+
+def cmd_default() -> int:
+    """``python -m game``: the walkaround; until the window exists, a headless capture."""
+    from . import capture, context
+    from .scene import default_scene_path
+
+    out = DEFAULT_OUT / "default"
+    scene = _load(None)
+    ctx = context.create_headless()
+    try:
+        opts = capture.CaptureOptions(out=out, frames=1, size=(960, 540))
+        capture.run(ctx, scene, opts)
+    finally:
+        ctx.release()
+    reason = ("no display" if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+              else "no walkaround window in this build yet")
+    print(f"{reason}: rendered {default_scene_path().name} headless to {out}/frame_0000.png "
+          "(see python -m game capture --help)")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+        if args.command is None:
+            return cmd_default()
+        if args.command == "capture":
+            return cmd_capture(args)
+        if args.command == "play":
+            raise GameError("the walkaround window is not built yet (issue 5); use "
+                            "python -m game capture")
+        raise GameError(f"{args.command}: not available yet (issue {3 if args.command == 'bench' else 4})")
+    except ArgumentError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except GameError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:  # noqa: BLE001 - the one place that turns bugs into one line too
+        if os.environ.get("SHADOWGAME_DEBUG"):
+            raise
+        first = str(exc).splitlines()[0] if str(exc) else ""
+        print(f"internal error: {type(exc).__name__}: {first} (set SHADOWGAME_DEBUG=1 for the "
+              "traceback)", file=sys.stderr)
+        return 1

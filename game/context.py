@@ -1,0 +1,70 @@
+"""The one place that makes an OpenGL context, headless (EGL) or for a window.
+
+Every other module takes the ``moderngl.Context`` this returns and works the same either way.
+"""
+
+from __future__ import annotations
+
+import os
+
+from .errors import GameError
+
+REQUIRED_GL = (4, 3)  # compute shaders (soft shadows) and storage buffers need 4.3 core
+
+# PyOpenGL must find its function pointers through EGL when there is no X display; it reads this
+# before its first import, so set it here, the module every GL path goes through first.
+os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
+
+
+def _check_version(ctx) -> None:
+    major, minor = divmod(ctx.version_code, 100)
+    minor //= 10
+    if (major, minor) < REQUIRED_GL:
+        renderer = ctx.info.get("GL_RENDERER", "?")
+        version = ctx.info.get("GL_VERSION", "?")
+        ctx.release()
+        raise GameError(
+            f"OpenGL {REQUIRED_GL[0]}.{REQUIRED_GL[1]} core is required, but {renderer} offers "
+            f"{version}; use Mesa 20+ (llvmpipe works: apt-get install libgl1-mesa-dri)")
+
+
+def create_headless():
+    """A standalone EGL context (no display needed).
+
+    Raises
+    ------
+    GameError
+        With a one-line hint when EGL or a GL 4.3 driver is missing.
+    """
+    try:
+        import moderngl
+    except ImportError as exc:  # pragma: no cover - dependency missing
+        raise GameError(f"moderngl is not installed ({exc}); run pip install -e .") from None
+    try:
+        ctx = moderngl.create_context(standalone=True, backend="egl")
+    except Exception as exc:  # noqa: BLE001 - glcontext raises plain Exception subclasses
+        raise GameError(
+            f"cannot create a headless EGL OpenGL context ({str(exc).splitlines()[0]}); "
+            "install libegl1 and libgl1-mesa-dri") from None
+    _check_version(ctx)
+    return ctx
+
+
+def wrap_current():
+    """Wrap the context a window made current (glfw), checking its version."""
+    import moderngl
+
+    ctx = moderngl.create_context()
+    _check_version(ctx)
+    return ctx
+
+
+def describe(ctx) -> dict:
+    """GL_RENDERER and GL_VERSION, as the stats file records them."""
+    return {"renderer": ctx.info["GL_RENDERER"], "version": ctx.info["GL_VERSION"]}
+
+
+def is_software(ctx) -> bool:
+    """True on Mesa's CPU rasterisers, whose GPU timer queries read wrong values."""
+    renderer = ctx.info["GL_RENDERER"].lower()
+    return any(name in renderer for name in ("llvmpipe", "softpipe", "swrast", "lavapipe"))

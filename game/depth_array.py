@@ -1,0 +1,104 @@
+"""A depth texture array with one framebuffer per layer, made through PyOpenGL.
+
+Why this route: moderngl 5.13 cannot create a depth texture array nor attach one layer of it to
+a framebuffer. The other known route (render into an R32F colour array with MIN blending) gives
+up the hardware depth test while rendering and the hardware depth compare while sampling, and
+needs a colour clear per layer. Here the array is a real GL_DEPTH_COMPONENT32F array made with
+glTexStorage3D; glFramebufferTextureLayer attaches each layer to its own framebuffer, which
+moderngl wraps with ``ctx.detect_framebuffer`` so that every draw call stays in moderngl. The
+shading pass samples it as a ``sampler2DArrayShadow``. Seen working on Mesa llvmpipe.
+
+Only this module calls PyOpenGL; the Renderer owns instances and releases them explicitly.
+"""
+
+from __future__ import annotations
+
+from .errors import GameError
+
+
+class DepthArray:
+    """``layers`` square depth maps of ``resolution`` texels in one GL texture array."""
+
+    def __init__(self, ctx, resolution: int, layers: int):
+        from OpenGL import GL
+
+        self._gl = GL
+        self.ctx = ctx
+        self.resolution = int(resolution)
+        self.layers = int(layers)
+        max_size = int(ctx.info["GL_MAX_TEXTURE_SIZE"])
+        max_layers = int(ctx.info["GL_MAX_ARRAY_TEXTURE_LAYERS"])
+        if not 1 <= self.resolution <= max_size:
+            raise GameError(f"shadow map resolution {resolution} is outside 1..{max_size} "
+                            "(GL_MAX_TEXTURE_SIZE)")
+        if not 1 <= self.layers <= max_layers:
+            raise GameError(f"{layers} shadow maps exceed GL_MAX_ARRAY_TEXTURE_LAYERS "
+                            f"({max_layers})")
+        self.texture = int(GL.glGenTextures(1))
+        GL.glBindTexture(GL.GL_TEXTURE_2D_ARRAY, self.texture)
+        GL.glTexStorage3D(GL.GL_TEXTURE_2D_ARRAY, 1, GL.GL_DEPTH_COMPONENT32F,
+                          self.resolution, self.resolution, self.layers)
+        if GL.glGetError() != GL.GL_NO_ERROR:
+            GL.glDeleteTextures(1, [self.texture])
+            raise GameError(f"the driver refused a {self.resolution}x{self.resolution}x"
+                            f"{self.layers} depth array (out of memory?)")
+        for name, value in (
+            (GL.GL_TEXTURE_COMPARE_MODE, GL.GL_COMPARE_REF_TO_TEXTURE),
+            (GL.GL_TEXTURE_COMPARE_FUNC, GL.GL_LEQUAL),
+            (GL.GL_TEXTURE_MIN_FILTER, GL.GL_NEAREST),
+            (GL.GL_TEXTURE_MAG_FILTER, GL.GL_NEAREST),
+            (GL.GL_TEXTURE_WRAP_S, GL.GL_CLAMP_TO_EDGE),
+            (GL.GL_TEXTURE_WRAP_T, GL.GL_CLAMP_TO_EDGE),
+        ):
+            GL.glTexParameteri(GL.GL_TEXTURE_2D_ARRAY, name, value)
+        GL.glBindTexture(GL.GL_TEXTURE_2D_ARRAY, 0)
+        self._fbo_ids: list[int] = []
+        self.framebuffers = []
+        for layer in range(self.layers):
+            fbo = int(GL.glGenFramebuffers(1))
+            GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, fbo)
+            GL.glFramebufferTextureLayer(GL.GL_FRAMEBUFFER, GL.GL_DEPTH_ATTACHMENT,
+                                         self.texture, 0, layer)
+            GL.glDrawBuffer(GL.GL_NONE)
+            GL.glReadBuffer(GL.GL_NONE)
+            status = GL.glCheckFramebufferStatus(GL.GL_FRAMEBUFFER)
+            self._fbo_ids.append(fbo)
+            if status != GL.GL_FRAMEBUFFER_COMPLETE:
+                self.release()
+                raise GameError(f"depth array layer {layer} is not a complete framebuffer "
+                                f"(status 0x{status:x})")
+            self.framebuffers.append(ctx.detect_framebuffer(fbo))
+        # Leave moderngl's idea of the bound framebuffer true.
+        ctx.screen.use() if ctx.screen is not None else GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, 0)
+
+    @property
+    def bytes(self) -> int:
+        """GPU memory of the depth texels."""
+        return self.resolution * self.resolution * self.layers * 4
+
+    def bind(self, unit: int) -> None:
+        """Bind the array to a texture unit for sampling."""
+        GL = self._gl
+        GL.glActiveTexture(GL.GL_TEXTURE0 + unit)
+        GL.glBindTexture(GL.GL_TEXTURE_2D_ARRAY, self.texture)
+
+    def set_filter(self, linear: bool) -> None:
+        """Linear filtering turns each depth compare into a 2x2 PCF tap."""
+        GL = self._gl
+        mode = GL.GL_LINEAR if linear else GL.GL_NEAREST
+        GL.glBindTexture(GL.GL_TEXTURE_2D_ARRAY, self.texture)
+        GL.glTexParameteri(GL.GL_TEXTURE_2D_ARRAY, GL.GL_TEXTURE_MIN_FILTER, mode)
+        GL.glTexParameteri(GL.GL_TEXTURE_2D_ARRAY, GL.GL_TEXTURE_MAG_FILTER, mode)
+        GL.glBindTexture(GL.GL_TEXTURE_2D_ARRAY, 0)
+
+    def release(self) -> None:
+        """Delete the framebuffers and the texture."""
+        GL = self._gl
+        # The detect_framebuffer wrappers are references: the GL names are ours to delete.
+        self.framebuffers = []
+        if self._fbo_ids:
+            GL.glDeleteFramebuffers(len(self._fbo_ids), self._fbo_ids)
+            self._fbo_ids = []
+        if self.texture:
+            GL.glDeleteTextures(1, [self.texture])
+            self.texture = 0

@@ -1,0 +1,52 @@
+"""Every uniform and storage block, declared once as a numpy dtype with explicit std140 padding.
+
+Keep in sync with shaders/blocks.glsl: each dtype below has its GLSL twin there, field by field.
+Matrices are stored as GLSL reads them (column-major), so fill them with ``transforms.gl_bytes``
+order, i.e. the transpose of our column-vector matrices.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+# Keep in sync with shaders/blocks.glsl: struct ShadowMap.
+MAP_DTYPE = np.dtype([
+    ("view_proj", "<f4", (4, 4)),  # world -> the map's clip space (stored transposed)
+    # x: layer, y: texel size (orthographic: metres; perspective: per metre of depth),
+    # z: 1 for a perspective map, w: share of the layer the map's viewport uses (uv scale)
+    ("params", "<f4", 4),
+    ("eye", "<f4", 4),  # xyz: the map's eye; w: caster kind (0 static clump, 1 character, 2 all)
+])
+assert MAP_DTYPE.itemsize == 96
+
+# Keep in sync with shaders/blocks.glsl: uniform block Frame.
+FRAME_DTYPE = np.dtype([
+    ("view_proj", "<f4", (4, 4)),  # camera: world -> clip (stored transposed)
+    ("light_rot", "<f4", (4, 4)),  # directional light: world -> light-space axes (transposed)
+    ("camera_pos", "<f4", 4),
+    ("light_dir", "<f4", 4),  # xyz: the way the light travels; w: kind (see LIGHT_KINDS)
+    ("light_pos", "<f4", 4),  # xyz: position (spot, point); w: cos of the spot's half cone
+    ("bias", "<f4", 4),  # x: normal offset, y: depth bias, z: slope bias (texels); w: max slope
+    ("grid_rect", "<f4", 4),  # light-space rectangle the map grid covers (xmin, ymin, xmax, ymax)
+    ("counts", "<i4", 4),  # x: maps, y: grid mode (GRID_*), z: grid cells per side, w: debug view
+    ("options", "<i4", 4),  # x: PCF on, y: first character object, z: objects, w: floors
+])
+assert FRAME_DTYPE.itemsize == 64 * 2 + 16 * 7
+
+LIGHT_KINDS = {"directional": 0, "spot": 1, "point": 2}
+GRID_NONE, GRID_ORTHO, GRID_OCTAHEDRAL = 0, 1, 2
+DEBUG_NONE, DEBUG_MAP, DEBUG_MAP_COUNT = 0, 1, 2
+
+# Binding points, shared by Python and shaders/blocks.glsl (passed in as #defines).
+BINDINGS = {
+    "FRAME_BINDING": 0,
+    "MAPS_BINDING": 1,
+    "GRID_BINDING": 2,
+    "MODELS_BINDING": 3,
+}
+
+
+def max_maps(ctx) -> int:
+    """How many ShadowMap records fit the uniform block on this driver."""
+    limit = int(ctx.info.get("GL_MAX_UNIFORM_BLOCK_SIZE", 16384))
+    return min(limit // MAP_DTYPE.itemsize, 1024)

@@ -1,0 +1,155 @@
+"""A light-space grid of map lists, so a fragment loops over a few candidate maps, not all.
+
+Directional light: the grid covers the union of the maps' rectangles in the common light space
+(their footprints are exact rectangles there). Spot and point lights: the grid lies over the
+octahedral map of directions from the light, and a cell lists a map when the cone of
+directions through the cell can meet the map's frustum. Both tests are conservative: a cell may
+list a map that cannot shadow part of it (the shader's own test rejects that), never omit one.
+
+The result is one int32 array: ``size * size + 1`` offsets into the same array, then the map
+indices of every cell (read by ``shadow_visibility`` in shaders/shadow.glsl).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .gpu_blocks import GRID_NONE, GRID_OCTAHEDRAL, GRID_ORTHO
+from .shadow_fit import MapFit
+
+LOOP_MAX_MAPS = 12        # up to this many maps, looping over all of them is cheaper than a grid
+MAX_GRID = 64
+OCTAHEDRAL_GRID = 32      # even, so that no cell straddles an octant boundary
+
+
+@dataclass
+class MapGrid:
+    mode: int
+    size: int
+    rect: np.ndarray      # (4,) light-space rectangle covered
+    data: np.ndarray      # int32 offsets then lists
+
+    @property
+    def mean_list(self) -> float:
+        cells = self.size * self.size
+        return float(self.data[cells] - self.data[0]) / max(cells, 1)
+
+
+def no_grid() -> MapGrid:
+    return MapGrid(GRID_NONE, 1, np.array([0.0, 0.0, 1.0, 1.0]), np.zeros(2, np.int32))
+
+
+def _pack(hits: np.ndarray, size: int, mode: int, rect: np.ndarray) -> MapGrid:
+    """hits: (cells, maps) bool -> offsets + lists."""
+    cells = size * size
+    counts = hits.sum(axis=1)
+    offsets = (cells + 1) + np.concatenate([[0], np.cumsum(counts)])
+    lists = np.nonzero(hits)[1]  # row-major: cell by cell, maps ascending
+    data = np.concatenate([offsets, lists]).astype(np.int32)
+    return MapGrid(mode, size, rect, data)
+
+
+def build_ortho(fits: list[MapFit]) -> MapGrid:
+    """Grid over the maps' light-space rectangles (directional light)."""
+    rects = np.array([f.rect for f in fits], float)
+    rect = np.array([rects[:, 0].min(), rects[:, 1].min(), rects[:, 2].max(), rects[:, 3].max()])
+    size = int(np.clip(2 * np.ceil(np.sqrt(len(fits))), 4, MAX_GRID))
+    xs = np.linspace(rect[0], rect[2], size + 1)
+    ys = np.linspace(rect[1], rect[3], size + 1)
+    cx0, cy0 = np.meshgrid(xs[:-1], ys[:-1])  # row = y, column = x: cell = y * size + x
+    cx1, cy1 = np.meshgrid(xs[1:], ys[1:])
+    cells = np.stack([cx0.ravel(), cy0.ravel(), cx1.ravel(), cy1.ravel()], axis=1)
+    hits = ((cells[:, None, 0] <= rects[None, :, 2]) & (cells[:, None, 2] >= rects[None, :, 0])
+            & (cells[:, None, 1] <= rects[None, :, 3]) & (cells[:, None, 3] >= rects[None, :, 1]))
+    return _pack(hits, size, GRID_ORTHO, rect)
+
+
+def octahedral_decode(e: np.ndarray) -> np.ndarray:
+    """Unit directions for octahedral coordinates (N, 2) in [-1, 1]^2."""
+    e = np.asarray(e, float)
+    z = 1.0 - np.abs(e[:, 0]) - np.abs(e[:, 1])
+    x, y = e[:, 0].copy(), e[:, 1].copy()
+    lower = z < 0
+    x[lower] = (1.0 - np.abs(e[lower, 1])) * np.where(e[lower, 0] >= 0, 1.0, -1.0)
+    y[lower] = (1.0 - np.abs(e[lower, 0])) * np.where(e[lower, 1] >= 0, 1.0, -1.0)
+    d = np.stack([x, y, z], axis=1)
+    return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+def octahedral_encode(d: np.ndarray) -> np.ndarray:
+    """Octahedral coordinates of directions (N, 3); the inverse of :func:`octahedral_decode`."""
+    d = np.asarray(d, float)
+    d = d / np.abs(d).sum(axis=1, keepdims=True)
+    e = d[:, :2].copy()
+    lower = d[:, 2] < 0
+    sx = np.where(d[lower, 0] >= 0, 1.0, -1.0)
+    sy = np.where(d[lower, 1] >= 0, 1.0, -1.0)
+    e[lower, 0] = (1.0 - np.abs(d[lower, 1])) * sx
+    e[lower, 1] = (1.0 - np.abs(d[lower, 0])) * sy
+    return e
+
+
+def _cell_points(size: int) -> np.ndarray:
+    """Per cell, 8 octahedral points whose directions span the cell's cone of directions.
+
+    A cell never straddles an axis (size is even), but the diamond |u| + |v| = 1 between the
+    upper and lower hemispheres may cross it; the crossing points join the 4 corners, so the
+    convex cone of the 8 directions holds the cell's whole cone.
+    """
+    edges = np.linspace(-1.0, 1.0, size + 1)
+    u0, v0 = np.meshgrid(edges[:-1], edges[:-1])
+    u1, v1 = np.meshgrid(edges[1:], edges[1:])
+    u0, v0, u1, v1 = (a.ravel() for a in (u0, v0, u1, v1))
+    su = np.where(u0 + u1 >= 0, 1.0, -1.0)
+    sv = np.where(v0 + v1 >= 0, 1.0, -1.0)
+    corners = [np.stack([u0, v0], 1), np.stack([u1, v0], 1), np.stack([u0, v1], 1),
+               np.stack([u1, v1], 1)]
+    extra = []
+    # The diamond in this quadrant: su * u + sv * v = 1.
+    for u in (u0, u1):
+        v = sv * (1.0 - su * u)
+        ok = (v >= v0) & (v <= v1)
+        extra.append(np.stack([u, np.where(ok, v, v0)], 1))
+    for v in (v0, v1):
+        u = su * (1.0 - sv * v)
+        ok = (u >= u0) & (u <= u1)
+        extra.append(np.stack([np.where(ok, u, u0), v], 1))
+    return np.stack(corners + extra, axis=1)  # (cells, 8, 2)
+
+
+def build_octahedral(fits: list[MapFit], eye: np.ndarray) -> MapGrid:
+    """Grid over the directions from a spot or point light at ``eye``."""
+    size = OCTAHEDRAL_GRID
+    pts = _cell_points(size)
+    cells = pts.shape[0]
+    dirs = octahedral_decode(pts.reshape(-1, 2))
+    world = np.asarray(eye, float) + dirs  # one point along each direction
+    hom = np.concatenate([world, np.ones((len(world), 1))], axis=1)
+    hits = np.zeros((cells, len(fits)), bool)
+    for j, fit in enumerate(fits):
+        clip = (hom @ fit.view_proj.T).reshape(cells, 8, 4)
+        w = clip[..., 3]
+        front = w > 1e-12
+        all_front = front.all(axis=1)
+        any_front = front.any(axis=1)
+        ndc = clip[..., :2] / np.where(front, w, 1.0)[..., None]
+        lo = np.where(front[..., None], ndc, np.inf).min(axis=1)
+        hi = np.where(front[..., None], ndc, -np.inf).max(axis=1)
+        overlap = (lo[:, 0] <= 1) & (hi[:, 0] >= -1) & (lo[:, 1] <= 1) & (hi[:, 1] >= -1)
+        hits[:, j] = np.where(all_front, overlap, any_front)
+    return _pack(hits, size, GRID_OCTAHEDRAL, np.array([-1.0, -1.0, 1.0, 1.0]))
+
+
+def build(fits: list[MapFit], light_kind: str, eye: np.ndarray | None, use: str = "auto"
+          ) -> MapGrid:
+    """The grid for these maps, or none when a plain loop is cheap enough.
+
+    ``use`` is "auto" (a grid above LOOP_MAX_MAPS maps), "on" or "off".
+    """
+    if not fits or use == "off" or (use == "auto" and len(fits) <= LOOP_MAX_MAPS):
+        return no_grid()
+    if light_kind == "directional":
+        return build_ortho(fits)
+    return build_octahedral(fits, eye)

@@ -1,0 +1,72 @@
+"""Every file the program writes goes through here: to a temp file, then renamed into place.
+
+An interrupted run therefore never leaves a truncated frame, dump or stats file behind.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import struct
+import tempfile
+import zlib
+from collections.abc import Callable
+from contextlib import contextmanager
+from pathlib import Path
+from typing import BinaryIO
+
+import numpy as np
+
+
+@contextmanager
+def atomic_file(path: str | Path):
+    """Open a temp file beside ``path`` for binary writing; rename it over ``path`` on success."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            yield f
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def write_bytes(path: str | Path, data: bytes) -> None:
+    with atomic_file(path) as f:
+        f.write(data)
+
+
+def write_with(path: str | Path, writer: Callable[[BinaryIO], None]) -> None:
+    with atomic_file(path) as f:
+        writer(f)
+
+
+def png_bytes(image: np.ndarray) -> bytes:
+    """Encode an (H, W, 3) or (H, W, 4) uint8 image as PNG (row 0 at the top)."""
+    image = np.ascontiguousarray(image, dtype=np.uint8)
+    h, w, channels = image.shape
+    colour_type = {3: 2, 4: 6}[channels]
+    raw = np.concatenate([np.zeros((h, 1), np.uint8), image.reshape(h, w * channels)], axis=1)
+
+    def chunk(kind: bytes, body: bytes) -> bytes:
+        return (struct.pack(">I", len(body)) + kind + body
+                + struct.pack(">I", zlib.crc32(kind + body) & 0xFFFFFFFF))
+
+    header = struct.pack(">IIBBBBB", w, h, 8, colour_type, 0, 0, 0)
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header)
+            + chunk(b"IDAT", zlib.compress(raw.tobytes(), 6)) + chunk(b"IEND", b""))
+
+
+def write_png(path: str | Path, image: np.ndarray) -> None:
+    write_bytes(path, png_bytes(image))
+
+
+def write_npz(path: str | Path, arrays: dict[str, np.ndarray]) -> None:
+    write_with(path, lambda f: np.savez_compressed(f, **arrays))
+
+
+def write_json(path: str | Path, data: dict) -> None:
+    write_bytes(path, (json.dumps(data, indent=1) + "\n").encode())

@@ -1,0 +1,294 @@
+"""The one owner of GL objects: buffers, programs, the depth array, the frame target.
+
+Data flows one way through a frame: scene state -> shadow plan (game/shadow_methods.py) ->
+shadow passes into the depth texture array -> block uploads -> the shading pass -> pixels and
+G-buffer. Passes are methods here because they only draw with objects this class owns; every
+object is created here and released by :meth:`Renderer.release`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import moderngl
+import numpy as np
+
+from . import geometry, glsl, gpu_blocks, map_grid, shadow_methods, transforms
+from .depth_array import DepthArray
+from .gpu_blocks import FRAME_DTYPE, LIGHT_KINDS, MAP_DTYPE
+from .scene import Camera, Scene
+from .timing import PassTimer
+
+SKY = (0.58, 0.68, 0.80)
+DEBUG_VIEWS = {"none": gpu_blocks.DEBUG_NONE, "map": gpu_blocks.DEBUG_MAP,
+               "map-count": gpu_blocks.DEBUG_MAP_COUNT}
+SHADOW_UNIT = 0  # texture unit of the depth array
+
+
+@dataclass
+class View:
+    """Where the camera is this frame."""
+
+    view: np.ndarray   # (4, 4) world -> view
+    proj: np.ndarray   # (4, 4) view -> clip
+
+    @staticmethod
+    def from_camera(camera: Camera, size: tuple[int, int]) -> View:
+        aspect = size[0] / size[1]
+        return View(transforms.look_at(camera.position, camera.target),
+                    transforms.perspective(camera.fov, aspect, camera.near, camera.far))
+
+
+@dataclass
+class Frame:
+    """What one rendered frame produced."""
+
+    image: np.ndarray          # (H, W, 3) uint8, row 0 at the top
+    covered: np.ndarray        # (H, W) bool: geometry under the pixel centre
+    maps_sampled: np.ndarray   # (H, W) int: shadow maps read for the pixel
+    ms: dict[str, float]
+    maps_rendered: int
+    maps_cached: int
+    maps_total: int
+    triangles_to_maps: int
+    gbuffer: dict[str, np.ndarray] | None = None  # position, normal, object, lit
+
+    @property
+    def maps_per_fragment(self) -> float:
+        n = int(self.covered.sum())
+        return float(self.maps_sampled[self.covered].sum()) / n if n else 0.0
+
+
+def _defines(ctx, extra: dict | None = None) -> dict:
+    d = dict(gpu_blocks.BINDINGS)
+    d.update(MAX_MAPS=gpu_blocks.max_maps(ctx),
+             GRID_NONE=gpu_blocks.GRID_NONE, GRID_ORTHO=gpu_blocks.GRID_ORTHO,
+             GRID_OCTAHEDRAL=gpu_blocks.GRID_OCTAHEDRAL,
+             DEBUG_MAP=gpu_blocks.DEBUG_MAP, DEBUG_MAP_COUNT=gpu_blocks.DEBUG_MAP_COUNT)
+    d.update(extra or {})
+    return d
+
+
+class Renderer:
+    """Renders frames of one scene with one hard-shadow method at a time."""
+
+    def __init__(self, ctx, scene: Scene, size: tuple[int, int],
+                 settings: shadow_methods.ShadowSettings | None = None, gbuffer: bool = False,
+                 clock: str = "auto"):
+        self.ctx = ctx
+        self.scene = scene
+        self.size = (int(size[0]), int(size[1]))
+        self.settings = settings or shadow_methods.ShadowSettings()
+        self.gbuffer = gbuffer
+        self.debug_view = "none"
+        self.timer = PassTimer(ctx, clock)
+        self.geom = geometry.pack(scene)
+        self.max_maps = gpu_blocks.max_maps(ctx)
+        self._owned: list = []
+        self._array: DepthArray | None = None
+        self._static_order: list[int] | None = None
+
+        self.depth_prog = self._own(ctx.program(
+            vertex_shader=glsl.build("depth.vert", _defines(ctx)),
+            fragment_shader=glsl.build("depth.frag")))
+        self.shade_prog = self._own(ctx.program(
+            vertex_shader=glsl.build("shade.vert", _defines(ctx)),
+            fragment_shader=glsl.build("shade.frag", _defines(ctx, {"GBUFFER": gbuffer}))))
+
+        vertices = np.empty(len(self.geom.positions), dtype=[("p", "<f4", 3), ("o", "<i4")])
+        vertices["p"] = self.geom.positions
+        vertices["o"] = self.geom.objects
+        self.vbo = self._own(ctx.buffer(vertices.tobytes()))
+        self.layout = geometry.layout(self.geom)
+        self.ibo = self._own(ctx.buffer(self.layout.indices.tobytes()))
+        content = [(self.vbo, "3f 1i", "in_position", "in_object")]
+        self.depth_vao = self._own(ctx.vertex_array(self.depth_prog, content, self.ibo, 4))
+        self.shade_vao = self._own(ctx.vertex_array(self.shade_prog, content, self.ibo, 4))
+
+        self.frame_ubo = self._own(ctx.buffer(reserve=FRAME_DTYPE.itemsize))
+        self.maps_ubo = self._own(ctx.buffer(reserve=MAP_DTYPE.itemsize * self.max_maps))
+        self.grid_ssbo = self._own(ctx.buffer(reserve=4 * 1024))
+        self.models_ssbo = self._own(ctx.buffer(reserve=64 * max(1, self.geom.n_characters)))
+        self._make_target()
+        self.method = shadow_methods.create(self.geom, scene.light, self.settings)
+
+    # -- ownership --------------------------------------------------------------------------
+    def _own(self, obj):
+        self._owned.append(obj)
+        return obj
+
+    def _make_target(self) -> None:
+        ctx, size = self.ctx, self.size
+        self.color_tex = ctx.texture(size, 4)
+        attachments = [self.color_tex]
+        self.gbuffer_tex = []
+        if self.gbuffer:
+            self.gbuffer_tex = [ctx.texture(size, 4, dtype="f4") for _ in range(2)]
+            attachments += self.gbuffer_tex
+        self.depth_rb = ctx.depth_renderbuffer(size)
+        self.target = ctx.framebuffer(attachments, self.depth_rb)
+
+    def _release_target(self) -> None:
+        for obj in [self.target, self.depth_rb, self.color_tex, *self.gbuffer_tex]:
+            obj.release()
+
+    def release(self) -> None:
+        """Release every GL object this renderer made."""
+        self._release_target()
+        if self._array is not None:
+            self._array.release()
+            self._array = None
+        for obj in reversed(self._owned):
+            obj.release()
+        self._owned = []
+        self.timer.release()
+
+    # -- settings -----------------------------------------------------------------------------
+    def set_settings(self, settings: shadow_methods.ShadowSettings) -> None:
+        """Switch method or parameters; every map is planned (and cached) anew."""
+        self.settings = settings
+        self.method = shadow_methods.create(self.geom, self.scene.light, settings)
+
+    def set_light(self, light) -> None:
+        """Move the hard light: clump maps are re-rendered on the next frame."""
+        self.scene.light = light
+        self.method.set_light(light)
+
+    # -- frame ------------------------------------------------------------------------------
+    def _ensure_array(self, resolution: int, layers: int) -> DepthArray:
+        a = self._array
+        if a is None or a.resolution != resolution or a.layers < layers:
+            if a is not None:
+                a.release()
+            self._array = DepthArray(self.ctx, resolution, layers)
+            self.method.mark_rendered_lost()
+        return self._array
+
+    def _models(self, t: float) -> np.ndarray:
+        if not self.scene.characters:
+            return np.zeros((0, 4, 4))
+        return np.stack([c.model_matrix(t) for c in self.scene.characters])
+
+    def _upload_maps(self, plan: shadow_methods.ShadowPlan) -> None:
+        if len(plan.maps) > self.max_maps:
+            raise RuntimeError(f"{len(plan.maps)} maps exceed the uniform block ({self.max_maps})")
+        block = np.zeros(max(1, len(plan.maps)), MAP_DTYPE)
+        for i, rec in enumerate(plan.maps):
+            block[i]["view_proj"] = rec.fit.view_proj.T
+            block[i]["params"] = (rec.layer, rec.fit.texel, float(rec.fit.perspective),
+                                  rec.viewport / plan.resolution)
+            block[i]["eye"] = (*rec.fit.eye, rec.kind)
+        self.maps_ubo.write(block.tobytes())
+
+    def _upload_frame(self, view: View, n_maps: int, grid: map_grid.MapGrid) -> None:
+        s, light, geom = self.settings, self.scene.light, self.geom
+        f = np.zeros(1, FRAME_DTYPE)
+        f["view_proj"] = (view.proj @ view.view).T
+        rot = np.eye(4)
+        if light.kind == "directional":
+            rot[:3, :3] = transforms.light_rotation(light.direction)
+        f["light_rot"] = rot.T
+        eye = np.linalg.inv(view.view)[:3, 3]
+        f["camera_pos"] = (*eye, 1.0)
+        direction = light.direction if light.direction is not None else np.zeros(3)
+        f["light_dir"] = (*direction, LIGHT_KINDS[light.kind])
+        position = light.position if light.position is not None else np.zeros(3)
+        cos_half = math.cos(math.radians(light.cone / 2)) if light.cone else -1.0
+        f["light_pos"] = (*position, cos_half)
+        f["bias"] = (s.normal_bias, s.depth_bias, s.slope_bias, s.max_slope)
+        f["grid_rect"] = grid.rect
+        f["counts"] = (n_maps, grid.mode, grid.size, DEBUG_VIEWS[self.debug_view])
+        f["options"] = (int(s.pcf), geom.first_character, len(geom.names), geom.n_floors)
+        self.frame_ubo.write(f.tobytes())
+        data = grid.data.astype(np.int32)
+        if self.grid_ssbo.size < data.nbytes:
+            self.grid_ssbo.orphan(data.nbytes)
+        self.grid_ssbo.write(data.tobytes())
+
+    def _draw_maps(self, plan, indices: list[int], array: DepthArray) -> int:
+        """Render the listed maps into their layers; returns the triangles drawn."""
+        triangles = 0
+        for index in indices:
+            rec = plan.maps[index]
+            fbo = array.framebuffers[rec.layer]
+            fbo.use()
+            fbo.viewport = (0, 0, rec.viewport, rec.viewport)
+            fbo.clear(depth=1.0, viewport=(0, 0, rec.viewport, rec.viewport))
+            self.depth_prog["u_map"].value = index
+            for first, count in self.layout.ranges(rec.objects):
+                self.depth_vao.render(moderngl.TRIANGLES, vertices=count, first=first)
+                triangles += count // 3
+        return triangles
+
+    def render(self, t: float, view: View, read_stats: bool = True) -> Frame:
+        """Render the scene at time ``t`` seen from ``view``."""
+        ctx, timer = self.ctx, self.timer
+        timer.begin_frame()
+        models = self._models(t)
+        with timer.measure("total", wall=True):
+            # The array first: re-creating it marks every cached layer for re-rendering.
+            array = self._ensure_array(self.method.resolution, self.method.layers)
+            plan = self.method.plan(models)
+            if plan.static_order is not None and plan.static_order != self._static_order:
+                self.layout = geometry.layout(self.geom, plan.static_order)
+                self.ibo.write(self.layout.indices.tobytes())
+                self._static_order = list(plan.static_order)
+            if len(models):
+                self.models_ssbo.write(transforms.gl_bytes(models))
+            self._upload_maps(plan)
+            for name, binding in (("frame_ubo", "FRAME_BINDING"), ("maps_ubo", "MAPS_BINDING")):
+                getattr(self, name).bind_to_uniform_block(gpu_blocks.BINDINGS[binding])
+            self.models_ssbo.bind_to_storage_buffer(gpu_blocks.BINDINGS["MODELS_BINDING"])
+            self.grid_ssbo.bind_to_storage_buffer(gpu_blocks.BINDINGS["GRID_BINDING"])
+            # The frame block (first character index) is needed by the depth pass too.
+            fits = [m.fit for m in plan.maps]
+            grid = map_grid.build(fits, self.scene.light.kind, self.scene.light.position,
+                                  self.settings.grid)
+            self._upload_frame(view, len(plan.maps), grid)
+
+            ctx.enable(moderngl.DEPTH_TEST)
+            ctx.disable(moderngl.CULL_FACE)
+            triangles = 0
+            with timer.measure("shadow_static"):
+                triangles += self._draw_maps(plan, plan.render_static, array)
+            with timer.measure("shadow_dynamic"):
+                triangles += self._draw_maps(plan, plan.render_dynamic, array)
+
+            with timer.measure("shade"):
+                self.target.use()
+                self.target.viewport = (0, 0, *self.size)
+                self.target.clear(*SKY, 0.0)
+                array.set_filter(False)
+                array.bind(SHADOW_UNIT)
+                self.shade_prog["u_shadow_maps"].value = SHADOW_UNIT
+                self.shade_vao.render(moderngl.TRIANGLES)
+        with timer.measure("readback", wall=True):
+            rgba = np.frombuffer(self.target.read(components=4, attachment=0), np.uint8)
+            rgba = rgba.reshape(self.size[1], self.size[0], 4)[::-1]
+            gbuffer = self._read_gbuffer(rgba) if self.gbuffer else None
+        ms = dict(timer.ms)
+        rendered = len(plan.render_static) + len(plan.render_dynamic)
+        return Frame(
+            image=np.ascontiguousarray(rgba[..., :3]),
+            covered=rgba[..., 3] > 0,
+            maps_sampled=np.maximum(rgba[..., 3].astype(np.int32) - 1, 0),
+            ms=ms, maps_rendered=rendered, maps_cached=len(plan.maps) - rendered,
+            maps_total=len(plan.maps), triangles_to_maps=triangles, gbuffer=gbuffer)
+
+    def _read_gbuffer(self, rgba: np.ndarray) -> dict[str, np.ndarray]:
+        h, w = self.size[1], self.size[0]
+        pos = np.frombuffer(self.target.read(components=4, attachment=1, dtype="f4"), np.float32)
+        nrm = np.frombuffer(self.target.read(components=4, attachment=2, dtype="f4"), np.float32)
+        pos = pos.reshape(h, w, 4)[::-1]
+        nrm = nrm.reshape(h, w, 4)[::-1]
+        covered = rgba[..., 3] > 0
+        position = np.where(covered[..., None], pos[..., :3], np.nan).astype(np.float32)
+        normal = np.where(covered[..., None], nrm[..., :3], np.nan).astype(np.float32)
+        obj = np.where(covered, np.rint(pos[..., 3]), -1).astype(np.int32)
+        lit = np.where(covered, nrm[..., 3], np.nan).astype(np.float32)
+        return {"position": position, "normal": normal, "object": obj, "lit": lit}
+
+    @property
+    def shadow_memory_bytes(self) -> int:
+        return self._array.bytes if self._array is not None else 0

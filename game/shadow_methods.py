@@ -1,0 +1,245 @@
+"""Which shadow maps exist, what each holds, and which must be re-rendered this frame.
+
+``clumped`` is the seed's method: one cached map per clump of statics, one map per character
+re-rendered every frame, all in one depth texture array. ``single`` is the baseline: one map
+fitted to every caster, re-rendered every frame. Floors are never drawn into any map.
+
+A method only plans; the Renderer owns the GL objects and draws what the plan lists.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import clumping, transforms
+from .geometry import PackedGeometry
+from .map_grid import octahedral_encode
+from .scene import Light
+from .shadow_fit import MapFit, fit_directional, fit_perspective, outside_cone
+
+KIND_CLUMP, KIND_CHARACTER, KIND_ALL = 0, 1, 2
+METHODS = ("clumped", "single")
+CLUMPINGS = clumping.STRATEGIES
+
+# Defaults chosen so the accuracy bar of tests/test_accuracy.py holds without per-scene tuning.
+TEXELS_PER_METRE = 32.0        # clump maps' texel-density target
+CLUMP_RESOLUTION = 1024        # texels per side of a clump map (and of the array's layers)
+CHARACTER_RESOLUTION = 512     # texels per side a character's map uses of its layer
+SINGLE_RESOLUTION = 4096       # the baseline's one map
+NORMAL_BIAS_TEXELS = 1.0       # offset along the normal, times sin(angle to the light)
+DEPTH_BIAS_TEXELS = 1.0        # offset towards the light
+SLOPE_BIAS_TEXELS = 1.0        # offset towards the light, times tan(angle to the light)
+MAX_SLOPE = 8.0                # cap on that tan, for grazing light
+
+
+@dataclass
+class ShadowSettings:
+    """Everything a user can change about the hard shadows (CLI flags, later the overlay)."""
+
+    method: str = "clumped"
+    clumping: str = "light"
+    clump_count: int | None = None
+    texels_per_metre: float = TEXELS_PER_METRE
+    clump_resolution: int = CLUMP_RESOLUTION
+    character_resolution: int = CHARACTER_RESOLUTION
+    single_resolution: int = SINGLE_RESOLUTION
+    normal_bias: float = NORMAL_BIAS_TEXELS
+    depth_bias: float = DEPTH_BIAS_TEXELS
+    slope_bias: float = SLOPE_BIAS_TEXELS
+    max_slope: float = MAX_SLOPE
+    pcf: bool = False
+    grid: str = "auto"
+
+
+@dataclass
+class MapRecord:
+    """One shadow map: its projection, its layer, and the objects drawn into it."""
+
+    name: str
+    kind: int
+    fit: MapFit
+    layer: int
+    viewport: int          # texels per side used, from the layer's corner
+    objects: list[int]     # global object indices
+
+
+@dataclass
+class ShadowPlan:
+    resolution: int                  # texels per side of the array's layers
+    layers: int
+    maps: list[MapRecord]            # every map the shading pass may sample
+    render_static: list[int] = field(default_factory=list)   # indices into maps
+    render_dynamic: list[int] = field(default_factory=list)
+    static_order: list[int] | None = None  # statics in clump order, for the index buffer
+    clumps: list[clumping.Clump] = field(default_factory=list)
+
+
+def _footprint(light: Light, statics: list[np.ndarray]):
+    """Light-space footprint function and units-per-metre scale for clumping."""
+    if light.kind == "directional":
+        return clumping.directional_footprint(transforms.light_rotation(light.direction)), 1.0
+    eye = np.asarray(light.position, float)
+    distances = [np.linalg.norm(p.mean(axis=0) - eye) for p in statics] or [1.0]
+    typical = max(float(np.median(distances)), 1e-6)
+    if light.kind == "spot":
+        view = transforms.look_at(eye, eye + light.direction)
+
+        def spot(points: np.ndarray) -> np.ndarray:
+            v = transforms.transform_points(view, points)
+            depth = np.maximum(-v[:, 2], 1e-6 * typical)
+            return v[:, :2] / depth[:, None]
+
+        return spot, 1.0 / typical
+
+    def point(points: np.ndarray) -> np.ndarray:
+        return octahedral_encode(np.asarray(points, float) - eye)
+
+    # An octahedral unit spans about pi/2 radians.
+    return point, 1.0 / (typical * math.pi / 2)
+
+
+class ClumpedShadows:
+    """The multi-map method: cached clump maps plus per-character maps in one array."""
+
+    def __init__(self, geom: PackedGeometry, light: Light, settings: ShadowSettings):
+        self.geom = geom
+        self.settings = settings
+        self.light = light
+        self.static_maps: list[MapRecord] = []
+        self.clumps: list[clumping.Clump] = []
+        self._static_dirty = True
+        self.set_light(light)
+
+    @property
+    def layers(self) -> int:
+        return max(1, len(self.static_maps) + self.geom.n_characters)
+
+    @property
+    def resolution(self) -> int:
+        return self.settings.clump_resolution
+
+    def set_light(self, light: Light) -> None:
+        """A new light invalidates every clump map (and light-space clumps themselves)."""
+        self.light = light
+        self._build_static()
+
+    def invalidate_statics(self) -> None:
+        """Static geometry changed: re-clump and re-render every clump map."""
+        self._build_static()
+
+    def _fit(self, points: np.ndarray, resolution: int, radius: float | None = None
+             ) -> MapFit | None:
+        light = self.light
+        if light.kind == "directional":
+            return fit_directional(points, transforms.light_rotation(light.direction), resolution,
+                                   radius)
+        if light.kind == "spot" and outside_cone(points, light.position, light.direction,
+                                                 light.cone):
+            return None
+        return fit_perspective(points, light.position, resolution)
+
+    def _build_static(self) -> None:
+        s = self.settings
+        points = self.geom.static_points
+        footprint, per_metre = _footprint(self.light, points)
+        max_extent = clumping.max_extent_for_density(s.clump_resolution, s.texels_per_metre)
+        self.clumps = clumping.make_clumps(points, footprint, s.clumping, max_extent * per_metre,
+                                           s.clump_count)
+        self.static_maps = []
+        for clump in self.clumps:
+            fit = self._fit(np.concatenate([points[i] for i in clump.members]),
+                            s.clump_resolution)
+            if fit is None:
+                continue
+            self.static_maps.append(MapRecord(
+                name=f"clump_{len(self.static_maps)}", kind=KIND_CLUMP, fit=fit,
+                layer=len(self.static_maps), viewport=s.clump_resolution,
+                objects=[self.geom.static_object(i) for i in clump.members]))
+        self._static_dirty = True
+
+    def plan(self, models: np.ndarray) -> ShadowPlan:
+        """The maps for this frame; ``models`` are the characters' (n, 4, 4) matrices."""
+        s = self.settings
+        maps = list(self.static_maps)
+        render_static = list(range(len(maps))) if self._static_dirty else []
+        render_dynamic = []
+        resolution = s.clump_resolution
+        char_res = min(s.character_resolution, resolution)
+        for i in range(self.geom.n_characters):
+            points = transforms.transform_points(models[i], self.geom.character_points[i])
+            fit = self._fit(points, char_res, float(self.geom.character_radius[i]))
+            if fit is None:
+                continue
+            render_dynamic.append(len(maps))
+            maps.append(MapRecord(name=f"character_{i}", kind=KIND_CHARACTER, fit=fit,
+                                  layer=len(self.static_maps) + i, viewport=char_res,
+                                  objects=[self.geom.character_object(i)]))
+        order = [m for c in self.clumps for m in c.members]
+        self._static_dirty = False
+        return ShadowPlan(resolution=resolution, layers=self.layers, maps=maps,
+                          render_static=render_static, render_dynamic=render_dynamic,
+                          static_order=order, clumps=self.clumps)
+
+    def mark_rendered_lost(self) -> None:
+        """The array was re-created (resized): every cached layer must be drawn again."""
+        self._static_dirty = True
+
+
+class SingleShadows:
+    """The baseline: one map over every caster, all re-rendered every frame."""
+
+    def __init__(self, geom: PackedGeometry, light: Light, settings: ShadowSettings):
+        self.geom = geom
+        self.settings = settings
+        self.light = light
+        self._static_points = (np.concatenate(geom.static_points) if geom.static_points
+                               else np.zeros((0, 3)))
+
+    @property
+    def layers(self) -> int:
+        return 1
+
+    @property
+    def resolution(self) -> int:
+        return self.settings.single_resolution
+
+    def set_light(self, light: Light) -> None:
+        self.light = light
+
+    def invalidate_statics(self) -> None:
+        pass
+
+    def mark_rendered_lost(self) -> None:
+        pass
+
+    def plan(self, models: np.ndarray) -> ShadowPlan:
+        res = self.settings.single_resolution
+        parts = [self._static_points] + [
+            transforms.transform_points(models[i], self.geom.character_points[i])
+            for i in range(self.geom.n_characters)]
+        points = np.concatenate(parts)
+        objects = ([self.geom.static_object(i) for i in range(self.geom.n_statics)]
+                   + [self.geom.character_object(i) for i in range(self.geom.n_characters)])
+        maps, render = [], []
+        if len(points):
+            light = self.light
+            if light.kind == "directional":
+                fit = fit_directional(points, transforms.light_rotation(light.direction), res)
+            else:
+                fit = fit_perspective(points, light.position, res)
+            if fit is not None:
+                maps.append(MapRecord("single", KIND_ALL, fit, 0, res, objects))
+                render = [0]
+        return ShadowPlan(resolution=res, layers=1, maps=maps, render_dynamic=render)
+
+
+def create(geom: PackedGeometry, light: Light, settings: ShadowSettings):
+    """The planner for ``settings.method``."""
+    if settings.method == "clumped":
+        return ClumpedShadows(geom, light, settings)
+    if settings.method == "single":
+        return SingleShadows(geom, light, settings)
+    raise ValueError(f"unknown shadow method {settings.method!r}; valid: {', '.join(METHODS)}")

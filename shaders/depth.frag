@@ -1,0 +1,4 @@
+#version 430
+// Depth only: the rasteriser writes gl_FragCoord.z.
+void main() {
+}
