@@ -94,6 +94,7 @@ def run(ctx, scene: Scene, opts: CaptureOptions, log=None) -> dict:
             "static_triangles": renderer.geom.triangle_count(
                 range(renderer.geom.first_static, renderer.geom.first_character)),
             "characters": renderer.geom.n_characters,
+            "notes": list(renderer.method.notes),
             "frames": frames,
         }
     finally:

@@ -191,6 +191,8 @@ def cmd_capture(args) -> int:
         stats = capture.run(ctx, scene, opts)
     finally:
         ctx.release()
+    for note in stats["notes"]:
+        print(f"note: {note}", file=sys.stderr)
     print(f"wrote {args.frames} frame(s) to {args.out}/: {capture.summary(stats)}")
     return 0
 

@@ -69,7 +69,7 @@ class DepthArray:
                                 f"(status 0x{status:x})")
             self.framebuffers.append(ctx.detect_framebuffer(fbo))
         # Leave moderngl's idea of the bound framebuffer true.
-        ctx.screen.use() if ctx.screen is not None else GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, 0)
+        ctx.detect_framebuffer(0).use()
 
     @property
     def bytes(self) -> int:
@@ -94,6 +94,7 @@ class DepthArray:
     def release(self) -> None:
         """Delete the framebuffers and the texture."""
         GL = self._gl
+        self.ctx.detect_framebuffer(0).use()  # never leave moderngl bound to a deleted name
         # The detect_framebuffer wrappers are references: the GL names are ours to delete.
         self.framebuffers = []
         if self._fbo_ids:

@@ -111,7 +111,9 @@ class Renderer:
         self.grid_ssbo = self._own(ctx.buffer(reserve=4 * 1024))
         self.models_ssbo = self._own(ctx.buffer(reserve=64 * max(1, self.geom.n_characters)))
         self._make_target()
-        self.method = shadow_methods.create(self.geom, scene.light, self.settings)
+        self.max_layers = min(int(ctx.info["GL_MAX_ARRAY_TEXTURE_LAYERS"]), self.max_maps)
+        self.method = shadow_methods.create(self.geom, scene.light, self.settings,
+                                            self.max_layers)
 
     # -- ownership --------------------------------------------------------------------------
     def _own(self, obj):
@@ -135,6 +137,9 @@ class Renderer:
 
     def release(self) -> None:
         """Release every GL object this renderer made."""
+        # moderngl re-binds the framebuffer it last used after creating one; leave it the
+        # default framebuffer, not one whose name is about to be deleted.
+        self.ctx.detect_framebuffer(0).use()
         self._release_target()
         if self._array is not None:
             self._array.release()
@@ -148,7 +153,8 @@ class Renderer:
     def set_settings(self, settings: shadow_methods.ShadowSettings) -> None:
         """Switch method or parameters; every map is planned (and cached) anew."""
         self.settings = settings
-        self.method = shadow_methods.create(self.geom, self.scene.light, settings)
+        self.method = shadow_methods.create(self.geom, self.scene.light, settings,
+                                            self.max_layers)
 
     def set_light(self, light) -> None:
         """Move the hard light: clump maps are re-rendered on the next frame."""

@@ -13,6 +13,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+import trimesh
 
 from . import clumping, transforms
 from .geometry import PackedGeometry
@@ -25,7 +26,7 @@ METHODS = ("clumped", "single")
 CLUMPINGS = clumping.STRATEGIES
 
 # Defaults chosen so the accuracy bar of tests/test_accuracy.py holds without per-scene tuning.
-TEXELS_PER_METRE = 32.0        # clump maps' texel-density target
+TEXELS_PER_METRE = 64.0        # clump maps' texel-density target
 CLUMP_RESOLUTION = 1024        # texels per side of a clump map (and of the array's layers)
 CHARACTER_RESOLUTION = 512     # texels per side a character's map uses of its layer
 SINGLE_RESOLUTION = 4096       # the baseline's one map
@@ -33,6 +34,7 @@ NORMAL_BIAS_TEXELS = 1.0       # offset along the normal, times sin(angle to the
 DEPTH_BIAS_TEXELS = 1.0        # offset towards the light
 SLOPE_BIAS_TEXELS = 1.0        # offset towards the light, times tan(angle to the light)
 MAX_SLOPE = 8.0                # cap on that tan, for grazing light
+SHADOW_BUDGET_MIB = 512        # depth-array memory the clumped method may use
 
 
 @dataclass
@@ -52,6 +54,7 @@ class ShadowSettings:
     max_slope: float = MAX_SLOPE
     pcf: bool = False
     grid: str = "auto"
+    budget_mib: float = SHADOW_BUDGET_MIB
 
 
 @dataclass
@@ -102,12 +105,22 @@ def _footprint(light: Light, statics: list[np.ndarray]):
 
 
 class ClumpedShadows:
-    """The multi-map method: cached clump maps plus per-character maps in one array."""
+    """The multi-map method: cached clump maps plus per-character maps in one array.
 
-    def __init__(self, geom: PackedGeometry, light: Light, settings: ShadowSettings):
+    The number of clumps follows the texel-density target, within the layers that the memory
+    budget and the GL limits allow; when the target needs more, the clumps grow (and their
+    texel density falls) and ``notes`` says so.
+    """
+
+    def __init__(self, geom: PackedGeometry, light: Light, settings: ShadowSettings,
+                 max_layers: int):
         self.geom = geom
         self.settings = settings
         self.light = light
+        layer_bytes = 4 * settings.clump_resolution ** 2
+        budget_layers = int(settings.budget_mib * 2**20 // layer_bytes)
+        self.max_clumps = max(1, min(budget_layers, max_layers) - geom.n_characters)
+        self.notes: list[str] = []
         self.static_maps: list[MapRecord] = []
         self.clumps: list[clumping.Clump] = []
         self._static_dirty = True
@@ -146,8 +159,18 @@ class ClumpedShadows:
         points = self.geom.static_points
         footprint, per_metre = _footprint(self.light, points)
         max_extent = clumping.max_extent_for_density(s.clump_resolution, s.texels_per_metre)
+        count = s.clump_count
+        if count is not None and count > self.max_clumps:
+            self.notes.append(f"{count} clumps asked, {self.max_clumps} fit the layer budget")
+            count = self.max_clumps
         self.clumps = clumping.make_clumps(points, footprint, s.clumping, max_extent * per_metre,
-                                           s.clump_count)
+                                           count)
+        if len(self.clumps) > self.max_clumps:
+            self.notes.append(
+                f"{len(self.clumps)} clumps would meet {s.texels_per_metre:g} texels/m; "
+                f"{self.max_clumps} fit the {s.budget_mib:g} MiB budget, so texels are coarser")
+            self.clumps = clumping.make_clumps(points, footprint, s.clumping, 0.0,
+                                               self.max_clumps)
         self.static_maps = []
         for clump in self.clumps:
             fit = self._fit(np.concatenate([points[i] for i in clump.members]),
@@ -194,9 +217,8 @@ class SingleShadows:
     def __init__(self, geom: PackedGeometry, light: Light, settings: ShadowSettings):
         self.geom = geom
         self.settings = settings
-        self.light = light
-        self._static_points = (np.concatenate(geom.static_points) if geom.static_points
-                               else np.zeros((0, 3)))
+        self.notes: list[str] = []
+        self.set_light(light)
 
     @property
     def layers(self) -> int:
@@ -207,10 +229,21 @@ class SingleShadows:
         return self.settings.single_resolution
 
     def set_light(self, light: Light) -> None:
+        """Keep only the statics' extreme points for this light; refitting is then cheap."""
         self.light = light
+        points = (np.concatenate(self.geom.static_points) if self.geom.static_points
+                  else np.zeros((0, 3)))
+        if light.kind == "directional" and len(points):
+            q = points @ transforms.light_rotation(light.direction).T
+            keep = np.unique(np.concatenate([q.argmin(axis=0), q.argmax(axis=0)]))
+            points = points[keep]
+        elif len(points):
+            # Perspective fits need every direction; the vertices of the convex hull suffice.
+            points = trimesh.convex.hull_points(points) if len(points) > 4 else points
+        self._static_points = points
 
     def invalidate_statics(self) -> None:
-        pass
+        self.set_light(self.light)
 
     def mark_rendered_lost(self) -> None:
         pass
@@ -236,10 +269,10 @@ class SingleShadows:
         return ShadowPlan(resolution=res, layers=1, maps=maps, render_dynamic=render)
 
 
-def create(geom: PackedGeometry, light: Light, settings: ShadowSettings):
-    """The planner for ``settings.method``."""
+def create(geom: PackedGeometry, light: Light, settings: ShadowSettings, max_layers: int):
+    """The planner for ``settings.method``; ``max_layers`` is what the GL allows."""
     if settings.method == "clumped":
-        return ClumpedShadows(geom, light, settings)
+        return ClumpedShadows(geom, light, settings, max_layers)
     if settings.method == "single":
         return SingleShadows(geom, light, settings)
     raise ValueError(f"unknown shadow method {settings.method!r}; valid: {', '.join(METHODS)}")

@@ -94,4 +94,4 @@ def transform_points(m: np.ndarray, points: np.ndarray) -> np.ndarray:
 def project_points(m: np.ndarray, points: np.ndarray) -> np.ndarray:
     """Apply a 4x4 projective matrix to (N, 3) points, returning homogeneous (N, 4) clip coords."""
     p = np.asarray(points, float)
-    return p @ m[:3, :].T + m[:, 3]
+    return p @ m[:, :3].T + m[:, 3]

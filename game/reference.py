@@ -1,0 +1,279 @@
+"""The independent ground truth for hard shadows: a CPU ray cast with Embree.
+
+It reads nothing but the dump files of CONTRACT.md section 3 (``frame_kkkk.npz`` and
+``frame_kkkk.glb``), so it shares no code, no shadow maps and no GL with the renderer it judges:
+a bug in the renderer cannot hide itself by being repeated here.
+
+For every pixel that sees geometry one shadow ray leaves the dumped world position (pushed off the
+surface along the dumped normal) toward the light and asks Embree whether anything is in the way
+(``rtcOccluded``, an any-hit query, cheaper than a closest hit). ``shadow_error`` then turns a
+method's ``lit`` image and this reference into the project's accuracy number.
+"""
+
+from __future__ import annotations
+
+import io
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import trimesh
+
+# Shadow-ray start offset, as a fraction of the scene's bounding-box diagonal: large enough to step
+# past the float32 rounding of the dumped position and of Embree's own arithmetic, small enough
+# (4 mm on a 40 m scene) not to skip a real occluder that touches the receiver.
+RAY_OFFSET_SCENE = 1e-4
+# Extra offset per metre of distance from the origin: float32 positions lose absolute precision far
+# from the origin (about 1e-7 relative), and the renderer's reconstructed positions more so.
+RAY_OFFSET_DISTANCE = 1e-5
+# Pixels whose N.L is at or below this are left out of the error: at grazing angles the shadow
+# boundary is ill-posed for every method, shadow maps and ray casts alike.
+MIN_NDOTL = 0.1
+# Node-name prefixes of objects that cast no shadow (CONTRACT.md section 1: floors receive, never
+# cast). Pass as ``skip_prefixes`` to ``load_geometry`` to build the occluders the contract means.
+NON_CASTER_PREFIXES = ("floor_",)
+
+EMBREE_HINT = (
+    "the shadow reference needs Embree: pip install embreex (or pip install -e '.[test]'); "
+    "the pure-Python triangle ray caster is far too slow to stand in for it"
+)
+
+
+@dataclass(frozen=True)
+class Light:
+    """The hard-shadow light as the reference needs it.
+
+    ``direction`` is the way the light travels (directional and spot), ``position`` where it sits
+    (spot and point), ``cone`` the spot's full cone angle in degrees. The same keys as the scene
+    file's ``[light]`` table, so ``Light.from_mapping(toml["light"])`` works.
+    """
+
+    kind: str
+    direction: tuple[float, float, float] | None = None
+    position: tuple[float, float, float] | None = None
+    cone: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.kind not in ("directional", "spot", "point"):
+            raise ValueError(f"unknown light kind {self.kind!r}")
+        if self.kind == "directional" and self.direction is None:
+            raise ValueError("a directional light needs a direction")
+        if self.kind in ("spot", "point") and self.position is None:
+            raise ValueError(f"a {self.kind} light needs a position")
+
+    @classmethod
+    def from_mapping(cls, light: Mapping[str, Any]) -> Light:
+        """Build from a ``[light]``-like table; unknown keys are ignored."""
+
+        def vec(key: str) -> tuple[float, float, float] | None:
+            value = light.get(key)
+            if value is None:
+                return None
+            x, y, z = (float(v) for v in value)
+            return (x, y, z)
+
+        cone = light.get("cone")
+        return cls(
+            kind=str(light["kind"]),
+            direction=vec("direction"),
+            position=vec("position"),
+            cone=None if cone is None else float(cone),
+        )
+
+
+def _as_light(light: Light | Mapping[str, Any]) -> Light:
+    return light if isinstance(light, Light) else Light.from_mapping(light)
+
+
+def load_frame(npz_path: str | Path) -> dict[str, Any]:
+    """Read one ``frame_kkkk.npz`` dump into plain numpy values.
+
+    ``names`` becomes a list of str, ``size`` a (W, H) tuple and ``time`` a float; every other
+    array is returned as stored. No pickles are loaded: a dump is data, not code.
+    """
+    with np.load(npz_path, allow_pickle=False) as data:
+        frame: dict[str, Any] = {key: data[key] for key in data.files}
+    if "names" in frame:
+        frame["names"] = [str(name) for name in frame["names"]]
+    if "size" in frame:
+        frame["size"] = tuple(int(x) for x in np.ravel(frame["size"]))
+    if "time" in frame:
+        frame["time"] = float(frame["time"])
+    return frame
+
+
+def load_geometry(glb_path: str | Path, skip_prefixes: tuple[str, ...] = ()) -> trimesh.Trimesh:
+    """All nodes of a ``frame_kkkk.glb`` in world space, concatenated into one mesh.
+
+    Node transforms are applied, so instanced or moved objects land where the frame saw them.
+    Nodes whose name starts with one of ``skip_prefixes`` are left out (``NON_CASTER_PREFIXES``
+    drops the floors, which the contract says cast no shadows).
+    """
+    data = Path(glb_path).read_bytes()
+    # process=False: keep the triangles exactly as written, no merging or reordering.
+    scene = trimesh.load(io.BytesIO(data), file_type="glb", force="scene", process=False)
+    parts = []
+    for node in sorted(scene.graph.nodes_geometry):
+        if node.startswith(skip_prefixes):
+            continue
+        transform, geometry_name = scene.graph[node]
+        geometry = scene.geometry[geometry_name]
+        if not isinstance(geometry, trimesh.Trimesh) or len(geometry.faces) == 0:
+            continue
+        parts.append(geometry.copy().apply_transform(transform))
+    if not parts:
+        return trimesh.Trimesh(np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64), process=False)
+    return trimesh.util.concatenate(parts)
+
+
+def _to_light(light: Light, position: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit directions from (N, 3) points toward the light, and the distance to it (inf if none)."""
+    if light.kind == "directional":
+        direction = -np.asarray(light.direction, dtype=np.float64)
+        direction = direction / np.linalg.norm(direction)
+        return np.broadcast_to(direction, position.shape), np.full(len(position), np.inf)
+    offset = np.asarray(light.position, dtype=np.float64) - position
+    distance = np.linalg.norm(offset, axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        direction = offset / distance[:, None]
+    return direction, distance
+
+
+def _n_dot_l(light: Light, position: np.ndarray, normal: np.ndarray) -> np.ndarray:
+    """N.L per pixel of (H, W, 3) images; NaN where there is no geometry."""
+    flat_p = position.reshape(-1, 3).astype(np.float64)
+    flat_n = normal.reshape(-1, 3).astype(np.float64)
+    direction, _ = _to_light(light, flat_p)
+    return np.einsum("ij,ij->i", flat_n, direction).reshape(position.shape[:-1])
+
+
+def _occluded(
+    mesh: trimesh.Trimesh, origins: np.ndarray, directions: np.ndarray, tfar: np.ndarray
+) -> np.ndarray:
+    """Embree any-hit query: does each ray segment [0, tfar) hit the mesh?"""
+    try:
+        from embreex import rtcore_scene
+        from embreex.mesh_construction import TriangleMesh
+    except ImportError as error:
+        raise RuntimeError(EMBREE_HINT) from error
+
+    # Embree works in float32: recentre on the scene so coordinates stay small and precise.
+    centre = mesh.bounds.mean(axis=0)
+    scene = rtcore_scene.EmbreeScene()
+    TriangleMesh(
+        scene=scene,
+        vertices=(mesh.vertices - centre).astype(np.float32),
+        indices=np.asarray(mesh.faces, dtype=np.int32),
+    )
+    # float32 max stands for "no far end" (directional light); Embree rejects inf on some builds.
+    far = np.minimum(tfar, np.finfo(np.float32).max).astype(np.float32)
+    hits = scene.run(
+        (origins - centre).astype(np.float32),
+        np.ascontiguousarray(directions, dtype=np.float32),
+        dists=far,
+        query="OCCLUDED",
+    )
+    # embreex answers an OCCLUDED query with 0 for a blocked ray and -1 for a free one.
+    return np.asarray(hits) != -1
+
+
+def hard_visibility(
+    mesh: trimesh.Trimesh,
+    position: np.ndarray,
+    normal: np.ndarray,
+    light: Light | Mapping[str, Any],
+) -> np.ndarray:
+    """Exact hard-shadow visibility of each dumped pixel, by one Embree shadow ray per pixel.
+
+    Parameters
+    ----------
+    mesh
+        The occluders in world space (``load_geometry``).
+    position, normal
+        (H, W, 3) dumped world positions and unit normals; NaN where no geometry.
+    light
+        A ``Light`` or a ``[light]``-like mapping. Spot lights are treated as point lights: this is
+        visibility, and the cone is a shading factor, not an occluder.
+
+    Returns
+    -------
+    (H, W) float32: 1 lit, 0 shadowed (occluded, or facing away from the light: N.L <= 0, the
+    light cannot reach the surface), NaN where there is no geometry.
+    """
+    light = _as_light(light)
+    shape = position.shape[:-1]
+    flat_p = position.reshape(-1, 3).astype(np.float64)
+    flat_n = normal.reshape(-1, 3).astype(np.float64)
+    lit = np.full(flat_p.shape[0], np.nan, dtype=np.float32)
+
+    valid = np.isfinite(flat_p).all(axis=1) & np.isfinite(flat_n).all(axis=1)
+    p, n = flat_p[valid], flat_n[valid]
+    direction, _ = _to_light(light, p)
+    facing = np.einsum("ij,ij->i", n, direction) > 0.0
+
+    result = np.where(facing, 1.0, 0.0).astype(np.float32)
+    if facing.any() and len(mesh.faces) > 0:
+        p, n = p[facing], n[facing]
+        # The scene is the occluders and the receivers together: floors may be left out of mesh.
+        corners = np.vstack([mesh.bounds, p.min(axis=0), p.max(axis=0)])
+        diagonal = float(np.linalg.norm(corners.max(axis=0) - corners.min(axis=0)))
+        eps = RAY_OFFSET_SCENE * diagonal + RAY_OFFSET_DISTANCE * np.linalg.norm(p, axis=1)
+        origins = p + n * eps[:, None]
+        # Aim from the pushed-off origin and stop at the light: only hits nearer than a point
+        # light count, anything behind it cannot shadow.
+        direction, distance = _to_light(light, origins)
+        blocked = _occluded(mesh, origins, direction, distance)
+        result[facing] = np.where(blocked, 0.0, 1.0)
+    lit[valid] = result
+    return lit.reshape(shape)
+
+
+def shadow_error(
+    lit_method: np.ndarray,
+    lit_reference: np.ndarray,
+    position: np.ndarray,
+    normal: np.ndarray,
+    light: Light | Mapping[str, Any],
+    min_ndotl: float = MIN_NDOTL,
+) -> dict[str, Any]:
+    """The accuracy metric: misclassified pixels per shadowed reference pixel.
+
+    Only pixels with geometry, with N.L > ``min_ndotl`` and, for a spot light with a ``cone``,
+    inside the cone are considered: elsewhere the light does not reach and a method's ``lit`` is
+    free to say anything. A pixel is misclassified when the method and the reference disagree about
+    ``lit >= 0.5``; a NaN in ``lit_method`` where there is geometry reads as shadowed.
+
+    Returns ``{"error", "misclassified", "shadowed", "considered", "mask"}``: ``error`` is
+    ``misclassified / max(1, shadowed)``, ``mask`` the (H, W) bool image of misclassified pixels
+    (for a diff image).
+    """
+    light = _as_light(light)
+    has_geometry = np.isfinite(position).all(axis=-1) & np.isfinite(normal).all(axis=-1)
+    has_geometry &= np.isfinite(lit_reference)
+    with np.errstate(invalid="ignore"):
+        considered = has_geometry & (_n_dot_l(light, position, normal) > min_ndotl)
+        if light.kind == "spot" and light.cone is not None and light.direction is not None:
+            considered &= _inside_cone(light, position)
+        method_lit = lit_method >= 0.5
+        reference_lit = lit_reference >= 0.5
+    mask = considered & (method_lit != reference_lit)
+    misclassified = int(mask.sum())
+    shadowed = int((considered & ~reference_lit).sum())
+    return {
+        "error": misclassified / max(1, shadowed),
+        "misclassified": misclassified,
+        "shadowed": shadowed,
+        "considered": int(considered.sum()),
+        "mask": mask,
+    }
+
+
+def _inside_cone(light: Light, position: np.ndarray) -> np.ndarray:
+    """Whether each (H, W, 3) point lies inside a spot light's cone."""
+    axis = np.asarray(light.direction, dtype=np.float64)
+    axis = axis / np.linalg.norm(axis)
+    offset = position.astype(np.float64) - np.asarray(light.position, dtype=np.float64)
+    cos_angle = (offset @ axis) / np.linalg.norm(offset, axis=-1)
+    return cos_angle >= np.cos(np.radians(0.5 * float(light.cone)))

@@ -1,0 +1,194 @@
+"""The renderer's caching, floor exclusion, map grid and resource ownership, on llvmpipe."""
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from game import shadow_methods
+from game.renderer import Renderer, View
+from game.scene import Light, load_scene, parse_scene
+
+SCENES = Path(__file__).parent / "scenes"
+
+SIZE = (160, 90)
+
+
+@pytest.fixture
+def tiny():
+    return load_scene(SCENES / "tiny.toml")
+
+
+def render(ctx, scene, settings=None, t=0.0, frames=1, gbuffer=True, debug="none"):
+    r = Renderer(ctx, scene, SIZE, settings, gbuffer=gbuffer)
+    r.debug_view = debug
+    view = View.from_camera(scene.camera, SIZE)
+    try:
+        return [r.render(t + k / 30, view) for k in range(frames)]
+    finally:
+        r.release()
+
+
+def test_only_character_maps_are_re_rendered_after_the_first_frame(ctx, tiny):
+    frames = render(ctx, tiny, frames=4)
+    n_chars = len(tiny.characters)
+    first, *rest = frames
+    assert first.maps_rendered == first.maps_total
+    assert first.maps_total > n_chars
+    for f in rest:
+        assert f.maps_rendered == n_chars
+        assert f.maps_cached == f.maps_total - n_chars
+        assert f.triangles_to_maps == sum(len(c.mesh.faces) for c in tiny.characters)
+
+
+def test_a_light_change_re_renders_every_clump(ctx, tiny):
+    r = Renderer(ctx, tiny, SIZE)
+    view = View.from_camera(tiny.camera, SIZE)
+    try:
+        r.render(0.0, view)
+        assert r.render(0.1, view).maps_rendered == len(tiny.characters)
+        before = r.render(0.2, view).image
+        d = np.array([0.5, -1.0, 0.2])
+        r.set_light(Light("directional", d / np.linalg.norm(d), None, None))
+        f = r.render(0.2, view)
+        assert f.maps_rendered == f.maps_total
+        assert not np.array_equal(f.image, before)  # the shadows moved
+    finally:
+        r.release()
+
+
+RAISED_FLOOR = """
+[camera]
+position = [0.0, 2.0, 9.0]
+target = [0.0, 0.5, 0.0]
+fov = 50.0
+[light]
+kind = "directional"
+direction = [0.0, -1.0, 0.0]
+[[floor]]
+shape = "box"
+size = [20.0, 0.2, 20.0]
+position = [0.0, -0.1, 0.0]
+[[floor]]
+shape = "box"
+size = [4.0, 0.1, 4.0]
+position = [0.0, 3.0, -6.0]
+[[static]]
+shape = "box"
+size = [1.0, 1.0, 1.0]
+position = [0.0, 0.5, 0.0]
+"""
+
+
+def test_floors_are_never_drawn_into_a_map(ctx):
+    # A second floor hangs over the ground behind the box: were it a caster, the ground
+    # beneath it would be dark. Floors receive only, so that ground stays lit.
+    scene = parse_scene(RAISED_FLOOR)
+    r = Renderer(ctx, scene, SIZE, gbuffer=True)
+    try:
+        frame = r.render(0.0, View.from_camera(scene.camera, SIZE))
+        plan = r.method.plan(np.zeros((0, 4, 4)))
+    finally:
+        r.release()
+    floor_ids = set(range(len(scene.floors)))
+    assert all(not floor_ids & set(m.objects) for m in plan.maps)
+    g = frame.gbuffer
+    ground = (g["object"] == 0) & (np.abs(g["position"][..., 2] + 6.0) < 1.5) \
+        & (np.abs(g["position"][..., 0]) < 1.5)
+    assert ground.sum() > 10
+    assert np.all(g["lit"][ground] == 1.0)
+    # The box's own shadow on the ground is there.
+    below_box = (g["object"] == 0) & (np.linalg.norm(g["position"][..., [0, 2]], axis=-1) < 0.4)
+    assert below_box.sum() == 0 or np.all(g["lit"][below_box] == 0.0)
+
+
+@pytest.mark.parametrize("scene_name", ["tiny.toml", "spot.toml", "point.toml"])
+def test_grid_and_loop_give_the_same_shadows(ctx, scene_name):
+    scene = load_scene(SCENES / scene_name)
+    base = shadow_methods.ShadowSettings(clump_count=6)
+    off = render(ctx, scene, dataclasses.replace(base, grid="off"))[0]
+    on = render(ctx, scene, dataclasses.replace(base, grid="on"))[0]
+    assert np.array_equal(off.gbuffer["lit"], on.gbuffer["lit"], equal_nan=True)
+    assert on.maps_per_fragment <= off.maps_per_fragment + 1e-9
+
+
+def test_debug_view_colours_pixels_by_map(ctx, tiny):
+    plain = render(ctx, tiny, gbuffer=False)[0].image
+    debug = render(ctx, tiny, gbuffer=False, debug="map")[0].image
+    assert not np.array_equal(plain, debug)
+    colours = {tuple(c) for c in debug.reshape(-1, 3)[::7]}
+    assert len(colours) > 3
+
+
+def test_single_renders_every_caster_every_frame(ctx, tiny):
+    settings = shadow_methods.ShadowSettings(method="single", single_resolution=1024)
+    frames = render(ctx, tiny, settings, frames=2)
+    tris = sum(len(b.mesh.faces) for b in tiny.statics) + sum(
+        len(c.mesh.faces) for c in tiny.characters)
+    for f in frames:
+        assert f.maps_rendered == 1
+        assert f.triangles_to_maps == tris
+
+
+def test_gbuffer_matches_the_camera(ctx, tiny):
+    frame = render(ctx, tiny)[0]
+    g = frame.gbuffer
+    view = View.from_camera(tiny.camera, SIZE)
+    m = view.proj @ view.view
+    rows, cols = np.nonzero(g["object"] >= 0)
+    pick = slice(None, None, 37)
+    p = g["position"][rows[pick], cols[pick]]
+    clip = np.c_[p, np.ones(len(p))] @ m.T
+    ndc = clip[:, :2] / clip[:, 3:]
+    w, h = SIZE
+    assert np.allclose(ndc[:, 0], (cols[pick] + 0.5) / w * 2 - 1, atol=2e-3)
+    assert np.allclose(ndc[:, 1], 1 - (rows[pick] + 0.5) / h * 2, atol=2e-3)
+    n = g["normal"][rows, cols]
+    assert np.allclose(np.linalg.norm(n, axis=1), 1, atol=1e-4)
+    eye = np.asarray(tiny.camera.position)
+    facing = np.einsum("ij,ij->i", n, eye - g["position"][rows, cols])
+    assert np.all(facing > 0)
+    assert np.all(np.isnan(g["position"][g["object"] < 0]))
+
+
+GL_KINDS = ("Buffer", "Texture", "Framebuffer", "Renderbuffer", "VertexArray")
+
+
+def next_gl_names():
+    """The name GL would hand out next for each kind of object (Mesa counts upwards)."""
+    from OpenGL import GL
+
+    names = {}
+    for kind in GL_KINDS:
+        name = int(getattr(GL, f"glGen{kind}s")(1))
+        getattr(GL, f"glDelete{kind}s")(1, [name])
+        names[kind] = name
+    program = int(GL.glCreateProgram())
+    GL.glDeleteProgram(program)
+    names["Program"] = program
+    return names
+
+
+def live_names(start, end):
+    """Objects of each kind still alive among the names handed out between two snapshots."""
+    from OpenGL import GL
+
+    # A deleted program stays alive while it is the current one (GL semantics, not a leak).
+    GL.glUseProgram(0)
+    live = {}
+    for kind, first in start.items():
+        exists = getattr(GL, f"glIs{kind}")
+        live[kind] = [n for n in range(first, end[kind]) if exists(n)]
+        if kind == "Program":
+            live["Shader"] = [n for n in range(first, end[kind]) if GL.glIsShader(n)]
+    return live
+
+
+def test_release_returns_every_gl_object(ctx, tiny):
+    before = next_gl_names()
+    render(ctx, tiny, frames=2)
+    render(ctx, tiny, shadow_methods.ShadowSettings(method="single"), frames=1)
+    after = next_gl_names()
+    assert after["Texture"] > before["Texture"]  # the renderers did make objects
+    assert all(not names for names in live_names(before, after).values())

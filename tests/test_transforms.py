@@ -1,0 +1,61 @@
+"""The matrix conventions, checked once against hand-computed values."""
+
+import numpy as np
+import pytest
+
+from game import transforms as tf
+
+
+def test_look_at_maps_eye_to_origin_and_target_down_minus_z():
+    view = tf.look_at([1.0, 2.0, 5.0], [1.0, 2.0, 0.0])
+    assert np.allclose(view @ [1, 2, 5, 1], [0, 0, 0, 1])
+    assert np.allclose(view @ [1, 2, 0, 1], [0, 0, -5, 1])
+    assert np.allclose(view @ [1, 3, 5, 1], [0, 1, 0, 1])  # +Y stays up
+
+
+def test_perspective_near_and_far_map_to_ndc_minus_one_and_one():
+    proj = tf.perspective(90.0, 2.0, 1.0, 10.0)
+    near = proj @ [0, 0, -1, 1]
+    far = proj @ [0, 0, -10, 1]
+    assert near[2] / near[3] == pytest.approx(-1)
+    assert far[2] / far[3] == pytest.approx(1)
+    edge = proj @ [2.0, 1.0, -1.0, 1.0]  # 45 degrees up, aspect 2 to the side
+    assert np.allclose(edge[:2] / edge[3], [1, 1])
+
+
+def test_frustum_equals_symmetric_perspective():
+    assert np.allclose(tf.frustum(-1, 1, -1, 1, 1, 10), tf.perspective(90, 1, 1, 10))
+
+
+def test_ortho_maps_box_corners_to_ndc_corners():
+    proj = tf.ortho(-2, 4, -1, 3, -5, 5)
+    assert np.allclose(proj @ [4, 3, 5, 1], [1, 1, -1, 1])   # z=+5 is distance -5: near
+    assert np.allclose(proj @ [-2, -1, -5, 1], [-1, -1, 1, 1])
+
+
+def test_light_rotation_z_points_to_the_light_even_when_vertical():
+    for direction in ([-0.4, -1.0, -0.3], [0.0, -1.0, 0.0], [0.0, 1.0, 0.0], [1.0, 0, 0]):
+        d = np.array(direction) / np.linalg.norm(direction)
+        rot = tf.light_rotation(d)
+        assert np.allclose(rot @ rot.T, np.eye(3))
+        assert np.allclose(rot[2], -d)
+        assert np.all(np.isfinite(rot))
+
+
+def test_euler_order_is_x_then_y_then_z():
+    r = tf.euler_xyz([90.0, 90.0, 0.0])
+    # X first turns +Y into +Z, then Y turns +Z into +X.
+    assert np.allclose(r @ [0, 1, 0], [1, 0, 0])
+
+
+def test_gl_bytes_is_column_major():
+    m = np.arange(16, dtype=float).reshape(4, 4)
+    floats = np.frombuffer(tf.gl_bytes(m), np.float32)
+    assert list(floats[:4]) == [0, 4, 8, 12]  # the first column
+
+
+def test_project_points_matches_matrix_product():
+    m = tf.perspective(60, 1.5, 0.1, 100) @ tf.look_at([3, 4, 5], [0, 0, 0])
+    p = np.array([[1.0, 2.0, 3.0], [-1.0, 0.5, 2.0]])
+    expected = np.array([m @ [*q, 1.0] for q in p])
+    assert np.allclose(tf.project_points(m, p), expected)
