@@ -28,6 +28,7 @@ class PackedGeometry:
     static_points: list[np.ndarray]  # per static: (Ni, 3) float64 world-space vertices
     character_points: list[np.ndarray]  # per character: (Ni, 3) float64 local vertices
     character_radius: np.ndarray     # per character: bounding-sphere radius about its origin
+    closed: np.ndarray               # per object: a closed, outward-wound volume (cullable)
 
     @property
     def first_static(self) -> int:
@@ -63,6 +64,9 @@ def pack(scene: Scene) -> PackedGeometry:
         triangles.append((f + base).astype(np.uint32))
         base += len(v)
     character_points = [np.asarray(c.mesh.vertices, float) for c in scene.characters]
+    # Back faces of closed volumes can never be seen from outside them: the shading pass culls
+    # them (on llvmpipe that halved the shading time of the 1 M-triangle town).
+    closed = np.array([bool(m.is_volume) for m in meshes], dtype=bool)
     return PackedGeometry(
         positions=np.concatenate(positions) if positions else np.zeros((0, 3), np.float32),
         objects=np.concatenate(objects) if objects else np.zeros(0, np.int32),
@@ -75,16 +79,22 @@ def pack(scene: Scene) -> PackedGeometry:
         character_points=character_points,
         character_radius=np.array([float(np.linalg.norm(p, axis=1).max()) if len(p) else 0.0
                                    for p in character_points]),
+        closed=closed,
     )
 
 
 @dataclass
 class IndexLayout:
-    """The index buffer's order and each object's (first, count) range in it, in indices."""
+    """The index buffer's order and each object's (first, count) range in it, in indices.
+
+    Closed volumes come first, open meshes after ``n_closed`` indices, so the shading pass
+    draws each group in one call, with and without back-face culling.
+    """
 
     indices: np.ndarray   # (3 * F,) uint32
     first: np.ndarray     # per object
     count: np.ndarray     # per object
+    n_closed: int         # indices of closed volumes, at the start
 
     def ranges(self, objects) -> list[tuple[int, int]]:
         """Draw ranges (first, count) covering the objects, adjacent ranges merged."""
@@ -100,14 +110,16 @@ class IndexLayout:
 
 
 def layout(geom: PackedGeometry, static_order: list[int] | None = None) -> IndexLayout:
-    """Order the index buffer floors, statics (in ``static_order``, e.g. by clump), characters.
+    """Order the index buffer: closed volumes, then open meshes; within each, floors, statics
+    (in ``static_order``, e.g. by clump), characters.
 
-    Putting each clump's statics side by side lets its map be drawn in one call.
+    Putting each clump's statics side by side lets its map be drawn in few calls.
     """
-    order = list(range(geom.n_floors))
     statics = static_order if static_order is not None else range(geom.n_statics)
-    order += [geom.static_object(i) for i in statics]
-    order += [geom.character_object(i) for i in range(geom.n_characters)]
+    everything = (list(range(geom.n_floors)) + [geom.static_object(i) for i in statics]
+                  + [geom.character_object(i) for i in range(geom.n_characters)])
+    order = [o for o in everything if geom.closed[o]] + [o for o in everything
+                                                         if not geom.closed[o]]
     n_objects = len(geom.triangles)
     first = np.zeros(n_objects, np.int64)
     count = np.zeros(n_objects, np.int64)
@@ -118,4 +130,5 @@ def layout(geom: PackedGeometry, static_order: list[int] | None = None) -> Index
         position += count[o]
     parts = [geom.triangles[o].reshape(-1) for o in order]
     indices = np.concatenate(parts).astype(np.uint32) if parts else np.zeros(0, np.uint32)
-    return IndexLayout(indices=indices, first=first, count=count)
+    n_closed = int(sum(count[o] for o in order if geom.closed[o]))
+    return IndexLayout(indices=indices, first=first, count=count, n_closed=n_closed)

@@ -16,8 +16,10 @@ MAP_DTYPE = np.dtype([
     # z: 1 for a perspective map, w: share of the layer the map's viewport uses (uv scale)
     ("params", "<f4", 4),
     ("eye", "<f4", 4),  # xyz: the map's eye; w: caster kind (0 static clump, 1 character, 2 all)
+    # orthographic maps: the light-space rectangle (xmin, ymin, xmax, ymax), a cheap first test
+    ("bounds", "<f4", 4),
 ])
-assert MAP_DTYPE.itemsize == 96
+assert MAP_DTYPE.itemsize == 112
 
 # Keep in sync with shaders/blocks.glsl: uniform block Frame.
 FRAME_DTYPE = np.dtype([

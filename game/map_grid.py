@@ -55,7 +55,7 @@ def build_ortho(fits: list[MapFit]) -> MapGrid:
     """Grid over the maps' light-space rectangles (directional light)."""
     rects = np.array([f.rect for f in fits], float)
     rect = np.array([rects[:, 0].min(), rects[:, 1].min(), rects[:, 2].max(), rects[:, 3].max()])
-    size = int(np.clip(2 * np.ceil(np.sqrt(len(fits))), 4, MAX_GRID))
+    size = int(np.clip(4 * np.ceil(np.sqrt(len(fits))), 4, MAX_GRID))
     xs = np.linspace(rect[0], rect[2], size + 1)
     ys = np.linspace(rect[1], rect[3], size + 1)
     cx0, cy0 = np.meshgrid(xs[:-1], ys[:-1])  # row = y, column = x: cell = y * size + x

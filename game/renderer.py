@@ -185,6 +185,7 @@ class Renderer:
             block[i]["params"] = (rec.layer, rec.fit.texel, float(rec.fit.perspective),
                                   rec.viewport / plan.resolution)
             block[i]["eye"] = (*rec.fit.eye, rec.kind)
+            block[i]["bounds"] = rec.fit.rect
         self.maps_ubo.write(block.tobytes())
 
     def _upload_frame(self, view: View, n_maps: int, grid: map_grid.MapGrid) -> None:
@@ -243,15 +244,14 @@ class Renderer:
             if len(models):
                 self.models_ssbo.write(transforms.gl_bytes(models))
             self._upload_maps(plan)
+            grid = map_grid.build([m.fit for m in plan.maps], self.scene.light.kind,
+                                  self.scene.light.position, self.settings.grid)
+            self._upload_frame(view, len(plan.maps), grid)
+            # Bind after the uploads: a buffer that had to grow is bound as it is now.
             for name, binding in (("frame_ubo", "FRAME_BINDING"), ("maps_ubo", "MAPS_BINDING")):
                 getattr(self, name).bind_to_uniform_block(gpu_blocks.BINDINGS[binding])
             self.models_ssbo.bind_to_storage_buffer(gpu_blocks.BINDINGS["MODELS_BINDING"])
             self.grid_ssbo.bind_to_storage_buffer(gpu_blocks.BINDINGS["GRID_BINDING"])
-            # The frame block (first character index) is needed by the depth pass too.
-            fits = [m.fit for m in plan.maps]
-            grid = map_grid.build(fits, self.scene.light.kind, self.scene.light.position,
-                                  self.settings.grid)
-            self._upload_frame(view, len(plan.maps), grid)
 
             ctx.enable(moderngl.DEPTH_TEST)
             ctx.disable(moderngl.CULL_FACE)
@@ -268,7 +268,14 @@ class Renderer:
                 array.set_filter(False)
                 array.bind(SHADOW_UNIT)
                 self.shade_prog["u_shadow_maps"].value = SHADOW_UNIT
-                self.shade_vao.render(moderngl.TRIANGLES)
+                closed, total = self.layout.n_closed, len(self.layout.indices)
+                if closed:
+                    ctx.enable(moderngl.CULL_FACE)
+                    self.shade_vao.render(moderngl.TRIANGLES, vertices=closed)
+                    ctx.disable(moderngl.CULL_FACE)
+                if total > closed:
+                    self.shade_vao.render(moderngl.TRIANGLES, vertices=total - closed,
+                                          first=closed)
         with timer.measure("readback", wall=True):
             rgba = np.frombuffer(self.target.read(components=4, attachment=0), np.uint8)
             rgba = rgba.reshape(self.size[1], self.size[0], 4)[::-1]

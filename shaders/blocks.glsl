@@ -6,6 +6,7 @@ struct ShadowMap {      // keep in sync with gpu_blocks.MAP_DTYPE
     mat4 view_proj;     // world -> map clip
     vec4 params;        // x layer, y texel size (ortho m; perspective per m of depth), z perspective, w uv scale
     vec4 eye;           // xyz the map's eye; w caster kind (0 clump, 1 character, 2 all)
+    vec4 bounds;        // orthographic maps: light-space rectangle (xmin, ymin, xmax, ymax)
 };
 
 layout(std140, binding = FRAME_BINDING) uniform Frame {   // keep in sync with gpu_blocks.FRAME_DTYPE

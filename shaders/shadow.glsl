@@ -10,9 +10,17 @@ vec3 to_light(vec3 p) {
 }
 
 // Visibility of p in map i; 1.0 outside the map's bounds or nearer the light than its caster.
-// `sampled` tells whether the map was read.
-float sample_map(int i, vec3 p, vec3 n, vec3 l, float ndotl, out bool sampled) {
+// `sampled` tells whether the map was read. `light_xy` is p in the common light space of a
+// directional light, where an orthographic map's bounds reject most candidates cheaply.
+float sample_map(int i, vec3 p, vec2 light_xy, vec3 n, vec3 l, float ndotl, out bool sampled) {
     sampled = false;
+    if (u_maps[i].params.z < 0.5) {
+        float reach = (u_bias.x + u_bias.y + u_bias.z * u_bias.w) * u_maps[i].params.y;
+        vec4 b = u_maps[i].bounds + vec4(-reach, -reach, reach, reach);
+        if (any(lessThan(light_xy, b.xy)) || any(greaterThan(light_xy, b.zw))) {
+            return 1.0;
+        }
+    }
     vec4 clip = u_maps[i].view_proj * vec4(p, 1.0);
     if (clip.w <= 0.0) {
         return 1.0;   // behind a perspective map's eye
@@ -58,17 +66,10 @@ vec2 octahedral(vec3 d) {
     return e;
 }
 
-vec2 grid_coord(vec3 p) {
-    if (u_counts.y == GRID_ORTHO) {
-        return (u_light_rot * vec4(p, 1.0)).xy;
-    }
-    return octahedral(normalize(p - u_light_pos.xyz));
-}
-
-void consider(int i, vec3 p, vec3 n, vec3 l, float ndotl, inout float vis, inout int sampled,
-              inout int used) {
+void consider(int i, vec3 p, vec2 light_xy, vec3 n, vec3 l, float ndotl, inout float vis,
+              inout int sampled, inout int used) {
     bool read;
-    float v = sample_map(i, p, n, l, ndotl, read);
+    float v = sample_map(i, p, light_xy, n, l, ndotl, read);
     if (read) {
         sampled += 1;
         if (used < 0 || v < vis) {
@@ -89,13 +90,15 @@ float shadow_visibility(vec3 p, vec3 n, out int sampled, out int used) {
         return 0.0;   // the surface faces away from the light
     }
     float vis = 1.0;
+    vec2 light_xy = (u_light_rot * vec4(p, 1.0)).xy;
     if (u_counts.y == GRID_NONE) {
         for (int i = 0; i < u_counts.x && vis > 0.0; ++i) {
-            consider(i, p, n, l, ndotl, vis, sampled, used);
+            consider(i, p, light_xy, n, l, ndotl, vis, sampled, used);
         }
         return vis;
     }
-    vec2 f = (grid_coord(p) - u_grid_rect.xy) / (u_grid_rect.zw - u_grid_rect.xy);
+    vec2 g = u_counts.y == GRID_ORTHO ? light_xy : octahedral(normalize(p - u_light_pos.xyz));
+    vec2 f = (g - u_grid_rect.xy) / (u_grid_rect.zw - u_grid_rect.xy);
     if (any(lessThan(f, vec2(0.0))) || any(greaterThan(f, vec2(1.0)))) {
         return vis;
     }
@@ -103,7 +106,7 @@ float shadow_visibility(vec3 p, vec3 n, out int sampled, out int used) {
     ivec2 cell = min(ivec2(f * float(size)), ivec2(size - 1));
     int c = cell.y * size + cell.x;
     for (int k = u_grid[c]; k < u_grid[c + 1] && vis > 0.0; ++k) {
-        consider(u_grid[k], p, n, l, ndotl, vis, sampled, used);
+        consider(u_grid[k], p, light_xy, n, l, ndotl, vis, sampled, used);
     }
     return vis;
 }
