@@ -192,3 +192,36 @@ def test_release_returns_every_gl_object(ctx, tiny):
     after = next_gl_names()
     assert after["Texture"] > before["Texture"]  # the renderers did make objects
     assert all(not names for names in live_names(before, after).values())
+
+
+TOWN = """
+[camera]
+position = [0.0, 60.0, 90.0]
+target = [0.0, 0.0, 0.0]
+fov = 55.0
+[light]
+kind = "directional"
+direction = [-0.4, -1.0, -0.3]
+[generate]
+seed = 3
+blocks = 3
+detail = 0
+characters = 4
+"""
+
+
+def test_first_frame_equals_later_frames_with_a_large_map_grid(ctx):
+    # Regression: the grid buffer grew on the first frame after it was bound, and the first
+    # frame then read a stale grid (shadows missing on frame 0 only).
+    scene = parse_scene(TOWN)
+    settings = shadow_methods.ShadowSettings(clump_count=60, grid="on")
+    r = Renderer(ctx, scene, SIZE, settings, gbuffer=True)
+    view = View.from_camera(scene.camera, SIZE)
+    try:
+        first = r.render(0.0, view)
+        assert r.grid_ssbo.size > 4 * 1024
+        second = r.render(0.0, view)
+    finally:
+        r.release()
+    assert first.maps_total > 60
+    assert np.array_equal(first.gbuffer["lit"], second.gbuffer["lit"], equal_nan=True)

@@ -1,0 +1,99 @@
+"""The command line: every bad input is one line on stderr and a non-zero exit, no traceback."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+TINY = ROOT / "tests" / "scenes" / "tiny.toml"
+
+
+def run(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "game", *map(str, args)], cwd=cwd or ROOT,
+                          capture_output=True, text=True, timeout=300)
+
+
+def assert_one_line_error(result, *fragments):
+    assert result.returncode != 0
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1, result.stderr
+    assert "Traceback" not in result.stderr
+    for fragment in fragments:
+        assert fragment in lines[0], lines[0]
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (["capture", TINY, "--size", "0x10"], "--size"),
+    (["capture", TINY, "--size", "wide"], "--size"),
+    (["capture", TINY, "--frames", "0"], "--frames"),
+    (["capture", TINY, "--frames", "two"], "--frames"),
+    (["capture", TINY, "--fps", "0"], "--fps"),
+    (["capture", TINY, "--fps", "nan"], "--fps"),
+    (["capture", TINY, "--time", "inf"], "--time"),
+    (["capture", TINY, "--method", "magic"], "--method"),
+    (["capture", TINY, "--clumping", "diagonal"], "--clumping"),
+    (["capture", TINY, "--clump-resolution", "99999"], "GL_MAX_TEXTURE_SIZE"),
+    (["capture", TINY, "--no-such-flag"], "--no-such-flag"),
+    (["capture", "missing.toml"], "missing.toml"),
+    (["frobnicate"], "frobnicate"),
+])
+def test_bad_arguments(args, fragment, tmp_path):
+    assert_one_line_error(run(*args, "--out", tmp_path / "out") if args[0] == "capture"
+                          else run(*args), fragment)
+
+
+def test_bad_scene_is_one_line_naming_file_line_and_key(tmp_path):
+    scene = tmp_path / "bad.toml"
+    scene.write_text(TINY.read_text().replace("radius   = 0.7", "radius   = -0.7"))
+    result = run("capture", scene, "--out", tmp_path / "out")
+    assert result.returncode == 1
+    assert_one_line_error(result, "bad.toml:", "radius")
+
+
+def test_out_that_is_a_file(tmp_path):
+    target = tmp_path / "file"
+    target.write_text("keep me")
+    assert_one_line_error(run("capture", TINY, "--out", target), "--out")
+    assert target.read_text() == "keep me"
+
+
+def test_capture_writes_frames_dumps_and_stats(tmp_path):
+    out = tmp_path / "out"
+    result = run("capture", TINY, "--frames", "2", "--size", "64x36", "--out", out, "--dump",
+                 "--stats", tmp_path / "stats.json", "--time", "1.5", "--fps", "10")
+    assert result.returncode == 0, result.stderr
+    for k in range(2):
+        assert (out / f"frame_{k:04d}.png").read_bytes()[:4] == b"\x89PNG"
+        assert (out / f"frame_{k:04d}.glb").read_bytes()[:4] == b"glTF"
+        with np.load(out / f"frame_{k:04d}.npz") as dump:
+            assert dump["position"].shape == (36, 64, 3) and dump["position"].dtype == np.float32
+            assert dump["normal"].shape == (36, 64, 3)
+            assert dump["object"].dtype == np.int32
+            assert dump["lit"].dtype == np.float32
+            assert list(dump["names"]) == ["floor_0", "static_0", "static_1", "character_0"]
+            assert dump["view"].dtype == np.float64 and dump["proj"].shape == (4, 4)
+            assert list(dump["size"]) == [64, 36]
+            assert float(dump["time"]) == pytest.approx(1.5 + k / 10)
+    stats = json.loads((tmp_path / "stats.json").read_text())
+    assert stats["clock"] == "cpu-finish" and "llvmpipe" in stats["renderer"]
+    assert stats["version"]
+    assert len(stats["frames"]) == 2
+    for frame in stats["frames"]:
+        for key in ("shadow_static", "shadow_dynamic", "shade", "total"):
+            assert frame["ms"][key] >= 0 and frame[key] == frame["ms"][key]
+        assert frame["maps_rendered"] >= 1
+        assert frame["triangles_to_maps"] > 0
+        assert 0 < frame["maps_per_fragment"] < 3
+    assert not list(out.glob("*.tmp")) and not list(out.glob(".*"))
+
+
+def test_default_command_renders_headless_and_says_where(tmp_path):
+    result = run(cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert len(result.stdout.strip().splitlines()) == 1
+    assert "headless" in result.stdout
+    assert (tmp_path / "captures" / "default" / "frame_0000.png").exists()
