@@ -228,7 +228,8 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "play":
             raise GameError("the walkaround window is not built yet (issue 5); use "
                             "python -m game capture")
-        raise GameError(f"{args.command}: not available yet (issue {3 if args.command == 'bench' else 4})")
+        issue = 3 if args.command == "bench" else 4
+        raise GameError(f"{args.command}: not available yet (issue {issue})")
     except ArgumentError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

@@ -53,10 +53,8 @@ def preprocess(source: str, defines: Mapping[str, object] | None = None,
     read = read or _read_shader_file
     text = _resolve(source, read, name, depth=0)
     lines = text.split("\n")
-    for index, line in enumerate(lines):
-        if _VERSION.match(line):
-            break
-    else:
+    index = next((i for i, line in enumerate(lines) if _VERSION.match(line)), None)
+    if index is None:
         raise ShaderSourceError(f"{name}: no #version line")
     inserted = [f"#define {key} {_define_value(key, val)}" for key, val in (defines or {}).items()]
     return "\n".join(lines[: index + 1] + inserted + lines[index + 1:])
@@ -76,7 +74,8 @@ def _resolve(source: str, read: Callable[[str], str], name: str, depth: int) -> 
         try:
             text = read(included)
         except (OSError, KeyError) as exc:
-            raise ShaderSourceError(f"{name}:{number}: cannot include {included!r} ({exc})") from None
+            raise ShaderSourceError(
+                f"{name}:{number}: cannot include {included!r} ({exc})") from None
         out.append(_resolve(text, read, included, depth + 1))
     return "\n".join(out)
 

@@ -18,6 +18,16 @@ from typing import BinaryIO
 import numpy as np
 
 
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+# mkstemp makes files readable by the owner only; outputs get the usual permissions.
+FILE_MODE = 0o666 & ~_umask()
+
+
 @contextmanager
 def atomic_file(path: str | Path):
     """Open a temp file beside ``path`` for binary writing; rename it over ``path`` on success."""
@@ -28,6 +38,7 @@ def atomic_file(path: str | Path):
             yield f
             f.flush()
             os.fsync(f.fileno())
+        os.chmod(tmp, FILE_MODE)
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
