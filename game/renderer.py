@@ -244,8 +244,13 @@ class Renderer:
             if len(models):
                 self.models_ssbo.write(transforms.gl_bytes(models))
             self._upload_maps(plan)
+            s = self.settings
+            # How far the shader may look from a fragment, in texels: the bias offsets (as in
+            # shaders/shadow.glsl) plus one PCF tap and one for rounding.
+            reach = s.normal_bias + s.depth_bias + s.slope_bias * s.max_slope + 2.0
             grid = map_grid.build([m.fit for m in plan.maps], self.scene.light.kind,
-                                  self.scene.light.position, self.settings.grid)
+                                  self.scene.light.position, s.grid,
+                                  [m.cover for m in plan.maps], reach)
             self._upload_frame(view, len(plan.maps), grid)
             # Bind after the uploads: a buffer that had to grow is bound as it is now.
             for name, binding in (("frame_ubo", "FRAME_BINDING"), ("maps_ubo", "MAPS_BINDING")):

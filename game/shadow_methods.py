@@ -67,6 +67,10 @@ class MapRecord:
     layer: int
     viewport: int          # texels per side used, from the layer's corner
     objects: list[int]     # global object indices
+    # Directional light: light-space rectangles of the casters drawn into the map. Much tighter
+    # than the map's own rectangle when a clump is spread out; the map grid lists a map for a
+    # cell only where one of these (grown by the bias reach) overlaps it.
+    cover: np.ndarray | None = None
 
 
 @dataclass
@@ -171,6 +175,8 @@ class ClumpedShadows:
                 f"{self.max_clumps} fit the {s.budget_mib:g} MiB budget, so texels are coarser")
             self.clumps = clumping.make_clumps(points, footprint, s.clumping, 0.0,
                                                self.max_clumps)
+        rects = (clumping.object_summaries(points, footprint)[0]
+                 if self.light.kind == "directional" and points else None)
         self.static_maps = []
         for clump in self.clumps:
             fit = self._fit(np.concatenate([points[i] for i in clump.members]),
@@ -180,7 +186,8 @@ class ClumpedShadows:
             self.static_maps.append(MapRecord(
                 name=f"clump_{len(self.static_maps)}", kind=KIND_CLUMP, fit=fit,
                 layer=len(self.static_maps), viewport=s.clump_resolution,
-                objects=[self.geom.static_object(i) for i in clump.members]))
+                objects=[self.geom.static_object(i) for i in clump.members],
+                cover=None if rects is None else rects[list(clump.members)]))
         self._static_dirty = True
 
     def plan(self, models: np.ndarray) -> ShadowPlan:
@@ -196,10 +203,14 @@ class ClumpedShadows:
             fit = self._fit(points, char_res, float(self.geom.character_radius[i]))
             if fit is None:
                 continue
+            cover = None
+            if self.light.kind == "directional":
+                xy = points @ transforms.light_rotation(self.light.direction)[:2].T
+                cover = np.concatenate([xy.min(axis=0), xy.max(axis=0)])[None]
             render_dynamic.append(len(maps))
             maps.append(MapRecord(name=f"character_{i}", kind=KIND_CHARACTER, fit=fit,
                                   layer=len(self.static_maps) + i, viewport=char_res,
-                                  objects=[self.geom.character_object(i)]))
+                                  objects=[self.geom.character_object(i)], cover=cover))
         order = [m for c in self.clumps for m in c.members]
         self._static_dirty = False
         return ShadowPlan(resolution=resolution, layers=self.layers, maps=maps,
