@@ -68,6 +68,19 @@ class DepthArray:
                 raise GameError(f"depth array layer {layer} is not a complete framebuffer "
                                 f"(status 0x{status:x})")
             self.framebuffers.append(ctx.detect_framebuffer(fbo))
+        # The whole array as one layered framebuffer, for draws that pick gl_Layer per vertex.
+        fbo = int(GL.glGenFramebuffers(1))
+        GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, fbo)
+        GL.glFramebufferTexture(GL.GL_FRAMEBUFFER, GL.GL_DEPTH_ATTACHMENT, self.texture, 0)
+        GL.glDrawBuffer(GL.GL_NONE)
+        GL.glReadBuffer(GL.GL_NONE)
+        self._fbo_ids.append(fbo)
+        status = GL.glCheckFramebufferStatus(GL.GL_FRAMEBUFFER)
+        if status != GL.GL_FRAMEBUFFER_COMPLETE:
+            self.release()
+            raise GameError(f"the layered depth array is not a complete framebuffer "
+                            f"(status 0x{status:x})")
+        self.layered = ctx.detect_framebuffer(fbo)
         # Leave moderngl's idea of the bound framebuffer true.
         ctx.detect_framebuffer(0).use()
 
@@ -97,6 +110,7 @@ class DepthArray:
         self.ctx.detect_framebuffer(0).use()  # never leave moderngl bound to a deleted name
         # The detect_framebuffer wrappers are references: the GL names are ours to delete.
         self.framebuffers = []
+        self.layered = None
         if self._fbo_ids:
             GL.glDeleteFramebuffers(len(self._fbo_ids), self._fbo_ids)
             self._fbo_ids = []

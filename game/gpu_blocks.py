@@ -16,10 +16,12 @@ MAP_DTYPE = np.dtype([
     # z: 1 for a perspective map, w: share of the layer the map's viewport uses (uv scale)
     ("params", "<f4", 4),
     ("eye", "<f4", 4),  # xyz: the map's eye; w: caster kind (0 static clump, 1 character, 2 all)
-    # orthographic maps: the light-space rectangle (xmin, ymin, xmax, ymax), a cheap first test
+    # orthographic maps: the light-space rectangle (xmin, ymin, xmax, ymax) the map covers
     ("bounds", "<f4", 4),
+    # orthographic maps: x the near plane's distance along the light, y 1 / (far - near)
+    ("depth", "<f4", 4),
 ])
-assert MAP_DTYPE.itemsize == 112
+assert MAP_DTYPE.itemsize == 128
 
 # Keep in sync with shaders/blocks.glsl: uniform block Frame.
 FRAME_DTYPE = np.dtype([
@@ -45,6 +47,7 @@ BINDINGS = {
     "MAPS_BINDING": 1,
     "GRID_BINDING": 2,
     "MODELS_BINDING": 3,
+    "CHARACTER_MAPS_BINDING": 4,
 }
 
 

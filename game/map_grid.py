@@ -75,8 +75,8 @@ def build_ortho(fits: list[MapFit], covers: list[np.ndarray | None] | None = Non
                 parts.append(np.asarray(cover, float) + [-grow, -grow, grow, grow])
             owners.append(np.full(len(parts[-1]), j))
         rects, owner = np.concatenate(parts), np.concatenate(owners)
-    # The cells each rectangle touches (cell = row * size + column, rows along y), as ranges, grown by a sliver so
-    # that float32 rounding in the shader cannot put a fragment one cell over.
+    # The cells each rectangle touches (cell = row * size + column, rows along y), as ranges
+    # grown by a sliver so that float32 rounding in the shader cannot put a fragment one over.
     cell = (rect[2:] - rect[:2]) / size
     sliver = 1e-3
     lo = np.floor((rects[:, :2] - rect[:2]) / cell - sliver).astype(np.int64)

@@ -24,6 +24,7 @@ SKY = (0.58, 0.68, 0.80)
 DEBUG_VIEWS = {"none": gpu_blocks.DEBUG_NONE, "map": gpu_blocks.DEBUG_MAP,
                "map-count": gpu_blocks.DEBUG_MAP_COUNT}
 SHADOW_UNIT = 0  # texture unit of the depth array
+LAYERED_EXTENSION = "GL_ARB_shader_viewport_layer_array"
 
 
 @dataclass
@@ -92,6 +93,16 @@ class Renderer:
         self.depth_prog = self._own(ctx.program(
             vertex_shader=glsl.build("depth.vert", _defines(ctx)),
             fragment_shader=glsl.build("depth.frag")))
+        # All character maps in one layered draw where the vertex shader may pick the layer;
+        # otherwise one framebuffer switch per map (the seed: map generation parallelises).
+        self.layered = LAYERED_EXTENSION in ctx.extensions
+        if self.layered:
+            self.layered_prog = self._own(ctx.program(
+                vertex_shader=glsl.build("depth_layered.vert", _defines(ctx)),
+                fragment_shader=glsl.build("depth.frag")))
+            self.clear_prog = self._own(ctx.program(
+                vertex_shader=glsl.build("depth_clear.vert", _defines(ctx)),
+                fragment_shader=glsl.build("depth.frag")))
         self.shade_prog = self._own(ctx.program(
             vertex_shader=glsl.build("shade.vert", _defines(ctx)),
             fragment_shader=glsl.build("shade.frag", _defines(ctx, {"GBUFFER": gbuffer}))))
@@ -104,12 +115,18 @@ class Renderer:
         self.ibo = self._own(ctx.buffer(self.layout.indices.tobytes()))
         content = [(self.vbo, "3f 1i", "in_position", "in_object")]
         self.depth_vao = self._own(ctx.vertex_array(self.depth_prog, content, self.ibo, 4))
+        if self.layered:
+            self.layered_vao = self._own(ctx.vertex_array(self.layered_prog, content, self.ibo,
+                                                          4))
+            self.clear_vao = self._own(ctx.vertex_array(self.clear_prog, []))
         self.shade_vao = self._own(ctx.vertex_array(self.shade_prog, content, self.ibo, 4))
 
         self.frame_ubo = self._own(ctx.buffer(reserve=FRAME_DTYPE.itemsize))
         self.maps_ubo = self._own(ctx.buffer(reserve=MAP_DTYPE.itemsize * self.max_maps))
         self.grid_ssbo = self._own(ctx.buffer(reserve=4 * 1024))
         self.models_ssbo = self._own(ctx.buffer(reserve=64 * max(1, self.geom.n_characters)))
+        self.character_maps_ssbo = self._own(
+            ctx.buffer(reserve=4 * max(1, self.geom.n_characters)))
         self._make_target()
         self.max_layers = min(int(ctx.info["GL_MAX_ARRAY_TEXTURE_LAYERS"]), self.max_maps)
         self.method = shadow_methods.create(self.geom, scene.light, self.settings,
@@ -186,6 +203,7 @@ class Renderer:
                                   rec.viewport / plan.resolution)
             block[i]["eye"] = (*rec.fit.eye, rec.kind)
             block[i]["bounds"] = rec.fit.rect
+            block[i]["depth"] = (rec.fit.near, 1.0 / (rec.fit.far - rec.fit.near), 0.0, 0.0)
         self.maps_ubo.write(block.tobytes())
 
     def _upload_frame(self, view: View, n_maps: int, grid: map_grid.MapGrid) -> None:
@@ -228,6 +246,23 @@ class Renderer:
                 triangles += count // 3
         return triangles
 
+    def _draw_characters_layered(self, plan, indices: list[int], array: DepthArray) -> int:
+        """Clear and render every character map in two draws into the layered framebuffer."""
+        if not indices:
+            return 0
+        ctx = self.ctx
+        fbo = array.layered
+        fbo.use()
+        fbo.viewport = (0, 0, array.resolution, array.resolution)
+        ctx.depth_func = "1"  # the clear quads overwrite whatever the corner held
+        self.clear_vao.render(moderngl.TRIANGLE_STRIP, vertices=4,
+                              instances=self.geom.n_characters)
+        ctx.depth_func = "<"
+        characters = [plan.maps[i].objects[0] for i in indices]
+        for first, count in self.layout.ranges(characters):
+            self.layered_vao.render(moderngl.TRIANGLES, vertices=count, first=first)
+        return sum(self.geom.triangle_count(plan.maps[i].objects) for i in indices)
+
     def render(self, t: float, view: View, read_stats: bool = True) -> Frame:
         """Render the scene at time ``t`` seen from ``view``."""
         ctx, timer = self.ctx, self.timer
@@ -243,6 +278,11 @@ class Renderer:
                 self._static_order = list(plan.static_order)
             if len(models):
                 self.models_ssbo.write(transforms.gl_bytes(models))
+                character_maps = np.full(self.geom.n_characters, -1, np.int32)
+                for index, rec in enumerate(plan.maps):
+                    if rec.kind == shadow_methods.KIND_CHARACTER:
+                        character_maps[rec.objects[0] - self.geom.first_character] = index
+                self.character_maps_ssbo.write(character_maps.tobytes())
             self._upload_maps(plan)
             s = self.settings
             # How far the shader may look from a fragment, in texels: the bias offsets (as in
@@ -257,6 +297,8 @@ class Renderer:
                 getattr(self, name).bind_to_uniform_block(gpu_blocks.BINDINGS[binding])
             self.models_ssbo.bind_to_storage_buffer(gpu_blocks.BINDINGS["MODELS_BINDING"])
             self.grid_ssbo.bind_to_storage_buffer(gpu_blocks.BINDINGS["GRID_BINDING"])
+            self.character_maps_ssbo.bind_to_storage_buffer(
+                gpu_blocks.BINDINGS["CHARACTER_MAPS_BINDING"])
 
             ctx.enable(moderngl.DEPTH_TEST)
             ctx.disable(moderngl.CULL_FACE)
@@ -264,7 +306,13 @@ class Renderer:
             with timer.measure("shadow_static"):
                 triangles += self._draw_maps(plan, plan.render_static, array)
             with timer.measure("shadow_dynamic"):
-                triangles += self._draw_maps(plan, plan.render_dynamic, array)
+                dynamic = plan.render_dynamic
+                layered = self.layered and all(
+                    plan.maps[i].kind == shadow_methods.KIND_CHARACTER for i in dynamic)
+                if layered:
+                    triangles += self._draw_characters_layered(plan, dynamic, array)
+                else:
+                    triangles += self._draw_maps(plan, dynamic, array)
 
             with timer.measure("shade"):
                 self.target.use()

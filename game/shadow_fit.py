@@ -30,6 +30,8 @@ class MapFit:
     perspective: bool
     eye: np.ndarray         # (3,) the light's position (perspective) or zeros
     rect: np.ndarray        # (4,) light-space footprint (orthographic maps), else the tan bounds
+    near: float             # distances of the near and far planes along the map's view axis
+    far: float
 
 
 def _snap_rect(cx: float, cy: float, half: float, texel: float, resolution: int):
@@ -77,7 +79,7 @@ def fit_directional(points: np.ndarray, light_rot: np.ndarray, resolution: int,
     view[:3, :3] = light_rot
     proj = transforms.ortho(x0, x1, y0, y1, near, far)
     return MapFit(view_proj=proj @ view, texel=texel, perspective=False, eye=np.zeros(3),
-                  rect=np.array([x0, y0, x1, y1]))
+                  rect=np.array([x0, y0, x1, y1]), near=near, far=far)
 
 
 def fit_perspective(points: np.ndarray, eye: np.ndarray, resolution: int) -> MapFit | None:
@@ -123,7 +125,7 @@ def fit_perspective(points: np.ndarray, eye: np.ndarray, resolution: int) -> Map
     proj = transforms.frustum(x0 * near, (x0 + size) * near, y0 * near, (y0 + size) * near,
                               near, far)
     return MapFit(view_proj=proj @ view, texel=texel, perspective=True, eye=eye.copy(),
-                  rect=np.array([x0, y0, x0 + size, y0 + size]))
+                  rect=np.array([x0, y0, x0 + size, y0 + size]), near=near, far=far)
 
 
 def outside_cone(points: np.ndarray, eye: np.ndarray, direction: np.ndarray,

@@ -7,6 +7,7 @@ struct ShadowMap {      // keep in sync with gpu_blocks.MAP_DTYPE
     vec4 params;        // x layer, y texel size (ortho m; perspective per m of depth), z perspective, w uv scale
     vec4 eye;           // xyz the map's eye; w caster kind (0 clump, 1 character, 2 all)
     vec4 bounds;        // orthographic maps: light-space rectangle (xmin, ymin, xmax, ymax)
+    vec4 depth;         // orthographic maps: x near distance along the light, y 1 / (far - near)
 };
 
 layout(std140, binding = FRAME_BINDING) uniform Frame {   // keep in sync with gpu_blocks.FRAME_DTYPE
@@ -34,6 +35,11 @@ layout(std430, binding = GRID_BINDING) readonly buffer MapGrid {
 // Model matrices of the characters, indexed by object - u_options.y.
 layout(std430, binding = MODELS_BINDING) readonly buffer Models {
     mat4 u_models[];
+};
+
+// Per character, the index of its map in u_maps this frame (-1: none).
+layout(std430, binding = CHARACTER_MAPS_BINDING) readonly buffer CharacterMaps {
+    int u_character_maps[];
 };
 
 vec3 world_position(vec3 position, int object) {

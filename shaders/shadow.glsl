@@ -9,38 +9,9 @@ vec3 to_light(vec3 p) {
     return u_light_dir.w < 0.5 ? -u_light_dir.xyz : normalize(u_light_pos.xyz - p);
 }
 
-// Visibility of p in map i; 1.0 outside the map's bounds or nearer the light than its caster.
-// `sampled` tells whether the map was read. `light_xy` is p in the common light space of a
-// directional light, where an orthographic map's bounds reject most candidates cheaply.
-float sample_map(int i, vec3 p, vec2 light_xy, vec3 n, vec3 l, float ndotl, out bool sampled) {
-    sampled = false;
-    if (u_maps[i].params.z < 0.5) {
-        float reach = (u_bias.x + u_bias.y + u_bias.z * u_bias.w) * u_maps[i].params.y;
-        vec4 b = u_maps[i].bounds + vec4(-reach, -reach, reach, reach);
-        if (any(lessThan(light_xy, b.xy)) || any(greaterThan(light_xy, b.zw))) {
-            return 1.0;
-        }
-    }
-    vec4 clip = u_maps[i].view_proj * vec4(p, 1.0);
-    if (clip.w <= 0.0) {
-        return 1.0;   // behind a perspective map's eye
-    }
-    // Bias in texel units, scaled by the texel's world size at p: a normal offset that grows
-    // towards grazing light, and a slope-scaled offset towards the light.
-    float texel = u_maps[i].params.y * clip.w;
-    float sin_t = sqrt(max(0.0, 1.0 - ndotl * ndotl));
-    float tan_t = min(sin_t / max(ndotl, 1e-4), u_bias.w);
-    vec3 q = p + n * (u_bias.x * texel * sin_t) + l * ((u_bias.y + u_bias.z * tan_t) * texel);
-    clip = u_maps[i].view_proj * vec4(q, 1.0);
-    vec3 ndc = clip.xyz / clip.w;
-    if (clip.w <= 0.0 || any(greaterThan(abs(ndc.xy), vec2(1.0))) || ndc.z < -1.0) {
-        return 1.0;
-    }
-    sampled = true;
+// Depth compare (or 3x3 PCF) in map i at uv (already scaled into the map's share of its layer).
+float lookup(int i, vec2 uv, float depth) {
     float layer = u_maps[i].params.x;
-    vec2 uv = (ndc.xy * 0.5 + 0.5) * u_maps[i].params.w;
-    // Beyond the caster's far side the fragment is shadowed wherever the caster covers the texel.
-    float depth = min(ndc.z * 0.5 + 0.5, 1.0);
     if (u_options.x == 0) {
         return texture(u_shadow_maps, vec4(uv, layer, depth));
     }
@@ -49,11 +20,53 @@ float sample_map(int i, vec3 p, vec2 light_xy, vec3 n, vec3 l, float ndotl, out 
     float sum = 0.0;
     for (int y = -1; y <= 1; ++y) {
         for (int x = -1; x <= 1; ++x) {
-            vec2 tap = clamp(uv + vec2(x, y) * step, lo, hi);
-            sum += texture(u_shadow_maps, vec4(tap, layer, depth));
+            sum += texture(u_shadow_maps, vec4(clamp(uv + vec2(x, y) * step, lo, hi), layer, depth));
         }
     }
     return sum / 9.0;
+}
+
+// Bias in texel units, times the texel's world size at p: a normal offset that grows towards
+// grazing light, and a slope-scaled offset towards the light. Returns (normal, light) offsets.
+vec2 bias_offsets(float texel, float sin_t, float tan_t) {
+    return vec2(u_bias.x * sin_t, u_bias.y + u_bias.z * tan_t) * texel;
+}
+
+// Visibility of p in orthographic map i (directional light); 1.0 outside the map's rectangle or
+// nearer the light than its caster, with `sampled` false. Works in the common light space:
+// lp and ln are p and its normal there, where light-space +z points at the light.
+float sample_ortho(int i, vec3 lp, vec3 ln, float sin_t, float tan_t, out bool sampled) {
+    sampled = false;
+    vec2 offset = bias_offsets(u_maps[i].params.y, sin_t, tan_t);
+    vec3 q = lp + ln * offset.x + vec3(0.0, 0.0, offset.y);
+    vec4 b = u_maps[i].bounds;
+    vec2 uv = (q.xy - b.xy) / (b.zw - b.xy);
+    // Depth in [0, 1] as the orthographic projection stores it: distance along -z from near.
+    float depth = (-q.z - u_maps[i].depth.x) * u_maps[i].depth.y;
+    if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0))) || depth < 0.0) {
+        return 1.0;
+    }
+    sampled = true;
+    // Beyond the caster's far side the fragment is shadowed wherever the caster covers the texel.
+    return lookup(i, uv * u_maps[i].params.w, min(depth, 1.0));
+}
+
+// Visibility of p in perspective map i (spot and point lights), as sample_ortho.
+float sample_perspective(int i, vec3 p, vec3 n, vec3 l, float sin_t, float tan_t,
+                         out bool sampled) {
+    sampled = false;
+    vec4 clip = u_maps[i].view_proj * vec4(p, 1.0);
+    if (clip.w <= 0.0) {
+        return 1.0;   // behind the map's eye
+    }
+    vec2 offset = bias_offsets(u_maps[i].params.y * clip.w, sin_t, tan_t);
+    clip = u_maps[i].view_proj * vec4(p + n * offset.x + l * offset.y, 1.0);
+    vec3 ndc = clip.xyz / clip.w;
+    if (clip.w <= 0.0 || any(greaterThan(abs(ndc.xy), vec2(1.0))) || ndc.z < -1.0) {
+        return 1.0;
+    }
+    sampled = true;
+    return lookup(i, (ndc.xy * 0.5 + 0.5) * u_maps[i].params.w, min(ndc.z * 0.5 + 0.5, 1.0));
 }
 
 // Octahedral coordinates of a direction, in [-1, 1]^2: the light-space of point and spot grids.
@@ -66,10 +79,18 @@ vec2 octahedral(vec3 d) {
     return e;
 }
 
-void consider(int i, vec3 p, vec2 light_xy, vec3 n, vec3 l, float ndotl, inout float vis,
-              inout int sampled, inout int used) {
+// Everything about the fragment that does not depend on the map.
+struct Receiver {
+    vec3 p, n, l;       // world position, normal, direction to the light
+    vec3 lp, ln;        // directional light: p and n in the common light space
+    float sin_t, tan_t; // of the angle between n and l
+};
+
+void consider(int i, Receiver r, inout float vis, inout int sampled, inout int used) {
     bool read;
-    float v = sample_map(i, p, light_xy, n, l, ndotl, read);
+    float v = u_light_dir.w < 0.5
+        ? sample_ortho(i, r.lp, r.ln, r.sin_t, r.tan_t, read)
+        : sample_perspective(i, r.p, r.n, r.l, r.sin_t, r.tan_t, read);
     if (read) {
         sampled += 1;
         if (used < 0 || v < vis) {
@@ -84,20 +105,26 @@ void consider(int i, vec3 p, vec2 light_xy, vec3 n, vec3 l, float ndotl, inout f
 float shadow_visibility(vec3 p, vec3 n, out int sampled, out int used) {
     sampled = 0;
     used = -1;
-    vec3 l = to_light(p);
-    float ndotl = dot(n, l);
+    Receiver r;
+    r.p = p;
+    r.n = n;
+    r.l = to_light(p);
+    float ndotl = dot(n, r.l);
     if (ndotl <= 0.0) {
         return 0.0;   // the surface faces away from the light
     }
+    r.sin_t = sqrt(max(0.0, 1.0 - ndotl * ndotl));
+    r.tan_t = min(r.sin_t / max(ndotl, 1e-4), u_bias.w);
+    r.lp = (u_light_rot * vec4(p, 1.0)).xyz;
+    r.ln = mat3(u_light_rot) * n;
     float vis = 1.0;
-    vec2 light_xy = (u_light_rot * vec4(p, 1.0)).xy;
     if (u_counts.y == GRID_NONE) {
         for (int i = 0; i < u_counts.x && vis > 0.0; ++i) {
-            consider(i, p, light_xy, n, l, ndotl, vis, sampled, used);
+            consider(i, r, vis, sampled, used);
         }
         return vis;
     }
-    vec2 g = u_counts.y == GRID_ORTHO ? light_xy : octahedral(normalize(p - u_light_pos.xyz));
+    vec2 g = u_counts.y == GRID_ORTHO ? r.lp.xy : octahedral(normalize(p - u_light_pos.xyz));
     vec2 f = (g - u_grid_rect.xy) / (u_grid_rect.zw - u_grid_rect.xy);
     if (any(lessThan(f, vec2(0.0))) || any(greaterThan(f, vec2(1.0)))) {
         return vis;
@@ -106,7 +133,7 @@ float shadow_visibility(vec3 p, vec3 n, out int sampled, out int used) {
     ivec2 cell = min(ivec2(f * float(size)), ivec2(size - 1));
     int c = cell.y * size + cell.x;
     for (int k = u_grid[c]; k < u_grid[c + 1] && vis > 0.0; ++k) {
-        consider(u_grid[k], p, light_xy, n, l, ndotl, vis, sampled, used);
+        consider(u_grid[k], r, vis, sampled, used);
     }
     return vis;
 }

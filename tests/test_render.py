@@ -229,3 +229,22 @@ def test_first_frame_equals_later_frames_with_a_large_map_grid(ctx):
         r.release()
     assert first.maps_total > 60
     assert np.array_equal(first.gbuffer["lit"], second.gbuffer["lit"], equal_nan=True)
+
+
+@pytest.mark.parametrize("scene_name", ["tiny.toml", "spot.toml", "point.toml"])
+def test_layered_character_pass_equals_one_framebuffer_per_map(ctx, scene_name):
+    scene = load_scene(SCENES / scene_name)
+    results = []
+    for layered in (False, True):
+        r = Renderer(ctx, scene, SIZE, gbuffer=True)
+        if layered and not r.layered:
+            r.release()
+            pytest.skip("GL_ARB_shader_viewport_layer_array is missing")
+        r.layered = layered
+        view = View.from_camera(scene.camera, SIZE)
+        try:
+            results.append([r.render(t, view).gbuffer["lit"] for t in (0.0, 0.7)])
+        finally:
+            r.release()
+    for per_map, layered in zip(*results, strict=True):
+        assert np.array_equal(per_map, layered, equal_nan=True)
