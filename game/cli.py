@@ -150,6 +150,13 @@ def build_parser() -> argparse.ArgumentParser:
     trace.add_argument("--method", choices=TRACE_METHODS, default="voxel-cache")
 
     sub.add_parser("bench", help="speed-versus-accuracy sweeps and charts")
+
+    verify = sub.add_parser(
+        "verify", help="shadow error of dumped frames against Embree shadow rays")
+    verify.add_argument("dumps", type=Path, metavar="DIR", help="a capture --dump folder")
+    verify.add_argument("scene", nargs="?", help="the scene captured (default: built-in)")
+    verify.add_argument("--out", type=Path, metavar="FILE",
+                        help="write the per-frame errors as JSON")
     return parser
 
 
@@ -197,6 +204,37 @@ def cmd_capture(args) -> int:
     return 0
 
 
+def cmd_verify(args) -> int:
+    """Compare every dumped frame's ``lit`` with Embree shadow rays (game/reference.py)."""
+    from . import outputs, reference
+
+    frames = sorted(args.dumps.glob("frame_*.npz")) if args.dumps.is_dir() else []
+    if not frames:
+        raise ArgumentError(f"{args.dumps}: no frame_*.npz dumps (capture with --dump)")
+    light = _load(args.scene).light
+    light = {"kind": light.kind, "direction": light.direction, "position": light.position,
+             "cone": light.cone}
+    try:
+        results = []
+        for npz in frames:
+            frame = reference.load_frame(npz)
+            mesh = reference.load_geometry(npz.with_suffix(".glb"))
+            exact = reference.hard_visibility(mesh, frame["position"], frame["normal"], light)
+            err = reference.shadow_error(frame["lit"], exact, frame["position"], frame["normal"],
+                                         light)
+            results.append({"frame": npz.stem, **{k: v for k, v in err.items() if k != "mask"}})
+            print(f"{npz.stem}: error {err['error']:.4f} ({err['misclassified']} misclassified "
+                  f"of {err['shadowed']} shadowed, {err['considered']} pixels with N.L > "
+                  f"{reference.MIN_NDOTL})")
+    except (OSError, KeyError, ValueError) as exc:
+        raise GameError(f"{args.dumps}: cannot read the dumps ({exc})") from None
+    except RuntimeError as exc:  # Embree missing
+        raise GameError(str(exc)) from None
+    if args.out is not None:
+        outputs.write_json(args.out, {"dumps": str(args.dumps), "frames": results})
+    return 0
+
+
 def cmd_default() -> int:
     """``python -m game``: the walkaround; until the window exists, a headless capture."""
     from . import capture, context
@@ -225,6 +263,8 @@ def main(argv: list[str] | None = None) -> int:
             return cmd_default()
         if args.command == "capture":
             return cmd_capture(args)
+        if args.command == "verify":
+            return cmd_verify(args)
         if args.command == "play":
             raise GameError("the walkaround window is not built yet (issue 5); use "
                             "python -m game capture")

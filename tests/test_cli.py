@@ -97,3 +97,21 @@ def test_default_command_renders_headless_and_says_where(tmp_path):
     assert len(result.stdout.strip().splitlines()) == 1
     assert "headless" in result.stdout
     assert (tmp_path / "captures" / "default" / "frame_0000.png").exists()
+
+
+def test_verify_reports_the_error_of_each_dumped_frame(tmp_path):
+    pytest.importorskip("embreex")
+    out = tmp_path / "dumps"
+    assert run("capture", TINY, "--frames", "2", "--size", "96x54", "--out", out,
+               "--dump").returncode == 0
+    result = run("verify", out, TINY, "--out", tmp_path / "verify.json")
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.strip().splitlines()
+    assert [line.split(":")[0] for line in lines] == ["frame_0000", "frame_0001"]
+    report = json.loads((tmp_path / "verify.json").read_text())
+    assert [f["frame"] for f in report["frames"]] == ["frame_0000", "frame_0001"]
+    assert all(0 <= f["error"] <= 0.2 and f["shadowed"] > 0 for f in report["frames"])
+
+
+def test_verify_without_dumps_is_one_line(tmp_path):
+    assert_one_line_error(run("verify", tmp_path), "no frame_*.npz")
