@@ -28,7 +28,8 @@ import numpy as np
 import trimesh
 
 from game.errors import SceneError
-from game.scene import capsule_mesh, rotation_matrix, transform_mesh
+from game.shapes import capsule_mesh, transform_mesh
+from game.transforms import euler_xyz
 
 STOREY_HEIGHT = 3.0  # metres
 MIN_STOREYS = 2
@@ -191,7 +192,7 @@ def _arrays(mesh: trimesh.Trimesh) -> tuple[np.ndarray, np.ndarray]:
 @functools.lru_cache(maxsize=8)
 def _templates(detail: int) -> _Templates:
     # trimesh builds cylinders and cones along +Z, the cone's base at z = 0.
-    z_to_y = rotation_matrix([-90.0, 0.0, 0.0])
+    z_to_y = euler_xyz([-90.0, 0.0, 0.0])
     trunk = trimesh.creation.cylinder(radius=1.0, height=1.0, sections=6 + 2 * detail)
     sphere = trimesh.creation.icosphere(subdivisions=min(detail + 1, MAX_CROWN_SUBDIVISIONS))
     cone = trimesh.creation.cone(radius=1.0, height=1.0, sections=8 * (detail + 1))

@@ -32,12 +32,18 @@ import numpy as np
 import trimesh
 
 from game.errors import SceneError
+from game.shapes import (
+    box_mesh,
+    capsule_mesh,
+    cone_mesh,
+    cylinder_mesh,
+    sphere_mesh,
+    transform_mesh,
+)
+from game.transforms import euler_xyz
 
 # Tessellation of the analytic shapes: enough for smooth silhouettes in shadow maps, few enough
 # that a scene of dozens of them stays far below the triangle budget of the static clumps.
-SPHERE_SUBDIVISIONS = 2  # icosphere, 320 triangles
-ROUND_SECTIONS = 24  # segments around cylinders and cones
-CAPSULE_COUNT = (16, 16)  # (around, along) segments of trimesh's capsule
 
 DEFAULT_FOV_DEG = 60.0
 DEFAULT_NEAR = 0.1  # metres
@@ -192,78 +198,6 @@ class Scene:
         """Floors, then statics, then characters: the global object index used everywhere."""
         return ([b.name for b in self.floors] + [b.name for b in self.statics]
                 + [c.name for c in self.characters])
-
-
-# --------------------------------------------------------------------------------------------
-# Geometry helpers
-
-
-def rotation_matrix(degrees: Iterable[float]) -> np.ndarray:
-    """The (3, 3) rotation of Euler angles ``[rx, ry, rz]`` in degrees: ``Rz @ Ry @ Rx``."""
-    rx, ry, rz = np.radians(np.asarray(list(degrees), dtype=np.float64))
-    cx, sx, cy, sy, cz, sz = (math.cos(rx), math.sin(rx), math.cos(ry), math.sin(ry),
-                              math.cos(rz), math.sin(rz))
-    r_x = np.array([[1.0, 0.0, 0.0], [0.0, cx, -sx], [0.0, sx, cx]])
-    r_y = np.array([[cy, 0.0, sy], [0.0, 1.0, 0.0], [-sy, 0.0, cy]])
-    r_z = np.array([[cz, -sz, 0.0], [sz, cz, 0.0], [0.0, 0.0, 1.0]])
-    return r_z @ r_y @ r_x
-
-
-def transform_mesh(mesh: trimesh.Trimesh, linear: np.ndarray,
-                   translation: np.ndarray | None = None) -> trimesh.Trimesh:
-    """``linear @ v + translation`` for every vertex, keeping the faces outward-facing.
-
-    A mirroring transform (negative determinant) turns every triangle's winding inside out, so
-    the faces are flipped back.
-    """
-    vertices = np.asarray(mesh.vertices, dtype=np.float64) @ np.asarray(linear).T
-    if translation is not None:
-        vertices = vertices + translation
-    faces = np.asarray(mesh.faces, dtype=np.int64)
-    if np.linalg.det(linear) < 0:
-        faces = faces[:, ::-1]
-    return trimesh.Trimesh(vertices=vertices, faces=np.ascontiguousarray(faces), process=False)
-
-
-def _plain(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
-    """A copy with float64 vertices and int64 faces and nothing cached."""
-    return trimesh.Trimesh(vertices=np.asarray(mesh.vertices, dtype=np.float64),
-                           faces=np.asarray(mesh.faces, dtype=np.int64), process=False)
-
-
-# trimesh builds cylinders, capsules and cones along +Z; turning -90 degrees about X maps +Z to +Y.
-_Z_TO_Y = rotation_matrix([-90.0, 0.0, 0.0])
-
-
-def box_mesh(size: Iterable[float]) -> trimesh.Trimesh:
-    """An axis-aligned box of ``size`` = [x, y, z], centred on the origin."""
-    return _plain(trimesh.creation.box(extents=np.asarray(list(size), dtype=np.float64)))
-
-
-def sphere_mesh(radius: float) -> trimesh.Trimesh:
-    """An icosphere of ``radius``, centred on the origin."""
-    return _plain(trimesh.creation.icosphere(subdivisions=SPHERE_SUBDIVISIONS, radius=radius))
-
-
-def cylinder_mesh(radius: float, height: float) -> trimesh.Trimesh:
-    """A cylinder along +Y, centred on the origin."""
-    mesh = trimesh.creation.cylinder(radius=radius, height=height, sections=ROUND_SECTIONS)
-    return transform_mesh(mesh, _Z_TO_Y)
-
-
-def capsule_mesh(radius: float, height: float) -> trimesh.Trimesh:
-    """A capsule along +Y, centred on the origin; ``height`` is the total including both caps."""
-    # trimesh's `height` is the distance between the cap centres.
-    mesh = trimesh.creation.capsule(height=height - 2.0 * radius, radius=radius,
-                                    count=list(CAPSULE_COUNT))
-    return transform_mesh(mesh, _Z_TO_Y)
-
-
-def cone_mesh(radius: float, height: float) -> trimesh.Trimesh:
-    """A cone along +Y with its apex up, its bounding box centred on the origin."""
-    # trimesh puts the base at z = 0 and the apex at z = height.
-    mesh = trimesh.creation.cone(radius=radius, height=height, sections=ROUND_SECTIONS)
-    return transform_mesh(mesh, _Z_TO_Y, np.array([0.0, -0.5 * height, 0.0]))
 
 
 # --------------------------------------------------------------------------------------------
@@ -651,7 +585,7 @@ def _parse_body(ctx: _Context, kind: str, index: int, data: Any) -> Body:
     position = table.vec3("position", (0.0, 0.0, 0.0))
     rotation = table.vec3("rotation", (0.0, 0.0, 0.0))
     scale = table.scale()
-    linear = rotation_matrix(rotation) @ np.diag(scale)
+    linear = euler_xyz(rotation) @ np.diag(scale)
     return Body(name=f"{kind}_{index}", kind=kind, mesh=transform_mesh(local, linear, position))
 
 
@@ -687,7 +621,7 @@ def _parse_character(ctx: _Context, index: int, data: Any) -> Character:
     phase = table.number("phase", 0.0)
     rotation = table.vec3("rotation", (0.0, 0.0, 0.0))
     scale = table.scale()
-    mesh = transform_mesh(local, rotation_matrix(rotation) @ np.diag(scale))
+    mesh = transform_mesh(local, euler_xyz(rotation) @ np.diag(scale))
     return Character(name=f"character_{index}", mesh=mesh, path=path, speed=speed, phase=phase)
 
 

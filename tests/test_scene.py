@@ -19,9 +19,9 @@ from game.scene import (
     default_scene_path,
     load_scene,
     parse_scene,
-    rotation_matrix,
-    transform_mesh,
 )
+from game.shapes import transform_mesh
+from game.transforms import euler_xyz
 
 HEAD = """\
 name = "test"
@@ -162,10 +162,10 @@ def test_position_rotation_scale_make_world_space():
 
 def test_rotation_order_is_z_after_y_after_x():
     # X first: +Z -> -Y; then Z by 90 degrees: -Y -> +X. The other order would give -Y.
-    r = rotation_matrix([90.0, 0.0, 90.0])
+    r = euler_xyz([90.0, 0.0, 90.0])
     assert np.allclose(r @ [0.0, 0.0, 1.0], [1.0, 0.0, 0.0])
     # Y by 90 degrees turns +Z to +X (right-handed, Y up).
-    assert np.allclose(rotation_matrix([0.0, 90.0, 0.0]) @ [0.0, 0.0, 1.0], [1.0, 0.0, 0.0])
+    assert np.allclose(euler_xyz([0.0, 90.0, 0.0]) @ [0.0, 0.0, 1.0], [1.0, 0.0, 0.0])
     # The same through a scene: box extents [1, 2, 4] end up along [y, z, x].
     mesh = only_static('shape = "box"\nsize = [1.0, 2.0, 4.0]\nrotation = [90.0, 0.0, 90.0]')
     assert np.allclose(mesh.extents, [4.0, 1.0, 2.0])
