@@ -98,12 +98,35 @@ def test_default_floor_top_is_zero_and_objects_rest_on_something(default_scene):
         assert supported, f"{body.name} floats at y = {lo[1]}"
 
 
+def _components(faces: np.ndarray, n_vertices: int) -> np.ndarray:
+    """Connected-component label per vertex (union-find over the faces' edges).
+
+    Written out so the test needs no graph library (trimesh's split wants networkx or scipy).
+    """
+    parent = np.arange(n_vertices)
+
+    def find(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for a, b, c in faces:
+        ra, rb, rc = find(a), find(b), find(c)
+        parent[rb] = ra
+        parent[rc] = ra
+    return np.array([find(i) for i in range(n_vertices)])
+
+
 def _part_boxes(bodies) -> list[tuple[str, np.ndarray, np.ndarray]]:
     """Axis-aligned boxes of every connected part of every body: conservative obstacles."""
     boxes = []
     for body in bodies:
-        for part in body.mesh.split(only_watertight=False):
-            boxes.append((body.name, *part.bounds))
+        vertices = np.asarray(body.mesh.vertices)
+        labels = _components(np.asarray(body.mesh.faces), len(vertices))
+        for label in np.unique(labels):
+            part = vertices[labels == label]
+            boxes.append((body.name, part.min(axis=0), part.max(axis=0)))
     return boxes
 
 
