@@ -95,15 +95,6 @@ class DepthArray:
         GL.glActiveTexture(GL.GL_TEXTURE0 + unit)
         GL.glBindTexture(GL.GL_TEXTURE_2D_ARRAY, self.texture)
 
-    def set_filter(self, linear: bool) -> None:
-        """Linear filtering turns each depth compare into a 2x2 PCF tap."""
-        GL = self._gl
-        mode = GL.GL_LINEAR if linear else GL.GL_NEAREST
-        GL.glBindTexture(GL.GL_TEXTURE_2D_ARRAY, self.texture)
-        GL.glTexParameteri(GL.GL_TEXTURE_2D_ARRAY, GL.GL_TEXTURE_MIN_FILTER, mode)
-        GL.glTexParameteri(GL.GL_TEXTURE_2D_ARRAY, GL.GL_TEXTURE_MAG_FILTER, mode)
-        GL.glBindTexture(GL.GL_TEXTURE_2D_ARRAY, 0)
-
     def release(self) -> None:
         """Delete the framebuffers and the texture."""
         GL = self._gl

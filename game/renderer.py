@@ -263,7 +263,7 @@ class Renderer:
             self.layered_vao.render(moderngl.TRIANGLES, vertices=count, first=first)
         return sum(self.geom.triangle_count(plan.maps[i].objects) for i in indices)
 
-    def render(self, t: float, view: View, read_stats: bool = True) -> Frame:
+    def render(self, t: float, view: View) -> Frame:
         """Render the scene at time ``t`` seen from ``view``."""
         ctx, timer = self.ctx, self.timer
         timer.begin_frame()
@@ -318,7 +318,6 @@ class Renderer:
                 self.target.use()
                 self.target.viewport = (0, 0, *self.size)
                 self.target.clear(*SKY, 0.0)
-                array.set_filter(False)
                 array.bind(SHADOW_UNIT)
                 self.shade_prog["u_shadow_maps"].value = SHADOW_UNIT
                 closed, total = self.layout.n_closed, len(self.layout.indices)

@@ -248,3 +248,14 @@ def test_layered_character_pass_equals_one_framebuffer_per_map(ctx, scene_name):
             r.release()
     for per_map, layered in zip(*results, strict=True):
         assert np.array_equal(per_map, layered, equal_nan=True)
+
+
+def test_pcf_softens_only_the_shadow_edges(ctx, tiny):
+    coarse = shadow_methods.ShadowSettings(clump_resolution=24)  # wide texels, wide penumbrae
+    hard = render(ctx, tiny, coarse)[0].gbuffer["lit"]
+    soft = render(ctx, tiny, dataclasses.replace(coarse, pcf=True))[0].gbuffer["lit"]
+    seen = ~np.isnan(hard)
+    assert set(np.unique(hard[seen])) <= {0.0, 1.0}
+    partial = seen & (soft > 0.0) & (soft < 1.0)
+    assert partial.sum() > 10
+    assert np.mean(hard[seen] == soft[seen]) > 0.95
