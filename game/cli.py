@@ -10,6 +10,7 @@ import argparse
 import math
 import os
 import sys
+import warnings
 from pathlib import Path
 
 from . import shadow_methods
@@ -255,7 +256,13 @@ def cmd_default() -> int:
     return 0
 
 
+def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """Warnings (a mesh lost degenerate triangles) as one line, without the source line."""
+    print(f"warning: {message}", file=sys.stderr)
+
+
 def main(argv: list[str] | None = None) -> int:
+    warnings.showwarning = _one_line_warning
     parser = build_parser()
     try:
         args = parser.parse_args(argv)

@@ -115,3 +115,14 @@ def test_verify_reports_the_error_of_each_dumped_frame(tmp_path):
 
 def test_verify_without_dumps_is_one_line(tmp_path):
     assert_one_line_error(run("verify", tmp_path), "no frame_*.npz")
+
+
+def test_a_warning_is_one_line(tmp_path):
+    (tmp_path / "deg.obj").write_text(
+        "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 4\n")  # the first is degenerate
+    scene = tmp_path / "scene.toml"
+    scene.write_text(TINY.read_text() + '\n[[static]]\nshape = "mesh"\nfile = "deg.obj"\n')
+    result = run("capture", scene, "--size", "32x18", "--out", tmp_path / "out")
+    assert result.returncode == 0, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("warning: ") and "zero-area" in lines[0]
