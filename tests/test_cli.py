@@ -88,6 +88,9 @@ def test_capture_writes_frames_dumps_and_stats(tmp_path):
         assert frame["maps_rendered"] >= 1
         assert frame["triangles_to_maps"] > 0
         assert 0 < frame["maps_per_fragment"] < 3
+    first, second = stats["frames"]
+    assert first["maps_rendered"] == first["maps_total"] > 1  # clumps and the character
+    assert second["maps_rendered"] == 1 and second["maps_cached"] == first["maps_total"] - 1
     assert not list(out.glob("*.tmp")) and not list(out.glob(".*"))
 
 
