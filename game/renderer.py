@@ -272,10 +272,11 @@ class Renderer:
             # The array first: re-creating it marks every cached layer for re-rendering.
             array = self._ensure_array(self.method.resolution, self.method.layers)
             plan = self.method.plan(models)
-            if plan.static_order is not None and plan.static_order != self._static_order:
+            # The method keeps one order list until it re-clumps: identity says "unchanged".
+            if plan.static_order is not None and plan.static_order is not self._static_order:
                 self.layout = geometry.layout(self.geom, plan.static_order)
                 self.ibo.write(self.layout.indices.tobytes())
-                self._static_order = list(plan.static_order)
+                self._static_order = plan.static_order
             if len(models):
                 self.models_ssbo.write(transforms.gl_bytes(models))
                 character_maps = np.full(self.geom.n_characters, -1, np.int32)

@@ -141,6 +141,8 @@ class ClumpedShadows:
     def set_light(self, light: Light) -> None:
         """A new light invalidates every clump map (and light-space clumps themselves)."""
         self.light = light
+        self._light_rot = (transforms.light_rotation(light.direction)
+                           if light.kind == "directional" else None)
         self._build_static()
 
     def invalidate_statics(self) -> None:
@@ -151,8 +153,7 @@ class ClumpedShadows:
              ) -> MapFit | None:
         light = self.light
         if light.kind == "directional":
-            return fit_directional(points, transforms.light_rotation(light.direction), resolution,
-                                   radius)
+            return fit_directional(points, self._light_rot, resolution, radius)
         if light.kind == "spot" and outside_cone(points, light.position, light.direction,
                                                  light.cone):
             return None
@@ -177,6 +178,7 @@ class ClumpedShadows:
                                                self.max_clumps)
         rects = (clumping.object_summaries(points, footprint)[0]
                  if self.light.kind == "directional" and points else None)
+        self.static_order = [m for c in self.clumps for m in c.members]
         self.static_maps = []
         for clump in self.clumps:
             fit = self._fit(np.concatenate([points[i] for i in clump.members]),
@@ -205,17 +207,16 @@ class ClumpedShadows:
                 continue
             cover = None
             if self.light.kind == "directional":
-                xy = points @ transforms.light_rotation(self.light.direction)[:2].T
+                xy = points @ self._light_rot[:2].T
                 cover = np.concatenate([xy.min(axis=0), xy.max(axis=0)])[None]
             render_dynamic.append(len(maps))
             maps.append(MapRecord(name=f"character_{i}", kind=KIND_CHARACTER, fit=fit,
                                   layer=len(self.static_maps) + i, viewport=char_res,
                                   objects=[self.geom.character_object(i)], cover=cover))
-        order = [m for c in self.clumps for m in c.members]
         self._static_dirty = False
         return ShadowPlan(resolution=resolution, layers=self.layers, maps=maps,
                           render_static=render_static, render_dynamic=render_dynamic,
-                          static_order=order, clumps=self.clumps)
+                          static_order=self.static_order, clumps=self.clumps)
 
     def mark_rendered_lost(self) -> None:
         """The array was re-created (resized): every cached layer must be drawn again."""
@@ -244,8 +245,10 @@ class SingleShadows:
         self.light = light
         points = (np.concatenate(self.geom.static_points) if self.geom.static_points
                   else np.zeros((0, 3)))
+        self._light_rot = (transforms.light_rotation(light.direction)
+                           if light.kind == "directional" else None)
         if light.kind == "directional" and len(points):
-            q = points @ transforms.light_rotation(light.direction).T
+            q = points @ self._light_rot.T
             keep = np.unique(np.concatenate([q.argmin(axis=0), q.argmax(axis=0)]))
             points = points[keep]
         elif len(points):
@@ -271,7 +274,7 @@ class SingleShadows:
         if len(points):
             light = self.light
             if light.kind == "directional":
-                fit = fit_directional(points, transforms.light_rotation(light.direction), res)
+                fit = fit_directional(points, self._light_rot, res)
             else:
                 fit = fit_perspective(points, light.position, res)
             if fit is not None:
