@@ -66,7 +66,7 @@ def write_dump(stem: Path, scene: Scene, view: View, size: tuple[int, int], t: f
     outputs.write_bytes(stem.with_suffix(".glb"), glb)
 
 
-def run(ctx, scene: Scene, opts: CaptureOptions, log=None) -> dict:
+def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
     """Render ``opts.frames`` frames and write them; returns the stats document."""
     opts.out.mkdir(parents=True, exist_ok=True)
     renderer = Renderer(ctx, scene, opts.size, opts.settings, gbuffer=opts.dump,
@@ -83,8 +83,6 @@ def run(ctx, scene: Scene, opts: CaptureOptions, log=None) -> dict:
             if opts.dump:
                 write_dump(stem, scene, view, opts.size, t, frame)
             frames.append(frame_stats(k, t, frame))
-            if log is not None:
-                log(k, frame)
         stats = {
             **context.describe(ctx), "clock": renderer.timer.clock,
             "scene": str(scene.source) if scene.source else scene.name,
