@@ -213,8 +213,6 @@ def cmd_verify(args) -> int:
     if not frames:
         raise ArgumentError(f"{args.dumps}: no frame_*.npz dumps (capture with --dump)")
     light = _load(args.scene).light
-    light = {"kind": light.kind, "direction": light.direction, "position": light.position,
-             "cone": light.cone}
     try:
         results = []
         for npz in frames:

@@ -83,8 +83,18 @@ class Light:
         )
 
 
-def _as_light(light: Light | Mapping[str, Any]) -> Light:
-    return light if isinstance(light, Light) else Light.from_mapping(light)
+def _as_light(light: Light | Mapping[str, Any] | Any) -> Light:
+    """Accept a ``Light``, a ``[light]``-like mapping, or any object with the same attributes.
+
+    The last one lets callers pass a loaded scene's light without this module importing the
+    scene loader: the reference stays independent of the code it checks.
+    """
+    if isinstance(light, Light):
+        return light
+    if isinstance(light, Mapping):
+        return Light.from_mapping(light)
+    fields = ("kind", "direction", "position", "cone")
+    return Light.from_mapping({key: getattr(light, key, None) for key in fields})
 
 
 def load_frame(npz_path: str | Path) -> dict[str, Any]:
@@ -167,7 +177,8 @@ def _occluded(
         vertices=(mesh.vertices - centre).astype(np.float32),
         indices=np.asarray(mesh.faces, dtype=np.int32),
     )
-    # float32 max stands for "no far end" (directional light); Embree rejects inf on some builds.
+    # A directional light has no far end: clamp inf to the largest float32 rather than rely on
+    # how inf survives the cast and Embree's ray setup.
     far = np.minimum(tfar, np.finfo(np.float32).max).astype(np.float32)
     hits = scene.run(
         (origins - centre).astype(np.float32),
@@ -183,7 +194,7 @@ def hard_visibility(
     mesh: trimesh.Trimesh,
     position: np.ndarray,
     normal: np.ndarray,
-    light: Light | Mapping[str, Any],
+    light: Light | Mapping[str, Any] | Any,
 ) -> np.ndarray:
     """Exact hard-shadow visibility of each dumped pixel, by one Embree shadow ray per pixel.
 
@@ -194,8 +205,9 @@ def hard_visibility(
     position, normal
         (H, W, 3) dumped world positions and unit normals; NaN where no geometry.
     light
-        A ``Light`` or a ``[light]``-like mapping. Spot lights are treated as point lights: this is
-        visibility, and the cone is a shading factor, not an occluder.
+        A ``Light``, a ``[light]``-like mapping or an object with the same attributes. Spot
+        lights are treated as point lights: this is visibility, and the cone is a shading
+        factor, not an occluder.
 
     Returns
     -------
@@ -235,7 +247,7 @@ def shadow_error(
     lit_reference: np.ndarray,
     position: np.ndarray,
     normal: np.ndarray,
-    light: Light | Mapping[str, Any],
+    light: Light | Mapping[str, Any] | Any,
     min_ndotl: float = MIN_NDOTL,
 ) -> dict[str, Any]:
     """The accuracy metric: misclassified pixels per shadowed reference pixel.

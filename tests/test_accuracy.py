@@ -27,12 +27,6 @@ MAX_ERROR = 0.05
 MIN_SHADOWED = 200  # a scene must really have shadows in view for the ratio to mean anything
 
 
-def light_of(scene) -> dict:
-    light = scene.light
-    return {"kind": light.kind, "direction": light.direction, "position": light.position,
-            "cone": light.cone}
-
-
 def capture_errors(ctx, scene, settings, out: Path, frames=2, fps=1.5) -> list[dict]:
     opts = capture.CaptureOptions(out=out, frames=frames, size=SIZE, fps=fps, dump=True,
                                   settings=settings)
@@ -42,9 +36,9 @@ def capture_errors(ctx, scene, settings, out: Path, frames=2, fps=1.5) -> list[d
         frame = reference.load_frame(out / f"frame_{k:04d}.npz")
         mesh = reference.load_geometry(out / f"frame_{k:04d}.glb")
         exact = reference.hard_visibility(mesh, frame["position"], frame["normal"],
-                                          light_of(scene))
+                                          scene.light)
         err = reference.shadow_error(frame["lit"], exact, frame["position"], frame["normal"],
-                                     light_of(scene))
+                                     scene.light)
         # Saved for a person to look at: red = misclassified, green = lit by the method.
         diff = np.zeros((*err["mask"].shape, 3), np.uint8)
         diff[..., 0] = err["mask"] * 255

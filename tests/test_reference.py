@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -150,6 +151,19 @@ def test_missing_embree_fails_loudly(monkeypatch: pytest.MonkeyPatch) -> None:
     light = {"kind": "directional", "direction": [0, -1, 0]}
     with pytest.raises(RuntimeError, match="pip install embreex"):
         hard_visibility(sphere_over_floor(), position, normal, light)
+
+
+def test_light_may_be_any_object_with_the_same_attributes() -> None:
+    # A loaded scene's light has numpy fields and no mapping interface.
+    mesh = sphere_over_floor()
+    position, normal = floor_pixels()
+    scene_light = SimpleNamespace(
+        kind="point", direction=None, position=np.array([0.5, 4.0, 0.3]), cone=None
+    )
+    np.testing.assert_array_equal(
+        hard_visibility(mesh, position, normal, scene_light),
+        hard_visibility(mesh, position, normal, {"kind": "point", "position": [0.5, 4.0, 0.3]}),
+    )
 
 
 def test_light_from_mapping_checks_its_kind() -> None:
