@@ -129,6 +129,7 @@ class Renderer:
             ctx.buffer(reserve=4 * max(1, self.geom.n_characters)))
         self._make_target()
         self.max_layers = min(int(ctx.info["GL_MAX_ARRAY_TEXTURE_LAYERS"]), self.max_maps)
+        self._light_rot = self._light_rotation(scene.light)
         self.method = shadow_methods.create(self.geom, scene.light, self.settings,
                                             self.max_layers)
 
@@ -176,7 +177,16 @@ class Renderer:
     def set_light(self, light) -> None:
         """Move the hard light: clump maps are re-rendered on the next frame."""
         self.scene.light = light
+        self._light_rot = self._light_rotation(light)
         self.method.set_light(light)
+
+    @staticmethod
+    def _light_rotation(light) -> np.ndarray:
+        """4x4 world-to-light rotation of a directional light (the identity for others)."""
+        rot = np.eye(4)
+        if light.kind == "directional":
+            rot[:3, :3] = transforms.light_rotation(light.direction)
+        return rot
 
     # -- frame ------------------------------------------------------------------------------
     def _ensure_array(self, resolution: int, layers: int) -> DepthArray:
@@ -210,10 +220,7 @@ class Renderer:
         s, light, geom = self.settings, self.scene.light, self.geom
         f = np.zeros(1, FRAME_DTYPE)
         f["view_proj"] = (view.proj @ view.view).T
-        rot = np.eye(4)
-        if light.kind == "directional":
-            rot[:3, :3] = transforms.light_rotation(light.direction)
-        f["light_rot"] = rot.T
+        f["light_rot"] = self._light_rot.T
         eye = np.linalg.inv(view.view)[:3, 3]
         f["camera_pos"] = (*eye, 1.0)
         direction = light.direction if light.direction is not None else np.zeros(3)

@@ -76,12 +76,10 @@ class MapRecord:
 @dataclass
 class ShadowPlan:
     resolution: int                  # texels per side of the array's layers
-    layers: int
     maps: list[MapRecord]            # every map the shading pass may sample
     render_static: list[int] = field(default_factory=list)   # indices into maps
     render_dynamic: list[int] = field(default_factory=list)
     static_order: list[int] | None = None  # statics in clump order, for the index buffer
-    clumps: list[clumping.Clump] = field(default_factory=list)
 
 
 def _footprint(light: Light, statics: list[np.ndarray]):
@@ -214,9 +212,9 @@ class ClumpedShadows:
                                   layer=len(self.static_maps) + i, viewport=char_res,
                                   objects=[self.geom.character_object(i)], cover=cover))
         self._static_dirty = False
-        return ShadowPlan(resolution=resolution, layers=self.layers, maps=maps,
+        return ShadowPlan(resolution=resolution, maps=maps,
                           render_static=render_static, render_dynamic=render_dynamic,
-                          static_order=self.static_order, clumps=self.clumps)
+                          static_order=self.static_order)
 
     def mark_rendered_lost(self) -> None:
         """The array was re-created (resized): every cached layer must be drawn again."""
@@ -280,7 +278,7 @@ class SingleShadows:
             if fit is not None:
                 maps.append(MapRecord("single", KIND_ALL, fit, 0, res, objects))
                 render = [0]
-        return ShadowPlan(resolution=res, layers=1, maps=maps, render_dynamic=render)
+        return ShadowPlan(resolution=res, maps=maps, render_dynamic=render)
 
 
 def create(geom: PackedGeometry, light: Light, settings: ShadowSettings, max_layers: int):
