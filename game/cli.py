@@ -20,7 +20,9 @@ CAPTURE_METHODS = ("clumped", "single", "static-dynamic", "csm", "traced")
 TRACE_METHODS = ("brute", "grid", "tri-cache", "voxel-cache", "analytic")
 NOT_YET = {
     "static-dynamic": "the static-dynamic baseline arrives with the benchmark (issue 3)",
+
     "csm": "cascaded shadow maps arrive with the benchmark (issue 3)",
+
     "traced": "ray-traced hard shadows arrive with the soft-shadow tracer (issue 4)",
 }
 MAX_SIZE = 16384
@@ -123,16 +125,44 @@ def _settings(args) -> shadow_methods.ShadowSettings:
         depth_bias=args.depth_bias, slope_bias=args.slope_bias, pcf=args.pcf, grid=args.grid)
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="python -m game",
-                     description="Multi-map hard shadows and linear-light soft shadows.")
-    sub = parser.add_subparsers(dest="command", parser_class=_Parser)
-
+# -- play (the walkaround window, issue 5) -------------------------------------------------
+def _add_play_parser(sub) -> None:
     play = sub.add_parser("play", help="the walkaround window")
     play.add_argument("scene", nargs="?", help="scene file (default: the built-in scene)")
     play.add_argument("--frames", type=_positive_int)
     play.add_argument("--screenshot", type=Path)
 
+
+def cmd_play(args) -> int:
+    raise GameError("the walkaround window is not built yet (issue 5); use python -m game capture")
+
+
+# -- trace (soft shadows of the linear light, issue 4) --------------------------------------
+def _add_trace_parser(sub) -> None:
+    trace = sub.add_parser("trace", help="soft shadows of the linear light (compute pass)")
+    trace.add_argument("scene", nargs="?")
+    trace.add_argument("--method", choices=TRACE_METHODS, default="voxel-cache")
+
+
+def cmd_trace(args) -> int:
+    raise GameError("trace: not available yet (issue 4)")
+
+
+# -- bench (speed-versus-accuracy sweeps, issue 3) ------------------------------------------
+def _add_bench_parser(sub) -> None:
+    sub.add_parser("bench", help="speed-versus-accuracy sweeps and charts")
+
+
+def cmd_bench(args) -> int:
+    raise GameError("bench: not available yet (issue 3)")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="python -m game",
+                     description="Multi-map hard shadows and linear-light soft shadows.")
+    sub = parser.add_subparsers(dest="command", parser_class=_Parser)
+
+    _add_play_parser(sub)
     cap = sub.add_parser("capture", help="render frames headless through EGL")
     cap.add_argument("scene", nargs="?", help="scene file (default: the built-in scene)")
     cap.add_argument("--method", choices=CAPTURE_METHODS, default="clumped")
@@ -146,11 +176,8 @@ def build_parser() -> argparse.ArgumentParser:
     cap.add_argument("--overlay", action="store_true", help="draw the timing overlay")
     _add_shadow_options(cap)
 
-    trace = sub.add_parser("trace", help="soft shadows of the linear light (compute pass)")
-    trace.add_argument("scene", nargs="?")
-    trace.add_argument("--method", choices=TRACE_METHODS, default="voxel-cache")
-
-    sub.add_parser("bench", help="speed-versus-accuracy sweeps and charts")
+    _add_trace_parser(sub)
+    _add_bench_parser(sub)
 
     verify = sub.add_parser(
         "verify", help="shadow error of dumped frames against Embree shadow rays")
@@ -254,6 +281,10 @@ def cmd_default() -> int:
     return 0
 
 
+COMMANDS = {"play": cmd_play, "capture": cmd_capture, "trace": cmd_trace, "bench": cmd_bench,
+            "verify": cmd_verify}
+
+
 def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
     """Warnings (a mesh lost degenerate triangles) as one line, without the source line."""
     print(f"warning: {message}", file=sys.stderr)
@@ -266,15 +297,7 @@ def main(argv: list[str] | None = None) -> int:
         args = parser.parse_args(argv)
         if args.command is None:
             return cmd_default()
-        if args.command == "capture":
-            return cmd_capture(args)
-        if args.command == "verify":
-            return cmd_verify(args)
-        if args.command == "play":
-            raise GameError("the walkaround window is not built yet (issue 5); use "
-                            "python -m game capture")
-        issue = 3 if args.command == "bench" else 4
-        raise GameError(f"{args.command}: not available yet (issue {issue})")
+        return COMMANDS[args.command](args)
     except ArgumentError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
