@@ -485,6 +485,13 @@ def _load_mesh_file(table: _Table) -> trimesh.Trimesh:
              f"(expected {', '.join(MESH_SUFFIXES)})")
     if not path.is_file():
         fail(f"file not found: {relative}" if not path.exists() else f"not a file: {relative}")
+    try:
+        with path.open("rb") as probe:
+            empty = not probe.read(1)
+    except OSError as error:
+        fail(f"cannot open {relative}: {error.strerror or error}")
+    if empty:
+        fail(f"empty file: {relative}")
     kwargs: dict[str, Any] = {}
     if suffix == ".gltf":
         _check_gltf_uris(path, base_dir.resolve(), fail)
