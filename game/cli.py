@@ -213,12 +213,6 @@ def cmd_capture(args) -> int:
     scene = _load(args.scene)
     ctx = context.create_headless()
     try:
-        for name in ("clump_resolution", "character_resolution", "single_resolution"):
-            value = getattr(args, name)
-            limit = int(ctx.info["GL_MAX_TEXTURE_SIZE"])
-            if value > limit:
-                raise ArgumentError(f"--{name.replace('_', '-')} {value}: above this GL's "
-                                    f"GL_MAX_TEXTURE_SIZE {limit}")
         opts = capture.CaptureOptions(
             out=args.out, frames=args.frames, size=args.size, time=args.time, fps=args.fps,
             dump=args.dump, stats=args.stats, debug_view=args.debug_view, clock=args.clock,

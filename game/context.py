@@ -43,11 +43,28 @@ def create_headless():
     try:
         ctx = moderngl.create_context(standalone=True, backend="egl")
     except Exception as exc:  # noqa: BLE001 - glcontext raises plain Exception subclasses
-        raise GameError(
-            f"cannot create a headless EGL OpenGL context ({str(exc).splitlines()[0]}); "
-            "install libegl1 and libgl1-mesa-dri") from None
+        raise GameError(egl_failure_message(exc)) from None
     _check_version(ctx)
     return ctx
+
+
+def egl_failure_message(exc: BaseException) -> str:
+    """One line for a failed EGL context: what is missing and what to install or use."""
+    detail = (str(exc).splitlines() or [type(exc).__name__])[0]
+    lowered = detail.lower()
+    if "libegl" in lowered or "shared object" in lowered or "cannot open" in lowered:
+        return (f"no EGL library found ({detail}); install libegl1 "
+                "(Debian/Ubuntu: apt-get install libegl1 libgl1-mesa-dri)")
+    return (f"cannot create a headless EGL OpenGL context ({detail}); install a Mesa driver "
+            "(apt-get install libgl1-mesa-dri; llvmpipe needs no GPU)")
+
+
+def require_display() -> None:
+    """Raise the one-line error for a window where no display can be opened."""
+    if os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"):
+        return
+    raise GameError("no display (DISPLAY and WAYLAND_DISPLAY are unset): use python -m game "
+                    "capture for headless frames through EGL, or run under Xvfb (xvfb-run)")
 
 
 def wrap_current():

@@ -17,6 +17,7 @@ import numpy as np
 from . import geometry, glsl, gpu_blocks, map_grid, shadow_methods, transforms
 from .depth_array import DepthArray
 from .gpu_blocks import FRAME_DTYPE, LIGHT_KINDS, MAP_DTYPE
+from .limits import GLLimits, fit_settings
 from .scene import Camera, Scene
 from .timing import PassTimer
 
@@ -76,7 +77,7 @@ class Renderer:
 
     def __init__(self, ctx, scene: Scene, size: tuple[int, int],
                  settings: shadow_methods.ShadowSettings | None = None, gbuffer: bool = False,
-                 clock: str = "auto"):
+                 clock: str = "auto", limits: GLLimits | None = None):
         self.ctx = ctx
         self.scene = scene
         self.size = (int(size[0]), int(size[1]))
@@ -128,10 +129,10 @@ class Renderer:
         self.character_maps_ssbo = self._own(
             ctx.buffer(reserve=4 * max(1, self.geom.n_characters)))
         self._make_target()
-        self.max_layers = min(int(ctx.info["GL_MAX_ARRAY_TEXTURE_LAYERS"]), self.max_maps)
+        self.limits = limits or GLLimits.of(ctx)
+        self.max_layers = self.limits.max_layers
         self._light_rot = self._light_rotation(scene.light)
-        self.method = shadow_methods.create(self.geom, scene.light, self.settings,
-                                            self.max_layers)
+        self.method = self._create_method(self.settings)
 
     # -- ownership --------------------------------------------------------------------------
     def _own(self, obj):
@@ -170,9 +171,7 @@ class Renderer:
     # -- settings -----------------------------------------------------------------------------
     def set_settings(self, settings: shadow_methods.ShadowSettings) -> None:
         """Switch method or parameters; every map is planned (and cached) anew."""
-        self.settings = settings
-        self.method = shadow_methods.create(self.geom, self.scene.light, settings,
-                                            self.max_layers)
+        self.method = self._create_method(settings)
 
     def set_light(self, light) -> None:
         """Move the hard light: clump maps are re-rendered on the next frame."""
@@ -265,7 +264,7 @@ class Renderer:
         self.clear_vao.render(moderngl.TRIANGLE_STRIP, vertices=4,
                               instances=self.geom.n_characters)
         ctx.depth_func = "<"
-        characters = [plan.maps[i].objects[0] for i in indices]
+        characters = [o for i in indices for o in plan.maps[i].objects]
         for first, count in self.layout.ranges(characters):
             self.layered_vao.render(moderngl.TRIANGLES, vertices=count, first=first)
         return sum(self.geom.triangle_count(plan.maps[i].objects) for i in indices)
@@ -289,7 +288,8 @@ class Renderer:
                 character_maps = np.full(self.geom.n_characters, -1, np.int32)
                 for index, rec in enumerate(plan.maps):
                     if rec.kind == shadow_methods.KIND_CHARACTER:
-                        character_maps[rec.objects[0] - self.geom.first_character] = index
+                        for obj in rec.objects:  # shared maps (issue 6) hold several
+                            character_maps[obj - self.geom.first_character] = index
                 self.character_maps_ssbo.write(character_maps.tobytes())
             self._upload_maps(plan)
             s = self.settings
@@ -365,3 +365,12 @@ class Renderer:
     @property
     def shadow_memory_bytes(self) -> int:
         return self._array.bytes if self._array is not None else 0
+
+    # -- limits and run-time changes (issue 6) -------------------------------------------------
+    def _create_method(self, settings: shadow_methods.ShadowSettings):
+        """The planner for ``settings`` fitted inside the GL limits and the memory budget."""
+        self.settings, notes = fit_settings(settings, self.limits, self.geom.n_characters)
+        method = shadow_methods.create(self.geom, self.scene.light, self.settings,
+                                       self.max_layers)
+        method.notes[:0] = notes
+        return method

@@ -111,7 +111,14 @@ class ClumpedShadows:
 
     The number of clumps follows the texel-density target, within the layers that the memory
     budget and the GL limits allow; when the target needs more, the clumps grow (and their
-    texel density falls) and ``notes`` says so.
+    texel density falls) and ``notes`` says so. When even the characters outnumber the layers
+    left, several characters share one map (issue 6: degrade, never drop a shadow).
+
+    Layers are handed out from a pool (issue 6, cache invalidation): a clump or a character
+    keeps its layer while it exists, a removed one gives it back, and a new one takes the lowest
+    free layer, so the array only grows when every layer is in use. Clumps are kept by member
+    name, so a static added, removed or moved at run time (:meth:`update_statics`) re-renders
+    only the clump maps it leaves or joins.
     """
 
     def __init__(self, geom: PackedGeometry, light: Light, settings: ShadowSettings,
@@ -121,21 +128,72 @@ class ClumpedShadows:
         self.light = light
         layer_bytes = 4 * settings.clump_resolution ** 2
         budget_layers = int(settings.budget_mib * 2**20 // layer_bytes)
-        self.max_clumps = max(1, min(budget_layers, max_layers) - geom.n_characters)
+        self.layer_limit = max(2, min(budget_layers, max_layers))
         self.notes: list[str] = []
         self.static_maps: list[MapRecord] = []
         self.clumps: list[clumping.Clump] = []
-        self._static_dirty = True
+        self._clump_names: list[list[str]] = []   # member names per clump, parallel to clumps
+        self._clump_layers: list[int] = []
+        self._dirty: set[int] = set()             # clumps (indices) whose maps must be drawn
+        self._free: list[int] = []                # layers given back, reused lowest first
+        self._high = 0                            # layers ever handed out
+        self._char_layers: dict[str, int] = {}    # a character's own layer, by name
+        self._shared: list[tuple[int, list[str]]] = []  # (layer, names) of shared maps
+        self._assign_characters()
         self.set_light(light)
+
+    # -- layers ---------------------------------------------------------------------------
+    def _take_layer(self) -> int:
+        if self._free:
+            self._free.sort()
+            return self._free.pop(0)
+        self._high += 1
+        return self._high - 1
+
+    def _give_layer(self, layer: int) -> None:
+        self._free.append(layer)
+
+    @property
+    def max_clumps(self) -> int:
+        return max(1, self.layer_limit - len(self._char_layers) - len(self._shared))
 
     @property
     def layers(self) -> int:
-        return max(1, len(self.static_maps) + self.geom.n_characters)
+        return max(1, self._high)
 
     @property
     def resolution(self) -> int:
         return self.settings.clump_resolution
 
+    def _character_names(self) -> list[str]:
+        g = self.geom
+        return [g.names[g.character_object(i)] for i in range(g.n_characters)]
+
+    def _assign_characters(self) -> None:
+        """Give every character a layer: its own while layers last, else shared maps."""
+        names = self._character_names()
+        for layer, _ in self._shared:
+            self._give_layer(layer)
+        self._shared = []
+        for name in [n for n in self._char_layers if n not in names]:
+            self._give_layer(self._char_layers.pop(name))  # a removed character frees its layer
+        # Leave at least one layer for the clumps.
+        room = self.layer_limit - max(1, len(self._clump_layers))
+        if len(names) <= room:
+            for name in names:
+                if name not in self._char_layers:
+                    self._char_layers[name] = self._take_layer()
+            return
+        for layer in self._char_layers.values():
+            self._give_layer(layer)
+        self._char_layers = {}
+        groups = max(1, room)
+        self._shared = [(self._take_layer(), names[g::groups]) for g in range(groups)]
+        self.notes.append(
+            f"{len(names)} characters but {groups} free shadow-map layers (GL or memory "
+            f"limit): characters share {groups} map(s), at coarser texels")
+
+    # -- statics ----------------------------------------------------------------------------
     def set_light(self, light: Light) -> None:
         """A new light invalidates every clump map (and light-space clumps themselves)."""
         self.light = light
@@ -157,6 +215,10 @@ class ClumpedShadows:
             return None
         return fit_perspective(points, light.position, resolution)
 
+    def _static_names(self) -> list[str]:
+        g = self.geom
+        return [g.names[g.static_object(i)] for i in range(g.n_statics)]
+
     def _build_static(self) -> None:
         s = self.settings
         points = self.geom.static_points
@@ -166,59 +228,154 @@ class ClumpedShadows:
         if count is not None and count > self.max_clumps:
             self.notes.append(f"{count} clumps asked, {self.max_clumps} fit the layer budget")
             count = self.max_clumps
-        self.clumps = clumping.make_clumps(points, footprint, s.clumping, max_extent * per_metre,
-                                           count)
-        if len(self.clumps) > self.max_clumps:
+        clumps = clumping.make_clumps(points, footprint, s.clumping, max_extent * per_metre,
+                                      count)
+        if len(clumps) > self.max_clumps:
             self.notes.append(
-                f"{len(self.clumps)} clumps would meet {s.texels_per_metre:g} texels/m; "
-                f"{self.max_clumps} fit the {s.budget_mib:g} MiB budget, so texels are coarser")
-            self.clumps = clumping.make_clumps(points, footprint, s.clumping, 0.0,
-                                               self.max_clumps)
-        rects = (clumping.object_summaries(points, footprint)[0]
-                 if self.light.kind == "directional" and points else None)
-        self.static_order = [m for c in self.clumps for m in c.members]
-        self.static_maps = []
-        for clump in self.clumps:
-            fit = self._fit(np.concatenate([points[i] for i in clump.members]),
-                            s.clump_resolution)
+                f"{len(clumps)} clumps would meet {s.texels_per_metre:g} texels/m; "
+                f"{self.max_clumps} fit the {s.budget_mib:g} MiB budget and the GL's layers, "
+                "so texels are coarser")
+            clumps = clumping.make_clumps(points, footprint, s.clumping, 0.0, self.max_clumps)
+        for layer in self._clump_layers:
+            self._give_layer(layer)
+        names = self._static_names()
+        self._clump_names = [[names[m] for m in c.members] for c in clumps]
+        self._clump_layers = [self._take_layer() for _ in clumps]
+        self._dirty = set(range(len(clumps)))
+        self._refresh_static()
+
+    def _refresh_static(self) -> None:
+        """Clumps, fits and map records from the member names (after any change)."""
+        s = self.settings
+        points = self.geom.static_points
+        index = {name: i for i, name in enumerate(self._static_names())}
+        footprint = (clumping.directional_footprint(self._light_rot)
+                     if self.light.kind == "directional" else None)
+        keep = [k for k, names in enumerate(self._clump_names) if names]
+        for k in range(len(self._clump_names)):
+            if k not in keep:
+                self._give_layer(self._clump_layers[k])  # an emptied clump frees its layer
+        old_dirty = self._dirty
+        self._clump_names = [self._clump_names[k] for k in keep]
+        self._clump_layers = [self._clump_layers[k] for k in keep]
+        self._dirty = {new for new, k in enumerate(keep) if k in old_dirty}
+        self.clumps, self.static_maps, self._map_of_clump = [], [], {}
+        for k, names in enumerate(self._clump_names):
+            members = tuple(sorted(index[n] for n in names))
+            rects = (clumping.object_summaries([points[i] for i in members], footprint)[0]
+                     if footprint is not None else None)
+            self.clumps.append(clumping.Clump(
+                members=members,
+                rect=clumping.union_rect(rects) if rects is not None else np.zeros(4)))
+            fit = self._fit(np.concatenate([points[i] for i in members]), s.clump_resolution)
             if fit is None:
                 continue
+            self._map_of_clump[k] = len(self.static_maps)
             self.static_maps.append(MapRecord(
-                name=f"clump_{len(self.static_maps)}", kind=KIND_CLUMP, fit=fit,
-                layer=len(self.static_maps), viewport=s.clump_resolution,
-                objects=[self.geom.static_object(i) for i in clump.members],
-                cover=None if rects is None else rects[list(clump.members)]))
-        self._static_dirty = True
+                name=f"clump_{k}", kind=KIND_CLUMP, fit=fit, layer=self._clump_layers[k],
+                viewport=s.clump_resolution,
+                objects=[self.geom.static_object(i) for i in members], cover=rects))
+        self.static_order = [m for c in self.clumps for m in c.members]
 
+    def update_statics(self, geom: PackedGeometry, changed: set[str]) -> list[int]:
+        """Statics were added, removed or moved (their names in ``changed``).
+
+        Each changed static leaves its clump (that clump's map is re-rendered: its old place)
+        and, if it still exists, joins the clump whose footprint overlaps its own the most, or
+        the nearest one (re-rendered too: its new place). Other clumps keep their cached maps.
+        Returns the indices of the clumps that will be re-rendered.
+        """
+        self.geom = geom
+        names = self._static_names()
+        index = {name: i for i, name in enumerate(names)}
+        for k, members in enumerate(self._clump_names):
+            kept = [n for n in members if n in index and n not in changed]
+            if len(kept) != len(members):
+                self._clump_names[k] = kept
+                self._dirty.add(k)
+        arrivals = [n for n in names if n in changed]
+        if arrivals:
+            footprint, _ = _footprint(self.light, geom.static_points)
+            rects = [clumping.object_summaries(
+                [geom.static_points[index[n]] for n in members], footprint)[0]
+                for members in self._clump_names]
+            for name in arrivals:
+                own = clumping.object_summaries([geom.static_points[index[name]]],
+                                                footprint)[0][0]
+                k = self._nearest_clump(own, rects)
+                if k is None:
+                    self._clump_names.append([])
+                    self._clump_layers.append(self._take_layer())
+                    rects.append(np.zeros((0, 4)))
+                    k = len(self._clump_names) - 1
+                self._clump_names[k].append(name)
+                rects[k] = np.vstack([rects[k], own[None]])
+                self._dirty.add(k)
+        self._refresh_static()
+        return sorted(self._dirty)
+
+    def _nearest_clump(self, rect: np.ndarray, clump_rects: list[np.ndarray]) -> int | None:
+        """The clump overlapping ``rect`` most, else the one whose footprint is nearest."""
+        best, best_key = None, None
+        for k, rects in enumerate(clump_rects):
+            if not len(rects):
+                continue
+            u = clumping.union_rect(rects)
+            w = min(u[2], rect[2]) - max(u[0], rect[0])
+            h = min(u[3], rect[3]) - max(u[1], rect[1])
+            overlap = max(w, 0.0) * max(h, 0.0)
+            gap = math.hypot(max(-w, 0.0), max(-h, 0.0))
+            key = (-overlap, gap)
+            if best_key is None or key < best_key:
+                best, best_key = k, key
+        return best
+
+    def update_characters(self, geom: PackedGeometry) -> None:
+        """Characters were added or removed: free and hand out their layers."""
+        self.geom = geom
+        self._assign_characters()
+
+    # -- frame ------------------------------------------------------------------------------
     def plan(self, models: np.ndarray) -> ShadowPlan:
         """The maps for this frame; ``models`` are the characters' (n, 4, 4) matrices."""
         s = self.settings
         maps = list(self.static_maps)
-        render_static = list(range(len(maps))) if self._static_dirty else []
+        render_static = sorted(self._map_of_clump[k] for k in self._dirty
+                               if k in self._map_of_clump)
         render_dynamic = []
         resolution = s.clump_resolution
         char_res = min(s.character_resolution, resolution)
-        for i in range(self.geom.n_characters):
-            points = transforms.transform_points(models[i], self.geom.character_points[i])
-            fit = self._fit(points, char_res, float(self.geom.character_radius[i]))
+        names = self._character_names()
+        slots = [(self._char_layers[n], [i], char_res) for i, n in enumerate(names)
+                 if n in self._char_layers]
+        position = {n: i for i, n in enumerate(names)}
+        slots += [(layer, [position[n] for n in group], resolution)
+                  for layer, group in self._shared if group]
+        for layer, members, res in slots:
+            placed = [transforms.transform_points(models[i], self.geom.character_points[i])
+                      for i in members]
+            points = np.concatenate(placed)
+            radius = float(self.geom.character_radius[members[0]]) if len(members) == 1 else None
+            fit = self._fit(points, res, radius)
             if fit is None:
                 continue
             cover = None
             if self.light.kind == "directional":
-                xy = points @ self._light_rot[:2].T
-                cover = np.concatenate([xy.min(axis=0), xy.max(axis=0)])[None]
+                xy = [p @ self._light_rot[:2].T for p in placed]
+                cover = np.array([np.concatenate([q.min(axis=0), q.max(axis=0)]) for q in xy])
             render_dynamic.append(len(maps))
-            maps.append(MapRecord(name=f"character_{i}", kind=KIND_CHARACTER, fit=fit,
-                                  layer=len(self.static_maps) + i, viewport=char_res,
-                                  objects=[self.geom.character_object(i)], cover=cover))
-        self._static_dirty = False
+            maps.append(MapRecord(name=f"character_{members[0]}", kind=KIND_CHARACTER, fit=fit,
+                                  layer=layer, viewport=res,
+                                  objects=[self.geom.character_object(i) for i in members],
+                                  cover=cover))
+        self._dirty = set()
         return ShadowPlan(resolution=resolution, maps=maps,
                           render_static=render_static, render_dynamic=render_dynamic,
                           static_order=self.static_order)
 
     def mark_rendered_lost(self) -> None:
         """The array was re-created (resized): every cached layer must be drawn again."""
-        self._static_dirty = True
+        self._dirty = set(range(len(self._clump_names)))
 
 
 class SingleShadows:
