@@ -55,6 +55,7 @@ class Frame:
     maps_total: int
     triangles_to_maps: int
     gbuffer: dict[str, np.ndarray] | None = None  # position, normal, object, lit
+    gl_objects: dict[str, int] | None = None  # live GL objects by owner, after the frame
 
     @property
     def maps_per_fragment(self) -> float:
@@ -159,6 +160,10 @@ class Renderer:
         # moderngl re-binds the framebuffer it last used after creating one; leave it the
         # default framebuffer, not one whose name is about to be deleted.
         self.ctx.detect_framebuffer(0).use()
+        # A program still in use is only flagged for deletion, its shaders kept alive with it.
+        from OpenGL import GL
+
+        GL.glUseProgram(0)
         self._release_target()
         if self._array is not None:
             self._array.release()
@@ -347,7 +352,8 @@ class Renderer:
             covered=rgba[..., 3] > 0,
             maps_sampled=np.maximum(rgba[..., 3].astype(np.int32) - 1, 0),
             ms=ms, maps_rendered=rendered, maps_cached=len(plan.maps) - rendered,
-            maps_total=len(plan.maps), triangles_to_maps=triangles, gbuffer=gbuffer)
+            maps_total=len(plan.maps), triangles_to_maps=triangles, gbuffer=gbuffer,
+            gl_objects=self.gl_objects())
 
     def _read_gbuffer(self, rgba: np.ndarray) -> dict[str, np.ndarray]:
         h, w = self.size[1], self.size[0]
@@ -374,3 +380,15 @@ class Renderer:
                                        self.max_layers)
         method.notes[:0] = notes
         return method
+
+    def gl_objects(self) -> dict[str, int]:
+        """Live GL objects by owner: what this renderer and the objects it owns hold."""
+        from OpenGL import GL
+
+        target = 3 + len(self.gbuffer_tex)  # framebuffer, colour texture, depth renderbuffer
+        # moderngl keeps a program's shader objects attached until the program is released.
+        shaders = sum(int(GL.glGetProgramiv(o.glo, GL.GL_ATTACHED_SHADERS))
+                      for o in self._owned if isinstance(o, moderngl.Program))
+        array = 0 if self._array is None else 1 + len(self._array._fbo_ids)
+        return {"renderer": len(self._owned) + target + shaders, "depth_array": array,
+                "timer_queries": len(self.timer._queries)}

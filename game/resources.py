@@ -1,0 +1,48 @@
+"""What a long run holds: live GL objects, counted by their owners, and the process's memory.
+
+Issue 6: a 10,000-frame capture must keep the number of live GL objects constant and its memory
+flat. Every owner counts what it holds (:meth:`game.renderer.Renderer.gl_objects`); ``--stats``
+records those counts and the resident set size per frame. :func:`live_gl_names` is the
+independent check the tests use: it asks the driver which object names are alive.
+"""
+
+from __future__ import annotations
+
+import os
+
+GL_KINDS = ("Buffer", "Texture", "Framebuffer", "Renderbuffer", "VertexArray", "Program",
+            "Shader", "Query", "Sampler")
+
+
+def rss_bytes() -> int:
+    """Resident set size of this process now (Linux /proc; 0 where unavailable)."""
+    try:
+        with open("/proc/self/statm", "rb") as f:
+            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError, IndexError):
+        return 0
+
+
+def peak_rss_bytes() -> int:
+    """Peak resident set size of this process so far (0 where unavailable)."""
+    try:
+        import resource
+
+        return int(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss) * 1024
+    except (ImportError, OSError):
+        return 0
+
+
+def live_gl_names(highest: int = 2048) -> dict[str, int]:
+    """How many names of each GL object kind in 1..``highest`` are alive in the current context.
+
+    Asks the driver (glIsBuffer, glIsTexture, ...), so it counts what really exists, whoever
+    made it. Mesa hands out the lowest free names, so a small ``highest`` covers a test's objects.
+    """
+    from OpenGL import GL
+
+    counts = {}
+    for kind in GL_KINDS:
+        probe = getattr(GL, f"glIs{kind}")
+        counts[kind] = sum(1 for name in range(1, highest + 1) if probe(name))
+    return counts
