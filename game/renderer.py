@@ -18,7 +18,7 @@ from . import geometry, glsl, gpu_blocks, map_grid, shadow_methods, transforms
 from .depth_array import DepthArray
 from .gpu_blocks import FRAME_DTYPE, LIGHT_KINDS, MAP_DTYPE
 from .limits import GLLimits, fit_settings
-from .scene import Camera, Scene
+from .scene import Body, Camera, Character, Scene
 from .timing import PassTimer
 
 SKY = (0.58, 0.68, 0.80)
@@ -392,3 +392,78 @@ class Renderer:
         array = 0 if self._array is None else 1 + len(self._array._fbo_ids)
         return {"renderer": len(self._owned) + target + shaders, "depth_array": array,
                 "timer_queries": len(self.timer._queries)}
+
+    # -- run-time scene changes through the Python API (issue 6, cache invalidation) -------------
+    # Each change re-packs the geometry into the same GL buffers (no new GL objects) and tells
+    # the method what changed, so it re-renders only the maps that the change makes stale.
+    def add_static(self, body: Body) -> list[int]:
+        """Add a static object; returns the clumps whose maps the next frame re-renders."""
+        if body.name in self.scene.object_names():
+            raise ValueError(f"an object named {body.name!r} exists already")
+        self.scene.statics.append(body)
+        return self._statics_changed({body.name})
+
+    def remove_static(self, name: str) -> list[int]:
+        """Remove a static object by name; its clump's map is re-rendered without it."""
+        self.scene.statics.remove(self._static(name))
+        return self._statics_changed({name})
+
+    def move_static(self, name: str, transform: np.ndarray) -> list[int]:
+        """Apply a world (4, 4) ``transform`` to a static: its old and new clumps re-render."""
+        body = self._static(name)
+        body.mesh = body.mesh.copy()
+        body.mesh.apply_transform(np.asarray(transform, float))
+        return self._statics_changed({name})
+
+    def add_character(self, character: Character) -> None:
+        """Add a character; it takes a free layer of the array if there is one."""
+        if character.name in self.scene.object_names():
+            raise ValueError(f"an object named {character.name!r} exists already")
+        self.scene.characters.append(character)
+        self._characters_changed()
+
+    def remove_character(self, name: str) -> None:
+        """Remove a character by name; its layer goes back to the pool."""
+        matches = [c for c in self.scene.characters if c.name == name]
+        if not matches:
+            raise KeyError(f"no character named {name!r}")
+        self.scene.characters.remove(matches[0])
+        self._characters_changed()
+
+    def _static(self, name: str) -> Body:
+        for body in self.scene.statics:
+            if body.name == name:
+                return body
+        raise KeyError(f"no static named {name!r}")
+
+    def _repack(self) -> None:
+        """Geometry of the changed scene into the existing buffers (grown when needed)."""
+        self.geom = geometry.pack(self.scene)
+        vertices = np.empty(len(self.geom.positions), dtype=[("p", "<f4", 3), ("o", "<i4")])
+        vertices["p"] = self.geom.positions
+        vertices["o"] = self.geom.objects
+        self.layout = geometry.layout(self.geom)
+        self._static_order = None  # the next plan's order is applied afresh
+        n = max(1, self.geom.n_characters)
+        for buffer, data in ((self.vbo, vertices.tobytes()),
+                             (self.ibo, self.layout.indices.tobytes()),
+                             (self.models_ssbo, bytes(64 * n)),
+                             (self.character_maps_ssbo, bytes(4 * n))):
+            buffer.orphan(max(len(data), 4))
+            buffer.write(data)
+
+    def _statics_changed(self, names: set[str]) -> list[int]:
+        self._repack()
+        update = getattr(self.method, "update_statics", None)
+        if update is None:  # a method without partial updates plans everything anew
+            self.method = self._create_method(self.settings)
+            return []
+        return update(self.geom, names)
+
+    def _characters_changed(self) -> None:
+        self._repack()
+        update = getattr(self.method, "update_characters", None)
+        if update is None:
+            self.method = self._create_method(self.settings)
+        else:
+            update(self.geom)

@@ -414,6 +414,15 @@ class SingleShadows:
     def invalidate_statics(self) -> None:
         self.set_light(self.light)
 
+    def update_statics(self, geom: PackedGeometry, changed: set[str]) -> list[int]:
+        """Statics changed: the one map is re-fitted (it is re-rendered every frame anyway)."""
+        self.geom = geom
+        self.set_light(self.light)
+        return []
+
+    def update_characters(self, geom: PackedGeometry) -> None:
+        self.geom = geom
+
     def mark_rendered_lost(self) -> None:
         pass
 
