@@ -140,3 +140,53 @@ def outside_cone(points: np.ndarray, eye: np.ndarray, direction: np.ndarray,
     half = math.radians(cone_deg / 2)
     angle = math.acos(np.clip(to_centre @ direction / distance, -1.0, 1.0))
     return angle - math.asin(min(1.0, radius / distance)) > half
+
+
+# -- a light inside a caster's bounds (issue 6) ---------------------------------------------------
+# One frustum holds at most MAX_TAN either side of its axis. When a clump's casters surround the
+# light, fit_perspective clips them at the near plane or at MAX_TAN and their shadows would be
+# lost; such a clump gets the six faces of a cube around the light instead, each a 90-degree
+# frustum (plus a texel margin) over the same casters.
+CUBE_AXES = ((1.0, 0.0, 0.0), (-1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, -1.0, 0.0),
+             (0.0, 0.0, 1.0), (0.0, 0.0, -1.0))
+
+
+def holds_in_one_frustum(points: np.ndarray, eye: np.ndarray) -> bool:
+    """True when ``fit_perspective`` holds every point (none clipped by the near plane or angle)."""
+    p = np.asarray(points, float)
+    eye = np.asarray(eye, float)
+    axis = (p.min(axis=0) + p.max(axis=0)) / 2 - eye
+    if np.linalg.norm(axis) < 1e-9:
+        return False
+    v = transforms.transform_points(transforms.look_at(eye, eye + axis), p)
+    depth = -v[:, 2]
+    far_depth = float(depth.max())
+    if far_depth <= 0 or np.any(depth <= MIN_NEAR_SHARE * far_depth):
+        return False
+    return bool(np.all(np.abs(v[:, :2]) <= MAX_TAN * depth[:, None]))
+
+
+def fit_cube_faces(points: np.ndarray, eye: np.ndarray, resolution: int) -> list[MapFit]:
+    """Perspective maps on the faces of a cube around ``eye`` that face any of ``points``."""
+    p = np.asarray(points, float)
+    eye = np.asarray(eye, float)
+    extent = float(np.linalg.norm(p - eye, axis=1).max())
+    usable = resolution - 2 * MARGIN_TEXELS - 1
+    texel = 2.0 / usable
+    half = 1.0 + MARGIN_TEXELS * texel  # a 90-degree face and a texel of overlap
+    fits = []
+    for axis in CUBE_AXES:
+        view = transforms.look_at(eye, eye + np.array(axis))
+        depth = -transforms.transform_points(view, p)[:, 2]
+        if depth.max() <= 0:
+            continue
+        far = extent * (1.0 + DEPTH_MARGIN) + 1e-6 * extent
+        near = max(MIN_NEAR_SHARE * far, 1e-9)
+        x0 = y0 = -half
+        size = resolution * texel
+        proj = transforms.frustum(x0 * near, (x0 + size) * near, y0 * near, (y0 + size) * near,
+                                  near, far)
+        fits.append(MapFit(view_proj=proj @ view, texel=texel, perspective=True,
+                           eye=eye.copy(), rect=np.array([x0, y0, x0 + size, y0 + size]),
+                           near=near, far=far))
+    return fits

@@ -19,7 +19,14 @@ from . import clumping, transforms
 from .geometry import PackedGeometry
 from .map_grid import octahedral_encode
 from .scene import Light
-from .shadow_fit import MapFit, fit_directional, fit_perspective, outside_cone
+from .shadow_fit import (
+    MapFit,
+    fit_cube_faces,
+    fit_directional,
+    fit_perspective,
+    holds_in_one_frustum,
+    outside_cone,
+)
 
 KIND_CLUMP, KIND_CHARACTER, KIND_ALL = 0, 1, 2
 METHODS = ("clumped", "single")
@@ -133,7 +140,7 @@ class ClumpedShadows:
         self.static_maps: list[MapRecord] = []
         self.clumps: list[clumping.Clump] = []
         self._clump_names: list[list[str]] = []   # member names per clump, parallel to clumps
-        self._clump_layers: list[int] = []
+        self._clump_layers: list[list[int]] = []  # a clump's layers: one, or cube faces
         self._dirty: set[int] = set()             # clumps (indices) whose maps must be drawn
         self._free: list[int] = []                # layers given back, reused lowest first
         self._high = 0                            # layers ever handed out
@@ -178,7 +185,7 @@ class ClumpedShadows:
         for name in [n for n in self._char_layers if n not in names]:
             self._give_layer(self._char_layers.pop(name))  # a removed character frees its layer
         # Leave at least one layer for the clumps.
-        room = self.layer_limit - max(1, len(self._clump_layers))
+        room = self.layer_limit - max(1, sum(len(ls) for ls in self._clump_layers))
         if len(names) <= room:
             for name in names:
                 if name not in self._char_layers:
@@ -236,11 +243,12 @@ class ClumpedShadows:
                 f"{self.max_clumps} fit the {s.budget_mib:g} MiB budget and the GL's layers, "
                 "so texels are coarser")
             clumps = clumping.make_clumps(points, footprint, s.clumping, 0.0, self.max_clumps)
-        for layer in self._clump_layers:
-            self._give_layer(layer)
+        for layers in self._clump_layers:
+            for layer in layers:
+                self._give_layer(layer)
         names = self._static_names()
         self._clump_names = [[names[m] for m in c.members] for c in clumps]
-        self._clump_layers = [self._take_layer() for _ in clumps]
+        self._clump_layers = [[self._take_layer()] for _ in clumps]
         self._dirty = set(range(len(clumps)))
         self._refresh_static()
 
@@ -254,7 +262,8 @@ class ClumpedShadows:
         keep = [k for k, names in enumerate(self._clump_names) if names]
         for k in range(len(self._clump_names)):
             if k not in keep:
-                self._give_layer(self._clump_layers[k])  # an emptied clump frees its layer
+                for layer in self._clump_layers[k]:  # an emptied clump frees its layers
+                    self._give_layer(layer)
         old_dirty = self._dirty
         self._clump_names = [self._clump_names[k] for k in keep]
         self._clump_layers = [self._clump_layers[k] for k in keep]
@@ -267,15 +276,43 @@ class ClumpedShadows:
             self.clumps.append(clumping.Clump(
                 members=members,
                 rect=clumping.union_rect(rects) if rects is not None else np.zeros(4)))
-            fit = self._fit(np.concatenate([points[i] for i in members]), s.clump_resolution)
-            if fit is None:
-                continue
-            self._map_of_clump[k] = len(self.static_maps)
-            self.static_maps.append(MapRecord(
-                name=f"clump_{k}", kind=KIND_CLUMP, fit=fit, layer=self._clump_layers[k],
-                viewport=s.clump_resolution,
-                objects=[self.geom.static_object(i) for i in members], cover=rects))
+            fits = self._clump_fits(k, np.concatenate([points[i] for i in members]))
+            self._map_of_clump[k] = []
+            for fit, layer in zip(fits, self._clump_layers[k], strict=False):
+                self._map_of_clump[k].append(len(self.static_maps))
+                self.static_maps.append(MapRecord(
+                    name=f"clump_{k}", kind=KIND_CLUMP, fit=fit, layer=layer,
+                    viewport=s.clump_resolution,
+                    objects=[self.geom.static_object(i) for i in members], cover=rects))
         self.static_order = [m for c in self.clumps for m in c.members]
+
+    def _clump_fits(self, k: int, points: np.ndarray) -> list[MapFit]:
+        """The maps of clump ``k``: one fit, or the faces of a cube around a light inside it.
+
+        Takes or gives back layers so that the clump holds one per map (at least one).
+        """
+        res = self.settings.clump_resolution
+        light = self.light
+        fits: list[MapFit] = []
+        if light.kind != "directional" and not holds_in_one_frustum(points, light.position):
+            fits = fit_cube_faces(points, light.position, res)
+            spare = self.layer_limit - self.layers + len(self._free)
+            if len(fits) - len(self._clump_layers[k]) > spare:
+                self.notes.append(f"clump {k} surrounds the light but {spare} free layers "
+                                  "cannot hold a cube of maps; its widest frustum is used")
+                fits = []
+        if not fits:
+            fit = self._fit(points, res)
+            fits = [fit] if fit is not None else []
+        layers = self._clump_layers[k]
+        before = list(layers)
+        while len(layers) < max(1, len(fits)):
+            layers.append(self._take_layer())
+        while len(layers) > max(1, len(fits)):
+            self._give_layer(layers.pop())
+        if layers != before:
+            self._dirty.add(k)
+        return fits
 
     def update_statics(self, geom: PackedGeometry, changed: set[str]) -> list[int]:
         """Statics were added, removed or moved (their names in ``changed``).
@@ -305,7 +342,7 @@ class ClumpedShadows:
                 k = self._nearest_clump(own, rects)
                 if k is None:
                     self._clump_names.append([])
-                    self._clump_layers.append(self._take_layer())
+                    self._clump_layers.append([self._take_layer()])
                     rects.append(np.zeros((0, 4)))
                     k = len(self._clump_names) - 1
                 self._clump_names[k].append(name)
@@ -340,8 +377,7 @@ class ClumpedShadows:
         """The maps for this frame; ``models`` are the characters' (n, 4, 4) matrices."""
         s = self.settings
         maps = list(self.static_maps)
-        render_static = sorted(self._map_of_clump[k] for k in self._dirty
-                               if k in self._map_of_clump)
+        render_static = sorted(i for k in self._dirty for i in self._map_of_clump.get(k, []))
         render_dynamic = []
         resolution = s.clump_resolution
         char_res = min(s.character_resolution, resolution)
