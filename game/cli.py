@@ -37,6 +37,9 @@ class _Parser(argparse.ArgumentParser):
     """argparse that reports a bad argument in one line instead of usage plus message."""
 
     def error(self, message: str):
+        if message.endswith("expected one argument"):
+            # argparse reads a value such as -5x10 as an option and reports the value missing.
+            message += " (write a value that starts with '-' as --option=VALUE)"
         raise ArgumentError(f"{self.prog}: {message}")
 
 

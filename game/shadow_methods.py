@@ -196,9 +196,10 @@ class ClumpedShadows:
         self._char_layers = {}
         groups = max(1, room)
         self._shared = [(self._take_layer(), names[g::groups]) for g in range(groups)]
-        self.notes.append(
-            f"{len(names)} characters but {groups} free shadow-map layers (GL or memory "
-            f"limit): characters share {groups} map(s), at coarser texels")
+        note = (f"{len(names)} characters but {groups} free shadow-map layers (GL or memory "
+                f"limit): characters share {groups} map(s), at coarser texels")
+        if note not in self.notes:
+            self.notes.append(note)
 
     # -- statics ----------------------------------------------------------------------------
     def set_light(self, light: Light) -> None:

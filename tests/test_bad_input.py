@@ -75,7 +75,7 @@ REPLACEMENTS = [
      ["non-empty list"]),
     ("zero-length path", "path   = [[-3.0, 0.9, -3.0], [3.0, 0.9, -3.0]",
      "path   = [[1.0, 0.9, 1.0], [1.0, 0.9, 1.0]]\n#", "character[0].path", ["zero length"]),
-    ("negative scale", "radius   = 0.7", "radius   = 0.7\nscale = 0", "static[1].scale",
+    ("zero scale", "radius   = 0.7", "radius   = 0.7\nscale = 0", "static[1].scale",
      ["positive"]),
     ("zero fov", "fov      = 60.0", "fov      = 0.0", "camera.fov", ["positive"]),
 ]
@@ -90,7 +90,7 @@ def test_bad_scene_values(capsys, tmp_path, case, old, new, key, fragments):
     first_new = new.splitlines()[-1] if new.strip().startswith("scale") else new.splitlines()[0]
     if case == "missing key":
         line = line_of(text, 'shape    = "sphere"') - 1  # the [[static]] header
-    elif case in ("negative scale",):
+    elif case == "zero scale":
         line = line_of(text, "scale = 0")
     else:
         line = line_of(text, first_new.strip() or new)
@@ -180,7 +180,8 @@ def test_path_leaving_the_folder_is_refused_before_opening(capsys, mesh_folder, 
 
 @pytest.mark.parametrize(("args", "flag"), [
     (["--size", "0x10"], "--size"),
-    (["--size", "-5x10"], "--size"),
+    (["--size", "-5x10"], "--option=VALUE"),
+    (["--size=-5x10"], "--size"),
     (["--size", "20000x10"], "--size"),
     (["--size", "10"], "--size"),
     (["--frames", "0"], "--frames"),
