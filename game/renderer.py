@@ -19,6 +19,7 @@ from .depth_array import DepthArray
 from .gpu_blocks import FRAME_DTYPE, LIGHT_KINDS, MAP_DTYPE
 from .scene import Camera, Scene
 from .timing import PassTimer
+from .tracer import SoftTracer, TraceResult, TraceSettings
 
 SKY = (0.58, 0.68, 0.80)
 DEBUG_VIEWS = {"none": gpu_blocks.DEBUG_NONE, "map": gpu_blocks.DEBUG_MAP,
@@ -89,6 +90,7 @@ class Renderer:
         self._owned: list = []
         self._array: DepthArray | None = None
         self._static_order: list[int] | None = None
+        self._tracer: SoftTracer | None = None  # the soft-shadow pass, made on first use
 
         self.depth_prog = self._own(ctx.program(
             vertex_shader=glsl.build("depth.vert", _defines(ctx)),
@@ -162,6 +164,9 @@ class Renderer:
         if self._array is not None:
             self._array.release()
             self._array = None
+        if self._tracer is not None:
+            self._tracer.release()
+            self._tracer = None
         for obj in reversed(self._owned):
             obj.release()
         self._owned = []
@@ -361,6 +366,33 @@ class Renderer:
         obj = np.where(covered, np.rint(pos[..., 3]), -1).astype(np.int32)
         lit = np.where(covered, nrm[..., 3], np.nan).astype(np.float32)
         return {"position": position, "normal": normal, "object": obj, "lit": lit}
+
+    def trace(self, t: float, settings: TraceSettings, light=None) -> TraceResult:
+        """Run the soft-shadow pass (game/tracer.py) over the G-buffer of the last frame.
+
+        ``light`` is a tracer light tuple; default: the scene's linear light. The tracer is
+        made on first use, kept for later frames (its static grid is cached) and released with
+        the renderer; a new ``cells_per_triangle`` makes a new one.
+        """
+        if not self.gbuffer:
+            raise RuntimeError("the soft-shadow pass needs a renderer made with gbuffer=True")
+        tracer = self._tracer
+        if tracer is None or tracer.grid.cells_per_triangle != settings.cells_per_triangle:
+            if tracer is not None:
+                tracer.release()
+            tracer = self._tracer = SoftTracer(self.ctx, self.geom, self.scene,
+                                               settings.cells_per_triangle, self.timer.clock)
+        if light is None:
+            segment = self.scene.linear_light
+            if segment is None:
+                raise RuntimeError("the scene has no [linear_light]")
+            light = (gpu_blocks.TRACE_LIGHT_SEGMENT, segment.a, segment.b)
+        textures = (self.gbuffer_tex[0], self.gbuffer_tex[1], self.color_tex)
+        return tracer.trace(textures, self.size, self._models(t), settings, light)
+
+    @property
+    def soft_tracer(self) -> SoftTracer | None:
+        return self._tracer
 
     @property
     def shadow_memory_bytes(self) -> int:

@@ -196,6 +196,7 @@ class SceneGrid:
     def __init__(self, geom: PackedGeometry, scene: Scene,
                  cells_per_triangle: float = CELLS_PER_TRIANGLE):
         self.geom = geom
+        self.cells_per_triangle = cells_per_triangle
         lower, upper = scene_bounds(geom, scene)
         start = time.perf_counter()
         self.static_tris = static_triangles(geom)
