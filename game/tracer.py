@@ -201,7 +201,7 @@ class SoftTracer:
             with the position in ``a``, or ``TRACE_LIGHT_DIRECTIONAL`` with the unit direction
             toward the light in ``a``.
         """
-        ctx, timer = self.ctx, self.timer
+        timer = self.timer
         w, h = size
         timer.begin_frame()
         prog = self._program(settings)
