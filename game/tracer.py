@@ -41,6 +41,7 @@ RAY_OFFSET_SCENE = 1e-4
 RAY_OFFSET_DISTANCE = 1e-5
 LOCAL_SIZE = 8            # invocations per side of a workgroup; keep in sync with trace.comp
 RAY_ID_LIMIT = 1 << 31    # tri-cache ids use 31 bits of the state word
+POINTS_PER_ROW = 1024      # trace_points: G-buffer width
 TEXTURE_UNITS = {"u_position": 1, "u_normal": 2, "u_colour": 3}
 
 
@@ -156,6 +157,35 @@ class SoftTracer:
             prog = self.ctx.compute_shader(glsl.build("trace.comp", defines))
             self._programs[key] = prog
         return prog
+
+    def trace_points(self, points: np.ndarray, normals: np.ndarray, models: np.ndarray,
+                     settings: TraceSettings, light) -> TraceResult:
+        """Trace chosen points (P, 3) with unit normals (P, 3) instead of a G-buffer.
+
+        For tests and measurements: the points become a G-buffer made here (rows of
+        ``POINTS_PER_ROW``) and released before returning. The result's arrays are (P,).
+        """
+        n = len(points)
+        w = min(max(n, 1), POINTS_PER_ROW)
+        h = (n + w - 1) // w
+        pos = np.zeros((h * w, 4), np.float32)
+        nrm = np.zeros((h * w, 4), np.float32)
+        covered = np.zeros((h * w, 4), np.uint8)
+        pos[:n, :3] = points
+        nrm[:n, :3] = normals
+        covered[:n, 3] = 255
+        textures = [self.ctx.texture((w, h), 4, pos.tobytes(), dtype="f4"),
+                    self.ctx.texture((w, h), 4, nrm.tobytes(), dtype="f4"),
+                    self.ctx.texture((w, h), 4, covered.tobytes())]
+        try:
+            result = self.trace(textures, (w, h), models, settings, light)
+        finally:
+            for tex in textures:
+                tex.release()
+        # trace() returns images with row 0 at the top; the texture's row 0 is our point 0.
+        result.visibility = result.visibility[::-1].reshape(-1)[:n]
+        result.counters = {k: v[::-1].reshape(-1)[:n] for k, v in result.counters.items()}
+        return result
 
     # -- the pass --------------------------------------------------------------------------------
     def _upload_characters(self, models: np.ndarray) -> float:

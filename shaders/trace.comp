@@ -364,8 +364,49 @@ vec2 hidden_interval(int tri) {
     return vec2(min(t0, t1), max(t0, t1));
 }
 
+// The light triangle has no area (the point is on the segment's line, or the segment has no
+// length): every ray has the same direction, so the nearest hit along it hides the farther part.
+bool g_collinear;
+Ray g_line;         // from the apex to the farther end
+float g_near_hit;   // nearest hit distance along g_line, as a share of it
+
+void collinear_candidate(int tri) {
+    float s = ray_triangle_s(g_line, tri);
+    if (s > 0.0) {
+        g_near_hit = min(g_near_hit, s);
+    }
+}
+
+void collinear_finish(vec3 o) {
+    if (g_near_hit > 1.0) {
+        return;
+    }
+    // Distances of the ends along the line; the hidden part is where the distance exceeds the hit.
+    float len = length(g_line.d);
+    vec3 u = g_line.d / len;
+    float da = dot(g_la - o, u), db = dot(g_lb - o, u);
+    float hit = g_near_hit * len;
+    if (da == db) {
+        add_interval(da > hit ? 0.0 : 1.0, da > hit ? 1.0 : 0.0);
+    } else {
+        float th = (hit - da) / (db - da);
+        if (db > da) {
+            add_interval(th, 1.0);
+        } else {
+            add_interval(0.0, th);
+        }
+    }
+}
+
 float analytic_visibility(vec3 o, vec3 nrm) {
     g_niv = 0;
+    vec3 tn = cross(g_la - o, g_lb - o);
+    g_collinear = length(tn) <= 1e-6 * length(g_la - o) * length(g_lb - o);
+    if (g_collinear) {
+        vec3 far_end = distance(g_la, o) > distance(g_lb, o) ? g_la : g_lb;
+        g_line = make_ray(o, far_end - o);
+        g_near_hit = 2.0;
+    }
     // The part of the segment below the receiver's horizon is hidden by the receiver itself.
     float h0 = dot(g_la - o, nrm), h1 = dot(g_lb - o, nrm);
     if (h0 <= 0.0 && h1 <= 0.0) {
@@ -405,11 +446,18 @@ float analytic_visibility(vec3 o, vec3 nrm) {
                         continue;
                     }
                     g_candidates += 1u;
-                    vec2 iv = hidden_interval(tri);
-                    add_interval(iv.x, iv.y);
+                    if (g_collinear) {
+                        collinear_candidate(tri);
+                    } else {
+                        vec2 iv = hidden_interval(tri);
+                        add_interval(iv.x, iv.y);
+                    }
                 }
             }
         }
+    }
+    if (g_collinear) {
+        collinear_finish(o);
     }
     float hidden = 0.0;
     for (int i = 0; i < g_niv; ++i) {
@@ -461,7 +509,7 @@ void main() {
         voxel_cache_reset();
 #endif
 #if METHOD == METHOD_ANALYTIC
-        if (u_size.z == TRACE_LIGHT_SEGMENT && distance(g_la, g_lb) > 0.0) {
+        if (u_size.z == TRACE_LIGHT_SEGMENT) {
             vis = analytic_visibility(o, nrm);
         } else {
             vis = sampled_visibility(o, nrm, uint(index));

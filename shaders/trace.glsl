@@ -80,6 +80,33 @@ bool ray_hits_triangle(Ray r, int tri) {
     return T > 0.0 && T < det;
 }
 
+// The ray parameter s of the hit, or -1 if none (analytic's collinear case needs the distance).
+float ray_triangle_s(Ray r, int tri) {
+    vec3 A = tri_vertex(tri, 0) - r.o;
+    vec3 B = tri_vertex(tri, 1) - r.o;
+    vec3 C = tri_vertex(tri, 2) - r.o;
+    int kx = r.k.x, ky = r.k.y, kz = r.k.z;
+    float Ax = A[kx] - r.shear.x * A[kz];
+    float Ay = A[ky] - r.shear.y * A[kz];
+    float Bx = B[kx] - r.shear.x * B[kz];
+    float By = B[ky] - r.shear.y * B[kz];
+    float Cx = C[kx] - r.shear.x * C[kz];
+    float Cy = C[ky] - r.shear.y * C[kz];
+    float U = Cx * By - Cy * Bx;
+    float V = Ax * Cy - Ay * Cx;
+    float W = Bx * Ay - By * Ax;
+    if ((U < 0.0 || V < 0.0 || W < 0.0) && (U > 0.0 || V > 0.0 || W > 0.0)) {
+        return -1.0;
+    }
+    float det = U + V + W;
+    if (det == 0.0) {
+        return -1.0;
+    }
+    float T = U * (r.shear.z * A[kz]) + V * (r.shear.z * B[kz]) + W * (r.shear.z * C[kz]);
+    float s = T / det;
+    return s > 0.0 ? s : -1.0;
+}
+
 // ---- Conservative separating-axis tests -----------------------------------------------------
 // True unless an axis separates the two sets by more than the tolerance; axes that degenerate
 // (zero cross products: coplanar or degenerate triangles) are skipped, which only keeps more.
