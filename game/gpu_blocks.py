@@ -67,8 +67,11 @@ TRACE_DTYPE = np.dtype([
                                 # z: far distance of a directional light's rays
     ("counts", "<i4", 4),       # x: samples, y: triangles, z: static triangles, w: ray id base
     ("size", "<i4", 4),         # x: width, y: height, z: light mode (TRACE_LIGHT_*)
+    # x: first sample of this dispatch, y: samples in it, z: 1 to add to the stored results,
+    # w: 2, the trip count of the loop that detects llvmpipe's loop limit (game/tracer.py)
+    ("range", "<i4", 4),
 ])
-assert TRACE_DTYPE.itemsize == 8 * 16
+assert TRACE_DTYPE.itemsize == 9 * 16
 
 # Keep in sync with shaders/trace_blocks.glsl: struct PointResult, one per pixel.
 TRACE_RESULT_DTYPE = np.dtype([
@@ -78,7 +81,8 @@ TRACE_RESULT_DTYPE = np.dtype([
     ("voxels_visited", "<u4"),
     ("candidates", "<u4"),
     ("overflows", "<u4"),
-    ("pad", "<u4", 2),
+    ("truncated", "<u4"),                # 1: the shader ran out of llvmpipe's loop budget
+    ("visible", "<u4"),                  # visible samples so far (accumulated over dispatches)
 ])
 assert TRACE_RESULT_DTYPE.itemsize == 32
 

@@ -42,6 +42,10 @@ RAY_OFFSET_DISTANCE = 1e-5
 LOCAL_SIZE = 8            # invocations per side of a workgroup; keep in sync with trace.comp
 RAY_ID_LIMIT = 1 << 31    # tri-cache ids use 31 bits of the state word
 POINTS_PER_ROW = 1024      # trace_points: G-buffer width
+# Mesa llvmpipe stops all loops of a shader invocation after 65535 iterations in all (measured
+# on Mesa 22.3.6; see loop_budget_left in shaders/trace.comp). Dispatches aim below this.
+LOOP_BUDGET = 60_000
+LOOP_PROBE_TRIPS = 2
 TEXTURE_UNITS = {"u_position": 1, "u_normal": 2, "u_colour": 3}
 
 
@@ -78,6 +82,8 @@ class TraceResult:
     visibility: np.ndarray            # (H, W) float32, NaN where no geometry
     counters: dict[str, np.ndarray]   # per counter (H, W) uint32
     ms: dict[str, float] = field(default_factory=dict)
+    truncated: int = 0                # points whose work llvmpipe's loop budget cut short
+    samples_per_dispatch: int = 0
 
     @property
     def covered(self) -> np.ndarray:
@@ -202,7 +208,8 @@ class SoftTracer:
         self.dynamic_ssbo.write(data.tobytes())
         return (time.perf_counter() - start) * 1e3
 
-    def _params(self, size: tuple[int, int], mode: int, a, b, samples: int) -> np.ndarray:
+    def _params(self, size: tuple[int, int], mode: int, a, b, samples: int,
+                first: int = 0, count: int | None = None) -> np.ndarray:
         spec = self.grid.spec
         p = np.zeros(1, TRACE_DTYPE)
         p["grid_origin"] = (*spec.origin, 0.0)
@@ -214,7 +221,30 @@ class SoftTracer:
                        4.0 * (spec.diagonal + float(np.linalg.norm(spec.origin))), 0.0)
         p["counts"] = (samples, self.n_triangles, self.grid.n_static, self._ray_id_base)
         p["size"] = (size[0], size[1], mode, 0)
+        count = samples if count is None else count
+        p["range"] = (first, count, int(first > 0), LOOP_PROBE_TRIPS)
         return p
+
+    def _first_chunk(self, settings: TraceSettings) -> int:
+        """Samples per dispatch to try first: all of them, except for brute force, whose
+        iterations per sample (a quarter of the triangles) are known in advance."""
+        if settings.method == "brute":
+            per_sample = self.n_triangles // 4 + 8
+            return max(1, min(settings.samples, LOOP_BUDGET // per_sample))
+        return settings.samples
+
+    def _dispatch_all(self, prog, size, mode, a, b, settings: TraceSettings,
+                      chunk: int) -> None:
+        w, h = size
+        n = settings.samples
+        exact = settings.method == "analytic" and mode == gpu_blocks.TRACE_LIGHT_SEGMENT
+        starts = [0] if exact else range(0, n, chunk)
+        for first in starts:
+            count = n if exact else min(chunk, n - first)
+            self.params_ubo.write(self._params(size, mode, a, b, n, first, count).tobytes())
+            prog.run((w + LOCAL_SIZE - 1) // LOCAL_SIZE, (h + LOCAL_SIZE - 1) // LOCAL_SIZE)
+            # The next dispatch adds to these results: make the writes visible to it.
+            self.ctx.memory_barrier()
 
     def trace(self, textures, size: tuple[int, int], models: np.ndarray,
               settings: TraceSettings, light: tuple[int, np.ndarray, np.ndarray]) -> TraceResult:
@@ -244,27 +274,38 @@ class SoftTracer:
                 need = TRACE_RESULT_DTYPE.itemsize * w * h
                 if self.results_ssbo.size != need:
                     self.results_ssbo.orphan(need)
-                if self._ray_id_base + w * h >= RAY_ID_LIMIT:
+                if self._ray_id_base + 2 * w * h >= RAY_ID_LIMIT:
                     self.state_ssbo.clear()
                     self._ray_id_base = 1
-                self.params_ubo.write(self._params(size, mode, a, b, settings.samples).tobytes())
                 self._ray_id_base += w * h
-            with timer.measure("trace"):
-                self.params_ubo.bind_to_uniform_block(
-                    gpu_blocks.TRACE_BINDINGS["TRACE_PARAMS_BINDING"])
-                for buf, name in ((self.tri_ssbo, "TRIANGLES_BINDING"),
-                                  (self.static_ssbo, "STATIC_CELLS_BINDING"),
-                                  (self.dynamic_ssbo, "DYNAMIC_CELLS_BINDING"),
-                                  (self.state_ssbo, "TRI_STATE_BINDING"),
-                                  (self.results_ssbo, "RESULTS_BINDING")):
-                    buf.bind_to_storage_buffer(gpu_blocks.TRACE_BINDINGS[name])
-                for tex, (name, unit) in zip(textures, TEXTURE_UNITS.items(), strict=True):
-                    tex.use(unit)
-                    try:
-                        prog[name].value = unit
-                    except KeyError:  # the method does not read it; the compiler dropped it
-                        pass
-                prog.run((w + LOCAL_SIZE - 1) // LOCAL_SIZE, (h + LOCAL_SIZE - 1) // LOCAL_SIZE)
+            self.params_ubo.bind_to_uniform_block(
+                gpu_blocks.TRACE_BINDINGS["TRACE_PARAMS_BINDING"])
+            for buf, name in ((self.tri_ssbo, "TRIANGLES_BINDING"),
+                              (self.static_ssbo, "STATIC_CELLS_BINDING"),
+                              (self.dynamic_ssbo, "DYNAMIC_CELLS_BINDING"),
+                              (self.state_ssbo, "TRI_STATE_BINDING"),
+                              (self.results_ssbo, "RESULTS_BINDING")):
+                buf.bind_to_storage_buffer(gpu_blocks.TRACE_BINDINGS[name])
+            for tex, (name, unit) in zip(textures, TEXTURE_UNITS.items(), strict=True):
+                tex.use(unit)
+                try:
+                    prog[name].value = unit
+                except KeyError:  # the method does not read it; the compiler dropped it
+                    pass
+            # llvmpipe's loop budget (shaders/trace.comp loop_budget_left): halve the samples
+            # per dispatch until no point runs out; the discarded attempts are timed apart.
+            chunk = self._first_chunk(settings)
+            discarded = 0.0
+            while True:
+                timer.ms.pop("trace", None)
+                with timer.measure("trace"):
+                    self._dispatch_all(prog, size, mode, a, b, settings, chunk)
+                truncated = np.frombuffer(self.results_ssbo.read(), TRACE_RESULT_DTYPE)[
+                    "truncated"]
+                if not truncated.any() or chunk == 1:
+                    break
+                discarded += timer.ms["trace"]
+                chunk = (chunk + 1) // 2
         raw = np.frombuffer(self.results_ssbo.read(), TRACE_RESULT_DTYPE).reshape(h, w)[::-1]
         vis = raw["visibility"].astype(np.float32)
         vis = np.where(vis < 0.0, np.nan, vis).astype(np.float32)
@@ -274,5 +315,9 @@ class SoftTracer:
         # The static part's CPU build ran in __init__, before this frame: count it here once.
         ms["build"] = ms.get("build", 0.0) + build_ms
         ms["total"] = ms.get("total", 0.0) + build_ms
+        ms["trace_discarded"] = discarded
         counters = {name: np.ascontiguousarray(raw[name]) for name in COUNTERS}
-        return TraceResult(visibility=vis, counters=counters, ms=ms)
+        n = settings.samples
+        return TraceResult(visibility=vis, counters=counters, ms=ms,
+                           truncated=int(raw["truncated"][np.isfinite(vis)].sum()),
+                           samples_per_dispatch=n if settings.method == "analytic" else chunk)

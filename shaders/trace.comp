@@ -184,9 +184,15 @@ bool occluded(vec3 o, vec3 d) {
     Ray r = make_ray(o, d);
     mailbox_reset();
 #if METHOD == METHOD_BRUTE
-    for (int tri = 0; tri < u_counts.y; ++tri) {
-        g_ray_tri += 1u;
-        if (ray_hits_triangle(r, tri)) {
+    // Four triangles per iteration: a quarter of the loop budget (see loop_budget_left).
+    int n = u_counts.y;
+    for (int tri = 0; tri < n; tri += 4) {
+        int m = min(4, n - tri);
+        g_ray_tri += uint(m);
+        if (ray_hits_triangle(r, tri)
+            || (m > 1 && ray_hits_triangle(r, tri + 1))
+            || (m > 2 && ray_hits_triangle(r, tri + 2))
+            || (m > 3 && ray_hits_triangle(r, tri + 3))) {
             return true;
         }
     }
@@ -467,20 +473,32 @@ float analytic_visibility(vec3 o, vec3 nrm) {
 }
 #endif
 
-float sampled_visibility(vec3 o, vec3 nrm, uint point) {
+// Mesa's llvmpipe (22.3) stops every loop of an invocation once their iterations add up to 65535
+// (one shared counter, LP_MAX_TGSI_LOOP_ITERATIONS): the work left is silently skipped. A loop
+// of u_range.w = 2 trips then runs once; that flags the point as truncated, and game/tracer.py
+// re-runs such traces with fewer samples per dispatch.
+bool loop_budget_left() {
+    int trips = 0;
+    for (int i = 0; i < u_range.w; ++i) {
+        trips += 1;
+    }
+    return trips == u_range.w;
+}
+
+uint sampled_visible(vec3 o, vec3 nrm, uint point) {
     int n = u_counts.x;
-    int visible = 0;
-    for (int i = 0; i < n; ++i) {
+    uint visible = 0u;
+    for (int i = u_range.x; i < u_range.x + u_range.y; ++i) {
         vec3 target = light_point(o, sample_t(point, i, n));
         vec3 d = target - o;
         if (dot(d, nrm) <= 0.0) {
             continue;  // below the receiver's horizon: the receiver hides it
         }
         if (!occluded(o, d)) {
-            visible += 1;
+            visible += 1u;
         }
     }
-    return float(visible) / float(n);
+    return visible;
 }
 
 void main() {
@@ -494,7 +512,8 @@ void main() {
     g_voxels = 0u;
     g_candidates = 0u;
     g_overflows = 0u;
-    float vis = -1.0;
+    float vis = -1.0;  // no geometry
+    uint visible = 0u;
     if (texelFetch(u_colour, px, 0).a > 0.0) {
         vec3 p = texelFetch(u_position, px, 0).xyz;
         vec3 nrm = normalize(texelFetch(u_normal, px, 0).xyz);
@@ -512,12 +531,27 @@ void main() {
         if (u_size.z == TRACE_LIGHT_SEGMENT) {
             vis = analytic_visibility(o, nrm);
         } else {
-            vis = sampled_visibility(o, nrm, uint(index));
+            visible = sampled_visible(o, nrm, uint(index));
         }
 #else
-        vis = sampled_visibility(o, nrm, uint(index));
+        visible = sampled_visible(o, nrm, uint(index));
 #endif
     }
+    uint truncated = loop_budget_left() ? 0u : 1u;
+    if (u_range.z != 0) {
+        PointResult before = u_results[index];
+        g_ray_tri += before.ray_triangle_tests;
+        g_tri_tri += before.triangle_triangle_tests;
+        g_voxels += before.voxels_visited;
+        g_candidates += before.candidates;
+        g_overflows += before.overflows;
+        truncated = max(truncated, before.truncated);
+        visible += before.visible;
+    }
+    bool exact = METHOD == METHOD_ANALYTIC && u_size.z == TRACE_LIGHT_SEGMENT;
+    if (texelFetch(u_colour, px, 0).a > 0.0 && !exact) {
+        vis = float(visible) / float(u_counts.x);
+    }
     u_results[index] = PointResult(vis, g_ray_tri, g_tri_tri, g_voxels, g_candidates,
-                                   g_overflows, 0u, 0u);
+                                   g_overflows, truncated, visible);
 }

@@ -10,6 +10,7 @@ layout(std140, binding = TRACE_PARAMS_BINDING) uniform TraceParams {  // gpu_blo
     vec4 u_offset;       // x ray start offset (m), y per metre from the origin, z directional far
     ivec4 u_counts;      // x samples, y triangles, z static triangles, w ray id base
     ivec4 u_size;        // x width, y height, z light mode (TRACE_LIGHT_*)
+    ivec4 u_range;       // x first sample, y samples in this dispatch, z accumulate, w 2
 };
 
 // Three vec4 per triangle (xyz used), world space: statics first, then the posed characters.
@@ -38,10 +39,10 @@ struct PointResult {     // keep in sync with gpu_blocks.TRACE_RESULT_DTYPE
     uint voxels_visited;
     uint candidates;
     uint overflows;
-    uint pad0;
-    uint pad1;
+    uint truncated;      // 1: the loop budget of llvmpipe ran out (see trace.comp)
+    uint visible;        // visible samples so far
 };
 
-layout(std430, binding = RESULTS_BINDING) writeonly buffer Results {
+layout(std430, binding = RESULTS_BINDING) buffer Results {
     PointResult u_results[];
 };

@@ -57,13 +57,18 @@ def default_scene():
 
 
 # -- accelerated methods are exact ---------------------------------------------------------------
-@pytest.mark.parametrize("name", ["tiny", "default_scene"])
-def test_accelerated_methods_equal_brute_with_the_same_samples(ctx, name, request):
+@pytest.mark.parametrize("name, samples, size",
+                         [("tiny", 8, SIZE), ("default_scene", 32, (64, 36))])
+def test_accelerated_methods_equal_brute_with_the_same_samples(ctx, name, samples, size, request):
+    # 32 samples of the default scene take brute force past llvmpipe's loop budget in one
+    # dispatch (6,016 triangles): the tracer must split the samples and lose none.
     scene = request.getfixturevalue(name)
-    _, results, _ = gbuffer_trace(ctx, scene, ALL, samples=8)
+    _, results, _ = gbuffer_trace(ctx, scene, ALL, samples=samples, size=size)
     brute = results["brute"].visibility
     assert np.isfinite(brute).sum() > 1000
     assert np.nanmin(brute) < 0.5 < np.nanmax(brute)  # shadows and light in view
+    for m in ALL:
+        assert results[m].truncated == 0, m
     for m in ACCELERATED:
         np.testing.assert_array_equal(results[m].visibility, brute, err_msg=m)
 
@@ -347,3 +352,20 @@ def test_frames_do_not_grow_gl_objects_and_characters_move(ctx, tiny):
     finally:
         r.release()
     assert r.soft_tracer is None
+
+
+def test_the_loop_budget_probe_catches_a_cut_short_trace(ctx, default_scene):
+    # One dispatch of all 64 samples of brute force runs past llvmpipe's loop budget; the
+    # tracer must notice (the probe) and split the samples until nothing is cut short.
+    r = Renderer(ctx, default_scene, (32, 18), gbuffer=True)
+    try:
+        r.render(0.0, View.from_camera(default_scene.camera, (32, 18)))
+        tracer = r.trace(0.0, TraceSettings(method="grid", samples=1)) and r.soft_tracer
+        tracer._first_chunk = lambda settings: settings.samples  # no split in advance
+        brute = r.trace(0.0, TraceSettings(method="brute", samples=64))
+        grid = r.trace(0.0, TraceSettings(method="grid", samples=64))
+    finally:
+        r.release()
+    assert brute.truncated == 0 and brute.samples_per_dispatch < 64
+    assert brute.ms["trace_discarded"] > 0
+    np.testing.assert_array_equal(brute.visibility, grid.visibility)
