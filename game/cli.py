@@ -192,6 +192,10 @@ def cmd_trace(args) -> int:
         stats = trace_run.run(ctx, scene, opts)
     finally:
         ctx.release()
+    cut = sum(f["truncated_points"] for f in stats["frames"])
+    if cut:
+        print(f"warning: {cut} point(s) ran out of the GL driver's loop budget even at one "
+              "sample per dispatch; their visibility is incomplete", file=sys.stderr)
     print(f"wrote {args.frames} frame(s) to {args.out}/: {trace_run.summary(stats)}")
     return 0
 

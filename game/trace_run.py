@@ -91,6 +91,9 @@ def frame_stats(index: int, t: float, frame: Frame, result: TraceResult) -> dict
     return {"frame": index, "time": t, "ms": ms, **ms,
             "maps_rendered": frame.maps_rendered, "triangles_to_maps": frame.triangles_to_maps,
             "shaded_points": int(covered.sum()),
+            # llvmpipe's loop budget: samples per dispatch used, points still cut short (0).
+            "samples_per_dispatch": result.samples_per_dispatch,
+            "truncated_points": result.truncated,
             "mean_visibility": round(float(np.nanmean(result.visibility)), 6)
             if covered.any() else None,
             **means}
