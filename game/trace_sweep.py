@@ -40,9 +40,12 @@ def _rmse(a: np.ndarray, b: np.ndarray) -> float:
 
 
 def sweep(ctx, scene, size: tuple[int, int], samples=SAMPLES, methods=METHODS,
-          cells_per_triangle: float | None = None, log=print) -> tuple[list[dict], dict]:
-    """Run the sweep; returns the rows and a header of what was run where."""
-    extra = {} if cells_per_triangle is None else {"cells_per_triangle": cells_per_triangle}
+          extra: dict | None = None, log=print) -> tuple[list[dict], dict]:
+    """Run the sweep; returns the rows and a header of what was run where.
+
+    ``extra`` holds TraceSettings fields to vary (cells_per_triangle, vc_slots, vc_pool).
+    """
+    extra = dict(extra or {})
     renderer = Renderer(ctx, scene, size, gbuffer=True)
     rows = []
     try:
@@ -74,10 +77,13 @@ def sweep(ctx, scene, size: tuple[int, int], samples=SAMPLES, methods=METHODS,
         index = (size[1] - 1 - rows_) * size[0] + cols  # the tracer's point index (GL rows)
         embree_ms = {}
         for n in samples:
-            occluder.seconds, occluder.rays = 0.0, 0
             t = sr.tracer_samples(index, n)
-            sr.segment_visibility(occluder, origins, normals, light.a, light.b, t)
-            embree_ms[n] = (occluder.seconds * 1e3, occluder.rays)
+            times = []
+            for _ in range(REPEATS):
+                occluder.seconds, occluder.rays = 0.0, 0
+                sr.segment_visibility(occluder, origins, normals, light.a, light.b, t)
+                times.append(occluder.seconds * 1e3)
+            embree_ms[n] = (float(np.median(times)), occluder.rays)
             for method in methods:
                 if method == "brute" and n > BRUTE_MAX_SAMPLES:
                     continue
@@ -94,7 +100,7 @@ def sweep(ctx, scene, size: tuple[int, int], samples=SAMPLES, methods=METHODS,
                   "scene": str(scene.source) if scene.source else scene.name,
                   "size": list(size), "shaded_points": int(covered.sum()),
                   "grid_dims": [int(x) for x in spec.dims],
-                  "cells_per_triangle": tracer.grid.cells_per_triangle,
+                  "cells_per_triangle": tracer.grid.cells_per_triangle, "settings": extra,
                   "repeats": REPEATS, "reference_samples": REFERENCE_SAMPLES}
     finally:
         renderer.release()
@@ -173,6 +179,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="comma-separated sample counts")
     parser.add_argument("--methods", default=",".join(METHODS))
     parser.add_argument("--cells-per-triangle", type=float, default=None)
+    parser.add_argument("--vc-slots", type=int, default=None)
+    parser.add_argument("--vc-pool", type=int, default=None)
     parser.add_argument("--name", default="soft_sweep", help="file name stem")
     args = parser.parse_args(argv)
     w, h = (int(x) for x in args.size.lower().split("x"))
@@ -180,7 +188,10 @@ def main(argv: list[str] | None = None) -> int:
     ctx = context.create_headless()
     try:
         rows, header = sweep(ctx, scene, (w, h), [int(x) for x in args.samples.split(",")],
-                             args.methods.split(","), args.cells_per_triangle)
+                             args.methods.split(","),
+                             {k: v for k, v in (("cells_per_triangle", args.cells_per_triangle),
+                                                ("vc_slots", args.vc_slots),
+                                                ("vc_pool", args.vc_pool)) if v is not None})
     finally:
         ctx.release()
     args.out.mkdir(parents=True, exist_ok=True)
