@@ -122,6 +122,7 @@ class SoftTracer:
         self.results_ssbo = ctx.buffer(reserve=TRACE_RESULT_DTYPE.itemsize)
         self._pending_static_ms += (time.perf_counter() - start) * 1e3
         self._ray_id_base = 1
+        self._chunks: dict[tuple, int] = {}  # samples per dispatch that last worked
 
     # -- ownership -------------------------------------------------------------------------------
     def _buffers(self) -> list:
@@ -294,7 +295,8 @@ class SoftTracer:
                     pass
             # llvmpipe's loop budget (shaders/trace.comp loop_budget_left): halve the samples
             # per dispatch until no point runs out; the discarded attempts are timed apart.
-            chunk = self._first_chunk(settings)
+            key = (settings.method, settings.samples, settings.vc_slots, settings.vc_pool)
+            chunk = self._chunks.get(key) or self._first_chunk(settings)
             discarded = 0.0
             while True:
                 timer.ms.pop("trace", None)
@@ -306,6 +308,8 @@ class SoftTracer:
                     break
                 discarded += timer.ms["trace"]
                 chunk = (chunk + 1) // 2
+            # Later frames start from the split that worked (frames change little).
+            self._chunks[key] = chunk
         raw = np.frombuffer(self.results_ssbo.read(), TRACE_RESULT_DTYPE).reshape(h, w)[::-1]
         vis = raw["visibility"].astype(np.float32)
         vis = np.where(vis < 0.0, np.nan, vis).astype(np.float32)
