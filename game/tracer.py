@@ -11,8 +11,9 @@ Methods (CONTRACT.md section 2), all in shaders/trace.comp, picked by ``#define 
 - ``grid``: 3D-DDA through the grid, a small per-ray mailbox.
 - ``tri-cache``: [643] of the seed: a per-triangle (ray id, flag) word; the triangle-versus-light
   triangle test runs once per shaded point and triangle.
-- ``voxel-cache``: the seed's scheme, per invocation: a direct-mapped cache of ``vc_slots``
-  voxels with up to ``vc_cap`` candidates each, reset per point (see docs/soft.md).
+- ``voxel-cache``: the seed's scheme, per invocation: a direct-mapped table of ``vc_slots``
+  voxels whose candidates share a pool of ``vc_pool`` triangle ids, reset per point
+  (see docs/soft.md).
 - ``analytic``: exact: every triangle that meets the light triangle hides an interval of the
   segment; the union of the intervals is the hidden share.
 """
