@@ -102,3 +102,21 @@ def test_capture_soft_changes_the_image_and_dumps_soft(tmp_path):
     stats = json.loads((tmp_path / "s.json").read_text())
     ms = stats["frames"][0]["ms"]
     assert ms["total"] >= ms["soft_trace"] > 0
+
+
+def test_sweep_writes_csv_json_and_chart(tmp_path):
+    pytest.importorskip("matplotlib")  # a [dev] extra: the chart needs it
+    result = subprocess.run(
+        [sys.executable, "-m", "game.trace_sweep", str(TINY), "--size", "48x27", "--samples",
+         "1,4", "--methods", "grid,voxel-cache", "--out", str(tmp_path), "--name", "s"],
+        cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr
+    stats = json.loads((tmp_path / "s.json").read_text())
+    rows = stats["rows"]
+    assert [(r["method"], r["samples"]) for r in rows] == [
+        ("analytic", 0), ("grid", 1), ("voxel-cache", 1), ("grid", 4), ("voxel-cache", 4)]
+    for r in rows[1:]:
+        assert r["embree_ms"] > 0 and r["trace_ms"] > 0 and r["truncated"] == 0
+    assert rows[3]["rmse_analytic"] < rows[1]["rmse_analytic"]
+    assert (tmp_path / "s.csv").read_text().startswith("method,samples,")
+    assert (tmp_path / "s.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
