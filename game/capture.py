@@ -29,6 +29,7 @@ class CaptureOptions:
     debug_view: str = "none"
     clock: str = "auto"
     settings: shadow_methods.ShadowSettings = field(default_factory=shadow_methods.ShadowSettings)
+    soft: object | None = None  # a tracer.TraceSettings: composite the linear light's shadows
 
 
 def frame_stats(index: int, t: float, frame: Frame) -> dict:
@@ -69,6 +70,8 @@ def write_dump(stem: Path, scene: Scene, view: View, size: tuple[int, int], t: f
         "view": view.view.astype(np.float64), "proj": view.proj.astype(np.float64),
         "size": np.array(size, dtype=np.int64), "time": np.float64(t),
     }
+    if "soft" in g:  # the linear light's traced visibility (game/trace_run.py)
+        arrays["soft"] = g["soft"]
     outputs.write_npz(stem.with_suffix(".npz"), arrays)
     glb = frame_geometry(scene, t).export(file_type="glb")
     outputs.write_bytes(stem.with_suffix(".glb"), glb)
@@ -77,8 +80,11 @@ def write_dump(stem: Path, scene: Scene, view: View, size: tuple[int, int], t: f
 def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
     """Render ``opts.frames`` frames and write them; returns the stats document."""
     opts.out.mkdir(parents=True, exist_ok=True)
-    renderer = Renderer(ctx, scene, opts.size, opts.settings, gbuffer=opts.dump,
-                        clock=opts.clock)
+    from . import trace_run
+
+    traced = opts.settings.method == trace_run.TRACED_METHOD
+    renderer = Renderer(ctx, scene, opts.size, opts.settings,
+                        gbuffer=opts.dump or traced or opts.soft is not None, clock=opts.clock)
     renderer.debug_view = opts.debug_view
     view = View.from_camera(scene.camera, opts.size)
     frames = frame_log.FrameLog()  # on disk: a long run's memory stays flat (issue 6)
@@ -86,6 +92,10 @@ def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
         for k in range(opts.frames):
             t = opts.time + k / opts.fps
             frame = renderer.render(t, view)
+            if traced:
+                frame, _ = trace_run.traced_frame(renderer, frame, t)
+            if opts.soft is not None:
+                frame, _ = trace_run.soft_frame(renderer, frame, t, opts.soft)
             stem = opts.out / f"frame_{k:04d}"
             outputs.write_png(stem.with_suffix(".png"), frame.image)
             if opts.dump:

@@ -22,8 +22,6 @@ NOT_YET = {
     "static-dynamic": "the static-dynamic baseline arrives with the benchmark (issue 3)",
 
     "csm": "cascaded shadow maps arrive with the benchmark (issue 3)",
-
-    "traced": "ray-traced hard shadows arrive with the soft-shadow tracer (issue 4)",
 }
 MAX_SIZE = 16384
 DEFAULT_OUT = Path("captures")
@@ -142,13 +140,67 @@ def cmd_play(args) -> int:
 
 # -- trace (soft shadows of the linear light, issue 4) --------------------------------------
 def _add_trace_parser(sub) -> None:
+    from .tracer import TraceSettings
+
+    d = TraceSettings()
     trace = sub.add_parser("trace", help="soft shadows of the linear light (compute pass)")
-    trace.add_argument("scene", nargs="?")
+    trace.add_argument("scene", nargs="?", help="scene file (default: the built-in scene)")
     trace.add_argument("--method", choices=TRACE_METHODS, default="voxel-cache")
+    trace.add_argument("--samples", type=_positive_int, default=d.samples, metavar="N",
+                       help="stratified samples along the segment per shaded point")
+    trace.add_argument("--size", type=_size, default=(960, 540), metavar="WxH")
+    trace.add_argument("--time", type=_finite, default=0.0, help="scene time of the first frame")
+    trace.add_argument("--frames", type=_positive_int, default=1)
+    trace.add_argument("--fps", type=_positive, default=30.0, help="frames per scene second")
+    trace.add_argument("--out", type=Path, default=DEFAULT_OUT, metavar="DIR")
+    trace.add_argument("--dump", action="store_true", help="write npz (with soft) + glb")
+    trace.add_argument("--stats", type=Path, metavar="FILE", help="write per-frame stats JSON")
+    trace.add_argument("--clock", choices=("auto", "cpu-finish", "gpu-query"), default="auto")
+    g = trace.add_argument_group("tracer parameters")
+    g.add_argument("--cells-per-triangle", type=_positive, default=d.cells_per_triangle,
+                   help="grid resolution: cells per triangle of the scene")
+    g.add_argument("--vc-slots", type=_positive_int, default=d.vc_slots,
+                   help="voxel-cache: voxels cached per shaded point (a power of two)")
+    g.add_argument("--vc-pool", type=_positive_int, default=d.vc_pool,
+                   help="voxel-cache: candidate triangle ids cached per shaded point")
+    g.add_argument("--mailbox", type=_positive_int, default=d.mailbox,
+                   help="triangles remembered per ray (mailboxing)")
+
+
+def _trace_settings(args):
+    from .tracer import TraceSettings
+
+    if args.vc_slots & (args.vc_slots - 1):
+        raise ArgumentError(f"--vc-slots {args.vc_slots}: must be a power of two")
+    return TraceSettings(method=args.method, samples=args.samples,
+                         cells_per_triangle=args.cells_per_triangle, vc_slots=args.vc_slots,
+                         vc_pool=args.vc_pool, mailbox=args.mailbox)
 
 
 def cmd_trace(args) -> int:
-    raise GameError("trace: not available yet (issue 4)")
+    from . import context, trace_run
+
+    _check_out(args.out)
+    if args.stats is not None and args.stats.is_dir():
+        raise ArgumentError(f"--stats {args.stats}: is a folder")
+    settings = _trace_settings(args)
+    scene = _load(args.scene)
+    if scene.linear_light is None:
+        raise GameError(f"{args.scene or 'the built-in scene'}: has no [linear_light] to trace")
+    ctx = context.create_headless()
+    try:
+        opts = trace_run.TraceOptions(
+            out=args.out, frames=args.frames, size=args.size, time=args.time, fps=args.fps,
+            dump=args.dump, stats=args.stats, clock=args.clock, settings=settings)
+        stats = trace_run.run(ctx, scene, opts)
+    finally:
+        ctx.release()
+    cut = sum(f["truncated_points"] for f in stats["frames"])
+    if cut:
+        print(f"warning: {cut} point(s) ran out of the GL driver's loop budget even at one "
+              "sample per dispatch; their visibility is incomplete", file=sys.stderr)
+    print(f"wrote {args.frames} frame(s) to {args.out}/: {trace_run.summary(stats)}")
+    return 0
 
 
 # -- bench (speed-versus-accuracy sweeps, issue 3) ------------------------------------------
@@ -177,6 +229,9 @@ def build_parser() -> argparse.ArgumentParser:
     cap.add_argument("--dump", action="store_true", help="write npz + glb beside each frame")
     cap.add_argument("--stats", type=Path, metavar="FILE", help="write per-frame stats JSON")
     cap.add_argument("--overlay", action="store_true", help="draw the timing overlay")
+    cap.add_argument("--soft", action="store_true",
+                     help="light the frames by the linear light, with traced soft shadows "
+                          "(voxel-cache, 32 samples; see python -m game trace)")
     _add_shadow_options(cap)
 
     _add_trace_parser(sub)
@@ -202,6 +257,17 @@ def _check_out(path: Path) -> None:
         raise ArgumentError(f"--out {path}: exists and is not a folder")
 
 
+def _soft_settings(args, scene):
+    """capture --soft: the tracer's defaults; a scene without a linear light is an error."""
+    if not args.soft:
+        return None
+    from .tracer import TraceSettings
+
+    if scene.linear_light is None:
+        raise GameError(f"--soft: {args.scene or 'the built-in scene'} has no [linear_light]")
+    return TraceSettings()
+
+
 def cmd_capture(args) -> int:
     from . import capture, context
 
@@ -219,7 +285,7 @@ def cmd_capture(args) -> int:
         opts = capture.CaptureOptions(
             out=args.out, frames=args.frames, size=args.size, time=args.time, fps=args.fps,
             dump=args.dump, stats=args.stats, debug_view=args.debug_view, clock=args.clock,
-            settings=_settings(args))
+            settings=_settings(args), soft=_soft_settings(args, scene))
         stats = capture.run(ctx, scene, opts)
     finally:
         ctx.release()

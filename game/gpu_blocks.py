@@ -55,3 +55,43 @@ def max_maps(ctx) -> int:
     """How many ShadowMap records fit the uniform block on this driver."""
     limit = int(ctx.info.get("GL_MAX_UNIFORM_BLOCK_SIZE", 16384))
     return min(limit // MAP_DTYPE.itemsize, 1024)
+
+# Keep in sync with shaders/trace_blocks.glsl: uniform block TraceParams (game/tracer.py).
+TRACE_DTYPE = np.dtype([
+    ("grid_origin", "<f4", 4),  # xyz: the grid's lower corner
+    ("grid_cell", "<f4", 4),    # xyz: cell size (metres)
+    ("grid_dims", "<i4", 4),    # xyz: cells per axis; w: cells in all
+    ("light_a", "<f4", 4),      # xyz: segment start; point: position; directional: to the light
+    ("light_b", "<f4", 4),      # xyz: segment end
+    ("offset", "<f4", 4),       # x: ray start offset (m), y: extra per metre from the origin,
+                                # z: far distance of a directional light's rays
+    ("counts", "<i4", 4),       # x: samples, y: triangles, z: static triangles, w: ray id base
+    ("size", "<i4", 4),         # x: width, y: height, z: light mode (TRACE_LIGHT_*)
+    # x: first sample of this dispatch, y: samples in it, z: 1 to add to the stored results,
+    # w: 2, the trip count of the loop that detects llvmpipe's loop limit (game/tracer.py)
+    ("range", "<i4", 4),
+])
+assert TRACE_DTYPE.itemsize == 9 * 16
+
+# Keep in sync with shaders/trace_blocks.glsl: struct PointResult, one per pixel.
+TRACE_RESULT_DTYPE = np.dtype([
+    ("visibility", "<f4"),              # visible share of the light; < 0 where no geometry
+    ("ray_triangle_tests", "<u4"),
+    ("triangle_triangle_tests", "<u4"),
+    ("voxels_visited", "<u4"),
+    ("candidates", "<u4"),
+    ("overflows", "<u4"),
+    ("truncated", "<u4"),                # 1: the shader ran out of llvmpipe's loop budget
+    ("visible", "<u4"),                  # visible samples so far (accumulated over dispatches)
+])
+assert TRACE_RESULT_DTYPE.itemsize == 32
+
+TRACE_LIGHT_SEGMENT, TRACE_LIGHT_POINT, TRACE_LIGHT_DIRECTIONAL = 0, 1, 2
+TRACE_BINDINGS = {
+    "TRACE_PARAMS_BINDING": 5,
+    "TRIANGLES_BINDING": 6,
+    "STATIC_CELLS_BINDING": 7,
+    "DYNAMIC_CELLS_BINDING": 8,
+    "TRI_STATE_BINDING": 9,
+    "RESULTS_BINDING": 10,
+}

@@ -20,11 +20,13 @@ from .gpu_blocks import FRAME_DTYPE, LIGHT_KINDS, MAP_DTYPE
 from .limits import GLLimits, fit_settings
 from .scene import Body, Camera, Character, Scene
 from .timing import PassTimer
+from .tracer import SoftTracer, TraceResult, TraceSettings
 
 SKY = (0.58, 0.68, 0.80)
 DEBUG_VIEWS = {"none": gpu_blocks.DEBUG_NONE, "map": gpu_blocks.DEBUG_MAP,
                "map-count": gpu_blocks.DEBUG_MAP_COUNT}
 SHADOW_UNIT = 0  # texture unit of the depth array
+SOFT_UNIT = 4    # texture unit of the soft visibility (game/tracer.py uses 1-3)
 LAYERED_EXTENSION = "GL_ARB_shader_viewport_layer_array"
 
 
@@ -91,6 +93,8 @@ class Renderer:
         self._owned: list = []
         self._array: DepthArray | None = None
         self._static_order: list[int] | None = None
+        self._tracer: SoftTracer | None = None  # the soft-shadow pass, made on first use
+        self._soft_shading = None  # (program, vertex array, visibility texture), on first use
 
         self.depth_prog = self._own(ctx.program(
             vertex_shader=glsl.build("depth.vert", _defines(ctx)),
@@ -107,7 +111,8 @@ class Renderer:
                 fragment_shader=glsl.build("depth.frag")))
         self.shade_prog = self._own(ctx.program(
             vertex_shader=glsl.build("shade.vert", _defines(ctx)),
-            fragment_shader=glsl.build("shade.frag", _defines(ctx, {"GBUFFER": gbuffer}))))
+            fragment_shader=glsl.build("shade.frag", _defines(ctx, {"GBUFFER": gbuffer,
+                                                                    "SOFT": False}))))
 
         vertices = np.empty(len(self.geom.positions), dtype=[("p", "<f4", 3), ("o", "<i4")])
         vertices["p"] = self.geom.positions
@@ -168,6 +173,9 @@ class Renderer:
         if self._array is not None:
             self._array.release()
             self._array = None
+        if self._tracer is not None:
+            self._tracer.release()
+            self._tracer = None
         for obj in reversed(self._owned):
             obj.release()
         self._owned = []
@@ -367,6 +375,75 @@ class Renderer:
         obj = np.where(covered, np.rint(pos[..., 3]), -1).astype(np.int32)
         lit = np.where(covered, nrm[..., 3], np.nan).astype(np.float32)
         return {"position": position, "normal": normal, "object": obj, "lit": lit}
+
+    def trace(self, t: float, settings: TraceSettings, light=None) -> TraceResult:
+        """Run the soft-shadow pass (game/tracer.py) over the G-buffer of the last frame.
+
+        ``light`` is a tracer light tuple; default: the scene's linear light. The tracer is
+        made on first use, kept for later frames (its static grid is cached) and released with
+        the renderer; a new ``cells_per_triangle`` makes a new one.
+        """
+        if not self.gbuffer:
+            raise RuntimeError("the soft-shadow pass needs a renderer made with gbuffer=True")
+        tracer = self._tracer
+        if tracer is None or tracer.grid.cells_per_triangle != settings.cells_per_triangle:
+            if tracer is not None:
+                tracer.release()
+            tracer = self._tracer = SoftTracer(self.ctx, self.geom, self.scene,
+                                               settings.cells_per_triangle, self.timer.clock)
+        if light is None:
+            segment = self.scene.linear_light
+            if segment is None:
+                raise RuntimeError("the scene has no [linear_light]")
+            light = (gpu_blocks.TRACE_LIGHT_SEGMENT, segment.a, segment.b)
+        textures = (self.gbuffer_tex[0], self.gbuffer_tex[1], self.color_tex)
+        return tracer.trace(textures, self.size, self._models(t), settings, light)
+
+    def shade_soft(self, result: TraceResult, hard: bool = False) -> np.ndarray:
+        """Shade the last frame again, lit by the linear light through ``result``'s visibility
+        (``hard``: by the hard light, ``result`` being its traced visibility).
+
+        Returns the (H, W, 3) image; the G-buffer textures are left as the frame wrote them.
+        """
+        ctx = self.ctx
+        if self._soft_shading is None:
+            prog = self._own(ctx.program(
+                vertex_shader=glsl.build("shade.vert", _defines(ctx)),
+                fragment_shader=glsl.build("shade.frag", _defines(
+                    ctx, {"GBUFFER": self.gbuffer, "SOFT": True}))))
+            content = [(self.vbo, "3f 1i", "in_position", "in_object")]
+            vao = self._own(ctx.vertex_array(prog, content, self.ibo, 4))
+            tex = self._own(ctx.texture(self.size, 1, dtype="f4"))
+            self._soft_shading = (prog, vao, tex)
+        prog, vao, tex = self._soft_shading
+        vis = np.nan_to_num(result.visibility[::-1], nan=1.0).astype(np.float32)
+        tex.write(np.ascontiguousarray(vis).tobytes())
+        segment = self.scene.linear_light
+        with self.timer.measure("composite"):
+            self.target.use()
+            self.target.viewport = (0, 0, *self.size)
+            self.target.clear(*SKY, 0.0)
+            self._array.bind(SHADOW_UNIT)
+            tex.use(SOFT_UNIT)
+            prog["u_shadow_maps"].value = SHADOW_UNIT
+            prog["u_soft"].value = SOFT_UNIT
+            prog["u_soft_hard"].value = hard
+            if not hard:
+                middle = (segment.a + segment.b) / 2
+                prog["u_soft_light"].value = tuple(float(x) for x in middle)
+            closed, total = self.layout.n_closed, len(self.layout.indices)
+            if closed:
+                ctx.enable(moderngl.CULL_FACE)
+                vao.render(moderngl.TRIANGLES, vertices=closed)
+                ctx.disable(moderngl.CULL_FACE)
+            if total > closed:
+                vao.render(moderngl.TRIANGLES, vertices=total - closed, first=closed)
+        rgba = np.frombuffer(self.target.read(components=4, attachment=0), np.uint8)
+        return np.ascontiguousarray(rgba.reshape(self.size[1], self.size[0], 4)[::-1, :, :3])
+
+    @property
+    def soft_tracer(self) -> SoftTracer | None:
+        return self._tracer
 
     @property
     def shadow_memory_bytes(self) -> int:

@@ -490,4 +490,8 @@ def create(geom: PackedGeometry, light: Light, settings: ShadowSettings, max_lay
         return ClumpedShadows(geom, light, settings, max_layers)
     if settings.method == "single":
         return SingleShadows(geom, light, settings)
+    if settings.method == "traced":  # exact, from the soft-shadow tracer (issue 4)
+        from .traced_shadows import TracedShadows
+
+        return TracedShadows()
     raise ValueError(f"unknown shadow method {settings.method!r}; valid: {', '.join(METHODS)}")

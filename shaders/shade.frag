@@ -15,6 +15,12 @@ layout(location = 2) out vec4 out_normal;    // xyz unit normal facing the camer
 
 const float AMBIENT = 0.25;
 
+#if SOFT
+uniform sampler2D u_soft;   // the linear light's traced visibility per pixel (game/tracer.py)
+uniform vec3 u_soft_light;  // the segment's midpoint: the soft light's direction for N.L
+uniform bool u_soft_hard;   // true: u_soft is the hard light's traced visibility instead
+#endif
+
 vec3 palette(int i) {
     // Distinct, stable colours for object and map indices.
     float h = fract(float(i) * 0.618034 + 0.11);
@@ -46,6 +52,12 @@ void main() {
     bool floor_object = v_object < u_options.w;
     vec3 base = floor_object ? vec3(0.62, 0.64, 0.58) : palette(v_object);
     vec3 colour = base * (AMBIENT + (1.0 - AMBIENT) * max(dot(n, l), 0.0) * vis * cone);
+#if SOFT
+    float soft = texelFetch(u_soft, ivec2(gl_FragCoord.xy), 0).r;
+    vec3 ls = u_soft_hard ? l : normalize(u_soft_light - v_world);
+    colour = base * (AMBIENT + (1.0 - AMBIENT) * max(dot(n, ls), 0.0) * soft
+                     * (u_soft_hard ? cone : 1.0));
+#endif
     if (u_counts.w == DEBUG_MAP) {
         colour = (used < 0 ? vec3(0.5) : palette(used + 7)) * (0.55 + 0.45 * vis);
     } else if (u_counts.w == DEBUG_MAP_COUNT) {
