@@ -55,6 +55,12 @@ def write_with(path: str | Path, writer: Callable[[BinaryIO], None]) -> None:
         writer(f)
 
 
+def write_figure(path: str | Path, figure, fmt: str = "png", dpi: int = 110) -> None:
+    """A matplotlib figure, saved through the same temp-and-rename as every other file."""
+    with atomic_file(path) as f:
+        figure.savefig(f, format=fmt, dpi=dpi)
+
+
 def png_bytes(image: np.ndarray) -> bytes:
     """Encode an (H, W, 3) or (H, W, 4) uint8 image as PNG (row 0 at the top)."""
     image = np.ascontiguousarray(image, dtype=np.uint8)

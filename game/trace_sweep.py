@@ -163,11 +163,9 @@ def write_chart(path: Path, rows: list[dict], header: dict) -> None:
                  f"{header['renderer']}", fontsize=9)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
-    buf = io.BytesIO()
     fig.tight_layout()
-    fig.savefig(buf, format="png", dpi=110)
+    outputs.write_figure(path, fig)
     plt.close(fig)
-    outputs.write_bytes(path, buf.getvalue())
 
 
 def main(argv: list[str] | None = None) -> int:
