@@ -19,10 +19,6 @@ from .errors import GameError
 CAPTURE_METHODS = ("clumped", "single", "static-dynamic", "csm", "traced")
 TRACE_METHODS = ("brute", "grid", "tri-cache", "voxel-cache", "analytic")
 NOT_YET = {
-    "static-dynamic": "the static-dynamic baseline arrives with the benchmark (issue 3)",
-
-    "csm": "cascaded shadow maps arrive with the benchmark (issue 3)",
-
     "traced": "ray-traced hard shadows arrive with the soft-shadow tracer (issue 4)",
 }
 MAX_SIZE = 16384
@@ -85,6 +81,13 @@ def _non_negative(text: str) -> float:
     return value
 
 
+def _unit(text: str) -> float:
+    value = _finite(text)
+    if not 0.0 <= value <= 1.0:
+        raise argparse.ArgumentTypeError(f"must be in [0, 1], got {text!r}")
+    return value
+
+
 def _add_shadow_options(p: argparse.ArgumentParser) -> None:
     d = shadow_methods.ShadowSettings()
     g = p.add_argument_group("hard-shadow parameters")
@@ -100,6 +103,12 @@ def _add_shadow_options(p: argparse.ArgumentParser) -> None:
                    default=d.character_resolution, help="texels per side of each character map")
     g.add_argument("--single-resolution", type=_positive_int, default=d.single_resolution,
                    help="texels per side of the single baseline map")
+    g.add_argument("--cascades", type=_positive_int, default=d.cascades,
+                   help="csm: number of cascades")
+    g.add_argument("--cascade-lambda", type=_unit, default=d.cascade_lambda,
+                   help="csm: split blend, 1 logarithmic, 0 uniform")
+    g.add_argument("--cascade-resolution", type=_positive_int, default=d.cascade_resolution,
+                   help="csm: texels per side of each cascade")
     g.add_argument("--normal-bias", type=_non_negative, default=d.normal_bias,
                    help="normal offset in texels")
     g.add_argument("--depth-bias", type=_non_negative, default=d.depth_bias,
@@ -122,7 +131,9 @@ def _settings(args) -> shadow_methods.ShadowSettings:
         texels_per_metre=args.texels_per_metre, clump_resolution=args.clump_resolution,
         character_resolution=args.character_resolution,
         single_resolution=args.single_resolution, normal_bias=args.normal_bias,
-        depth_bias=args.depth_bias, slope_bias=args.slope_bias, pcf=args.pcf, grid=args.grid)
+        depth_bias=args.depth_bias, slope_bias=args.slope_bias, pcf=args.pcf, grid=args.grid,
+        cascades=args.cascades, cascade_lambda=args.cascade_lambda,
+        cascade_resolution=args.cascade_resolution)
 
 
 # -- play (the walkaround window, issue 5) -------------------------------------------------
@@ -213,7 +224,8 @@ def cmd_capture(args) -> int:
     scene = _load(args.scene)
     ctx = context.create_headless()
     try:
-        for name in ("clump_resolution", "character_resolution", "single_resolution"):
+        for name in ("clump_resolution", "character_resolution", "single_resolution",
+                     "cascade_resolution"):
             value = getattr(args, name)
             limit = int(ctx.info["GL_MAX_TEXTURE_SIZE"])
             if value > limit:

@@ -66,7 +66,8 @@ def _defines(ctx, extra: dict | None = None) -> dict:
     d.update(MAX_MAPS=gpu_blocks.max_maps(ctx),
              GRID_NONE=gpu_blocks.GRID_NONE, GRID_ORTHO=gpu_blocks.GRID_ORTHO,
              GRID_OCTAHEDRAL=gpu_blocks.GRID_OCTAHEDRAL,
-             DEBUG_MAP=gpu_blocks.DEBUG_MAP, DEBUG_MAP_COUNT=gpu_blocks.DEBUG_MAP_COUNT)
+             DEBUG_MAP=gpu_blocks.DEBUG_MAP, DEBUG_MAP_COUNT=gpu_blocks.DEBUG_MAP_COUNT,
+             KIND_CASCADE=shadow_methods.KIND_CASCADE)
     d.update(extra or {})
     return d
 
@@ -278,7 +279,7 @@ class Renderer:
         with timer.measure("total", wall=True):
             # The array first: re-creating it marks every cached layer for re-rendering.
             array = self._ensure_array(self.method.resolution, self.method.layers)
-            plan = self.method.plan(models)
+            plan = self.method.plan(models, view)
             # The method keeps one order list until it re-clumps: identity says "unchanged".
             if plan.static_order is not None and plan.static_order is not self._static_order:
                 self.layout = geometry.layout(self.geom, plan.static_order)

@@ -21,8 +21,9 @@ from .map_grid import octahedral_encode
 from .scene import Light
 from .shadow_fit import MapFit, fit_directional, fit_perspective, outside_cone
 
-KIND_CLUMP, KIND_CHARACTER, KIND_ALL = 0, 1, 2
-METHODS = ("clumped", "single")
+# KIND_CASCADE: keep in sync with shaders/shadow.glsl (the finest cascade holding a fragment wins).
+KIND_CLUMP, KIND_CHARACTER, KIND_ALL, KIND_CASCADE = 0, 1, 2, 3
+METHODS = ("clumped", "single", "static-dynamic", "csm")
 CLUMPINGS = clumping.STRATEGIES
 
 # Defaults chosen so the accuracy bar of tests/test_accuracy.py holds without per-scene tuning.
@@ -35,6 +36,9 @@ DEPTH_BIAS_TEXELS = 1.0        # offset towards the light
 SLOPE_BIAS_TEXELS = 1.0        # offset towards the light, times tan(angle to the light)
 MAX_SLOPE = 8.0                # cap on that tan, for grazing light
 SHADOW_BUDGET_MIB = 512        # depth-array memory the clumped method may use
+CASCADES = 4                   # csm: cascades (Bevy, Godot and Filament default to 4)
+CASCADE_LAMBDA = 0.75          # csm: practical split blend, 1 logarithmic, 0 uniform
+CASCADE_RESOLUTION = 2048      # csm: texels per side of each cascade
 
 
 @dataclass
@@ -55,6 +59,9 @@ class ShadowSettings:
     pcf: bool = False
     grid: str = "auto"
     budget_mib: float = SHADOW_BUDGET_MIB
+    cascades: int = CASCADES
+    cascade_lambda: float = CASCADE_LAMBDA
+    cascade_resolution: int = CASCADE_RESOLUTION
 
 
 @dataclass
@@ -190,8 +197,12 @@ class ClumpedShadows:
                 cover=None if rects is None else rects[list(clump.members)]))
         self._static_dirty = True
 
-    def plan(self, models: np.ndarray) -> ShadowPlan:
-        """The maps for this frame; ``models`` are the characters' (n, 4, 4) matrices."""
+    def plan(self, models: np.ndarray, view=None) -> ShadowPlan:
+        """The maps for this frame; ``models`` are the characters' (n, 4, 4) matrices.
+
+        ``view`` (the camera's renderer.View) is unused here; view-dependent methods (csm)
+        need it.
+        """
         s = self.settings
         maps = list(self.static_maps)
         render_static = list(range(len(maps))) if self._static_dirty else []
@@ -260,7 +271,7 @@ class SingleShadows:
     def mark_rendered_lost(self) -> None:
         pass
 
-    def plan(self, models: np.ndarray) -> ShadowPlan:
+    def plan(self, models: np.ndarray, view=None) -> ShadowPlan:
         res = self.settings.single_resolution
         parts = [self._static_points] + [
             transforms.transform_points(models[i], self.geom.character_points[i])
@@ -287,4 +298,10 @@ def create(geom: PackedGeometry, light: Light, settings: ShadowSettings, max_lay
         return ClumpedShadows(geom, light, settings, max_layers)
     if settings.method == "single":
         return SingleShadows(geom, light, settings)
+    if settings.method in ("static-dynamic", "csm"):
+        from . import baselines  # the baselines build on this module's records
+
+        if settings.method == "csm":
+            return baselines.CascadedShadows(geom, light, settings)
+        return baselines.StaticDynamicShadows(geom, light, settings)
     raise ValueError(f"unknown shadow method {settings.method!r}; valid: {', '.join(METHODS)}")
