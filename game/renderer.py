@@ -54,6 +54,7 @@ class Frame:
     maps_total: int
     triangles_to_maps: int
     gbuffer: dict[str, np.ndarray] | None = None  # position, normal, object, lit
+    texels_to_maps: int = 0    # depth texels cleared and rendered into maps this frame
 
     @property
     def maps_per_fragment(self) -> float:
@@ -348,7 +349,9 @@ class Renderer:
             covered=rgba[..., 3] > 0,
             maps_sampled=np.maximum(rgba[..., 3].astype(np.int32) - 1, 0),
             ms=ms, maps_rendered=rendered, maps_cached=len(plan.maps) - rendered,
-            maps_total=len(plan.maps), triangles_to_maps=triangles, gbuffer=gbuffer)
+            maps_total=len(plan.maps), triangles_to_maps=triangles, gbuffer=gbuffer,
+            texels_to_maps=sum(plan.maps[i].viewport ** 2
+                               for i in (*plan.render_static, *plan.render_dynamic)))
 
     def _read_gbuffer(self, rgba: np.ndarray) -> dict[str, np.ndarray]:
         h, w = self.size[1], self.size[0]
