@@ -370,7 +370,7 @@ def write_rows(path: Path, rows: list[dict]) -> None:
 
 def _cell(value):
     if isinstance(value, float):
-        return "" if math.isnan(value) else f"{value:.6g}"
+        return "" if math.isnan(value) else f"{value:.10g}"
     return "" if value is None else value
 
 
@@ -391,8 +391,11 @@ def plan_runs(opts: BenchOptions, max_texture: int) -> list[tuple[BenchScene, Ru
     return runs
 
 
-def run(opts: BenchOptions) -> dict:
-    """Run the sweep (skipping finished rows), then write the charts; returns a summary."""
+def run(opts: BenchOptions, ctx=None) -> dict:
+    """Run the sweep (skipping finished rows), then write the charts; returns a summary.
+
+    ``ctx``: a GL context to use (and leave open); by default one is made and released here.
+    """
     from . import charts
 
     opts.out.mkdir(parents=True, exist_ok=True)
@@ -401,7 +404,8 @@ def run(opts: BenchOptions) -> dict:
     csv_path = opts.out / "bench.csv"
     rows = read_rows(csv_path)
     done = {r["run"] for r in rows}
-    ctx = context.create_headless()
+    own = ctx is None
+    ctx = context.create_headless() if own else ctx
     try:
         runs = plan_runs(opts, int(ctx.info["GL_MAX_TEXTURE_SIZE"]))
         todo = [(b, s) for b, s in runs if s.run_id(opts.size) not in done]
@@ -421,7 +425,8 @@ def run(opts: BenchOptions) -> dict:
         finally:
             bar.close()
     finally:
-        ctx.release()
+        if own:
+            ctx.release()
     written = charts.write_all(rows, opts.out / "charts")
     summary = acceptance(rows)
     outputs.write_json(opts.out / "summary.json", summary)
