@@ -45,12 +45,20 @@ PASSES = ("shadow_static", "shadow_dynamic", "shade", "total")
 PARAM_KEYS = ("clumping", "clump_count", "texels_per_metre", "clump_resolution",
               "character_resolution", "single_resolution", "cascades", "cascade_lambda",
               "cascade_resolution")
+# Bench-only parameter: re-render every cached map every frame, to measure the cost of many
+# small maps (framebuffer and layer switches, clears) against one map at equal triangles.
+RERENDER = "rerender_static"
+# (clump count, clump map resolution) of that experiment: the same statics and the same texels
+# (4096^2) in 1 to 64 maps, so what grows with the count is the per-map cost.
+SWITCH_SERIES = ((1, 4096), (4, 2048), (16, 1024), (64, 512))
 COLUMNS = (
-    ["run", "scene", "group", "factor", "value", "method", *PARAM_KEYS, "width", "height",
+    ["run", "scene", "group", "factor", "value", "method", *PARAM_KEYS, RERENDER, "width",
+     "height",
      "frames", "warmup", "renderer", "version", "clock", "static_triangles", "characters"]
     + [f"{p}_ms_{stat}" for p in PASSES for stat in ("median", "p95")]
     + ["maps_total", "maps_rendered", "triangles_to_maps", "texels_to_maps",
-       "shadow_memory_mib", "maps_per_fragment", "error", "misclassified", "shadowed",
+       "shadow_memory_mib", "maps_per_fragment", "static_maps", "footprint_overlap",
+       "static_texels_per_metre", "error", "misclassified", "shadowed",
        "error_frames", "flicker", "flicker_raw", "flicker_reference", "nan_pixels", "notes",
        "status", "seconds"]
 )
@@ -75,7 +83,12 @@ class RunSpec:
     params: tuple[tuple[str, object], ...] = ()
 
     def settings(self) -> shadow_methods.ShadowSettings:
-        return shadow_methods.ShadowSettings(method=self.method, **dict(self.params))
+        params = {k: v for k, v in self.params if k != RERENDER}
+        return shadow_methods.ShadowSettings(method=self.method, **params)
+
+    @property
+    def rerender(self) -> bool:
+        return bool(dict(self.params).get(RERENDER, False))
 
     def run_id(self, size: tuple[int, int]) -> str:
         p = ",".join(f"{k}={v}" for k, v in self.params) or "defaults"
@@ -167,9 +180,17 @@ def method_grid(scene: BenchScene, quick: bool, max_texture: int) -> list[RunSpe
             return [RunSpec(k, "clumped", small), *defaults[1:]]
         return defaults
     if quick:
-        return [*defaults, RunSpec(k, "clumped", _p(clumping="world")),
-                RunSpec(k, "single", _p(single_resolution=1024)),
-                RunSpec(k, "csm", _p(cascade_resolution=1024))]
+        specs = [*defaults, RunSpec(k, "clumped", _p(clumping="world")),
+                 RunSpec(k, "single", _p(single_resolution=1024)),
+                 RunSpec(k, "csm", _p(cascade_resolution=1024))]
+        if scene.group == "town":
+            specs += [RunSpec(k, "clumped", _p(clump_count=n, clump_resolution=r,
+                                               **{RERENDER: True})) for n, r in SWITCH_SERIES]
+        return specs
+    if k == "town_4x4":
+        return [*defaults, RunSpec(k, "clumped", _p(clumping="world"))] + [
+            RunSpec(k, "clumped", _p(clump_count=n, clump_resolution=r, **{RERENDER: True}))
+            for n, r in SWITCH_SERIES]
     if k not in ("default", "town_8x8"):
         return [*defaults, RunSpec(k, "clumped", _p(clumping="world"))]
     specs = list(defaults)
@@ -190,6 +211,38 @@ def method_grid(scene: BenchScene, quick: bool, max_texture: int) -> list[RunSpe
     for lam in (0.5, 0.95):
         specs.append(RunSpec(k, "csm", _p(cascade_lambda=lam)))
     return specs
+
+
+def renderer_models(scene: Scene, t: float) -> np.ndarray:
+    """The characters' model matrices at time ``t``, as the renderer passes them to a plan."""
+    if not scene.characters:
+        return np.zeros((0, 4, 4))
+    return np.stack([c.model_matrix(t) for c in scene.characters])
+
+
+def footprints(maps: list[shadow_methods.MapRecord], cells: int = 1024) -> dict:
+    """How the maps holding statics cover light space (directional lights only).
+
+    ``footprint_overlap`` is the summed area of their rectangles over the area of their union
+    (1: no two maps overlap; a fragment under an overlap may read several maps);
+    ``static_texels_per_metre`` the median texel density of those maps.
+    """
+    out = {"static_maps": len(maps)}
+    if not maps or any(m.fit.perspective for m in maps):
+        return out
+    rects = np.array([m.fit.rect for m in maps])
+    lo, hi = rects[:, :2].min(axis=0), rects[:, 2:].max(axis=0)
+    step = (hi - lo).max() / cells
+    covered = np.zeros((cells + 1, cells + 1), bool)
+    for x0, y0, x1, y1 in rects:
+        i0, j0 = ((np.array([x0, y0]) - lo) / step).astype(int)
+        i1, j1 = np.ceil((np.array([x1, y1]) - lo) / step).astype(int)
+        covered[j0:j1, i0:i1] = True
+    union = covered.sum() * step * step
+    area = float(np.sum((rects[:, 2] - rects[:, 0]) * (rects[:, 3] - rects[:, 1])))
+    out["footprint_overlap"] = area / union if union > 0 else float("nan")
+    out["static_texels_per_metre"] = float(np.median([1.0 / m.fit.texel for m in maps]))
+    return out
 
 
 # -- one run --------------------------------------------------------------------------------
@@ -313,7 +366,7 @@ def run_one(ctx, bscene: BenchScene, scene: Scene, spec: RunSpec, opts: BenchOpt
     s = spec.settings()
     row: dict = {"run": spec.run_id(opts.size), "scene": bscene.key, "group": bscene.group,
                  "factor": bscene.factor, "value": bscene.value, "method": spec.method,
-                 **{k: getattr(s, k) for k in PARAM_KEYS},
+                 **{k: getattr(s, k) for k in PARAM_KEYS}, RERENDER: spec.rerender,
                  "width": opts.size[0], "height": opts.size[1], "frames": opts.frames,
                  "warmup": opts.warmup, **context.describe(ctx)}
     try:
@@ -325,9 +378,15 @@ def run_one(ctx, bscene: BenchScene, scene: Scene, spec: RunSpec, opts: BenchOpt
             row["characters"] = g.n_characters
             timed = []
             for k in range(opts.warmup + opts.frames):
-                frame = renderer.render(k / FPS, orbit_view(scene, opts.size, ORBIT_DEG * k))
+                if spec.rerender:
+                    renderer.method.mark_rendered_lost()
+                view = orbit_view(scene, opts.size, ORBIT_DEG * k)
+                frame = renderer.render(k / FPS, view)
                 if k >= opts.warmup:
                     timed.append(frame)
+            plan = renderer.method.plan(renderer_models(scene, k / FPS), view)
+            statics = set(range(g.first_static, g.first_character))
+            row.update(footprints([m for m in plan.maps if statics.intersection(m.objects)]))
             for p in PASSES:
                 row[f"{p}_ms_median"], row[f"{p}_ms_p95"] = _stats(
                     [f.ms.get(p, 0.0) for f in timed])
