@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import capture, context, outputs, reference, shadow_methods, stability, transforms
+from . import capture, context, floors, outputs, reference, shadow_methods, stability, transforms
 from .errors import GameError
 from .renderer import Renderer, View
 from .scene import Scene, default_scene_path, parse_scene
@@ -394,7 +394,7 @@ def run_one(ctx, bscene: BenchScene, scene: Scene, spec: RunSpec, opts: BenchOpt
                          "maps_per_fragment"):
                 row[name] = float(np.mean([getattr(f, name) for f in timed]))
             row["shadow_memory_mib"] = renderer.shadow_memory_bytes / 2**20
-            row["notes"] = "; ".join(renderer.method.notes + stability.floor_warnings(scene))
+            row["notes"] = "; ".join(renderer.method.notes + floors.floor_warnings(scene))
         finally:
             renderer.release()
         with tempfile.TemporaryDirectory(prefix="bench-", dir=opts.out) as tmp:

@@ -7,8 +7,7 @@ the scene's bounds, the scene's scale (0.01 to 1000 m), thin casters close to th
 (peter-panning), a floor raised above other objects (the seed's floor assumption failing), and
 more characters than the shading pass can hold maps for.
 
-``floor_warnings`` detects the raised floor: floors cast no shadow (the seed's assumption), so a
-floor with an object under it hides a shadow that really falls there.
+The raised floor is detected by ``floors.floor_warnings`` (capture and bench report it).
 """
 
 from __future__ import annotations
@@ -22,7 +21,6 @@ ELEVATIONS = (2.0, 10.0, 30.0, 60.0, 89.0, 90.0)
 SCALES = (0.01, 1.0, 1000.0)
 # More characters than the uniform block holds map records on llvmpipe (65536 / 128 = 512).
 MANY_CHARACTERS = 520
-FLOOR_CLEARANCE = 1e-3   # share of the floor's height an object may poke above its bottom
 
 
 @dataclass(frozen=True)
@@ -160,28 +158,3 @@ path   = [{_vec([r * math.cos(a), 0.3, r * math.sin(a)])}]
         out.append(Case("many_maps", "maps", MANY_CHARACTERS,
                         _layout(characters=ring, name="many_maps")))
     return out
-
-
-def floor_warnings(scene) -> list[str]:
-    """Floors that have another object below their top: they hide a shadow (they cast none).
-
-    The seed leaves floors out of every map: "no self-shadowing on the floor". That holds while a
-    floor is the lowest thing under it. A platform above a static breaks it: the static should be
-    in the platform's shadow but is lit.
-    """
-    notes = []
-    others = [*scene.statics, *scene.floors]
-    for floor in scene.floors:
-        lo, hi = floor.mesh.bounds
-        margin = FLOOR_CLEARANCE * max(hi[1] - lo[1], 1e-9)
-        for body in others:
-            if body is floor:
-                continue
-            blo, bhi = body.mesh.bounds
-            overlaps = np.all(blo[[0, 2]] < hi[[0, 2]]) and np.all(bhi[[0, 2]] > lo[[0, 2]])
-            if overlaps and blo[1] < lo[1] - margin:
-                notes.append(f"{floor.name} lies above {body.name}; floors cast no shadow, so "
-                             f"{body.name} is lit where the floor shades it (make the raised "
-                             f"floor a static to fix)")
-                break
-    return notes

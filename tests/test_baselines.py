@@ -104,3 +104,39 @@ def test_cascade_origin_moves_in_whole_texels():
     b = baselines.fit_cascade(np.array([1.734, 5.178, 0.0]), 10.0, -5, 5, rot, 1024)
     shift = (b.rect[:2] - a.rect[:2]) / a.texel
     assert np.allclose(shift, np.round(shift), atol=1e-6)
+
+
+def _cli(*args):
+    import subprocess
+    import sys
+
+    return subprocess.run([sys.executable, "-m", "game", *args], capture_output=True, text=True)
+
+
+def test_cli_runs_the_baselines_with_their_flags(tmp_path):
+    import json
+
+    stats = tmp_path / "s.json"
+    r = _cli("capture", "tests/scenes/tiny.toml", "--method", "csm", "--cascades", "2",
+             "--cascade-lambda", "0.5", "--cascade-resolution", "512", "--size", "80x45",
+             "--out", str(tmp_path), "--stats", str(stats))
+    assert r.returncode == 0, r.stderr
+    doc = json.loads(stats.read_text())
+    assert doc["settings"]["cascades"] == 2 and doc["frames"][0]["maps_total"] == 2
+    r = _cli("capture", "tests/scenes/tiny.toml", "--method", "static-dynamic", "--size",
+             "80x45", "--out", str(tmp_path))
+    assert r.returncode == 0, r.stderr
+    bad = _cli("capture", "--method", "csm", "--cascade-lambda", "1.5", "--out", str(tmp_path))
+    assert bad.returncode == 2 and "must be in [0, 1]" in bad.stderr
+    assert "Traceback" not in bad.stderr
+
+
+def test_capture_warns_about_a_raised_floor(tmp_path):
+    from game import stability
+
+    case = {c.name: c for c in stability.cases()}["raised_floor"]
+    scene = tmp_path / "raised.toml"
+    scene.write_text(case.text)
+    r = _cli("capture", str(scene), "--size", "80x45", "--out", str(tmp_path / "out"))
+    assert r.returncode == 0, r.stderr
+    assert "note: floor_1 lies above static_0" in r.stderr

@@ -8,7 +8,7 @@ every method misses the shadow that the platform really casts, and a warning say
 import numpy as np
 import pytest
 
-from game import capture, reference, shadow_methods, stability
+from game import capture, floors, reference, shadow_methods, stability
 from game.renderer import Renderer, View
 from game.scene import parse_scene
 
@@ -62,7 +62,7 @@ def test_methods_hold_on_the_stability_cases(ctx, name, method, tmp_path):
 
 def test_the_raised_floor_is_detected():
     warned = {name for name, c in CASES.items()
-              if stability.floor_warnings(parse_scene(c.text))}
+              if floors.floor_warnings(parse_scene(c.text))}
     assert warned == {"raised_floor"}
 
 
