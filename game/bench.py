@@ -56,6 +56,7 @@ COLUMNS = (
      "height",
      "frames", "warmup", "renderer", "version", "clock", "static_triangles", "characters"]
     + [f"{p}_ms_{stat}" for p in PASSES for stat in ("median", "p95")]
+    + ["repeats", "total_ms_spread"]
     + ["maps_total", "maps_rendered", "triangles_to_maps", "texels_to_maps",
        "shadow_memory_mib", "maps_per_fragment", "static_maps", "footprint_overlap",
        "static_texels_per_metre", "error", "misclassified", "shadowed",
@@ -104,6 +105,7 @@ class BenchOptions:
     warmup: int = 2
     error_frames: int = 2
     flicker_frames: int = 3
+    repeat: int = 1                      # timings per run, interleaved within a scene
     scenes: list[str] | None = None      # only these scene keys (fnmatch patterns)
     methods: list[str] | None = None
     reference: bool = True
@@ -360,8 +362,61 @@ def _score(ctx, scene: Scene, spec: RunSpec, opts: BenchOptions, tmp: Path) -> d
     return result
 
 
-def run_one(ctx, bscene: BenchScene, scene: Scene, spec: RunSpec, opts: BenchOptions) -> dict:
-    """Measure one run; a method that raises gives a row with ``status`` = failed: why."""
+FAILURES = (GameError, RuntimeError, ValueError)
+
+
+def measure_timing(ctx, scene: Scene, spec: RunSpec, opts: BenchOptions) -> dict:
+    """The timing frames of one run: per-pass median and p95, counters, footprints."""
+    out: dict = {}
+    renderer = Renderer(ctx, scene, opts.size, spec.settings())
+    try:
+        out["clock"] = renderer.timer.clock
+        g = renderer.geom
+        out["static_triangles"] = g.triangle_count(range(g.first_static, g.first_character))
+        out["characters"] = g.n_characters
+        timed = []
+        for k in range(opts.warmup + opts.frames):
+            if spec.rerender:
+                renderer.method.mark_rendered_lost()
+            view = orbit_view(scene, opts.size, ORBIT_DEG * k)
+            frame = renderer.render(k / FPS, view)
+            if k >= opts.warmup:
+                timed.append(frame)
+        plan = renderer.method.plan(renderer_models(scene, k / FPS), view)
+        statics = set(range(g.first_static, g.first_character))
+        out.update(footprints([m for m in plan.maps if statics.intersection(m.objects)]))
+        for p in PASSES:
+            out[f"{p}_ms_median"], out[f"{p}_ms_p95"] = _stats([f.ms.get(p, 0.0) for f in timed])
+        for name in ("maps_total", "maps_rendered", "triangles_to_maps", "texels_to_maps",
+                     "maps_per_fragment"):
+            out[name] = float(np.mean([getattr(f, name) for f in timed]))
+        out["shadow_memory_mib"] = renderer.shadow_memory_bytes / 2**20
+        out["notes"] = "; ".join(renderer.method.notes + floors.floor_warnings(scene))
+    finally:
+        renderer.release()
+    return out
+
+
+def combine(reps: list[dict]) -> dict:
+    """One row from repeated timings: the median over repetitions of each pass's median and p95,
+    and the spread of the total's medians ((max - min) / median)."""
+    out = dict(reps[0])
+    for p in PASSES:
+        for stat in ("median", "p95"):
+            out[f"{p}_ms_{stat}"] = float(np.median([r[f"{p}_ms_{stat}"] for r in reps]))
+    totals = [r["total_ms_median"] for r in reps]
+    out["repeats"] = len(reps)
+    out["total_ms_spread"] = (max(totals) - min(totals)) / out["total_ms_median"]
+    return out
+
+
+def run_one(ctx, bscene: BenchScene, scene: Scene, spec: RunSpec, opts: BenchOptions,
+            timings: list | None = None) -> dict:
+    """Measure one run; a method that raises gives a row with ``status`` = failed: why.
+
+    ``timings``: timing results already measured (``--repeat``, interleaved with the scene's
+    other runs); an exception in the list is raised here, as if measured now.
+    """
     start = time.perf_counter()
     s = spec.settings()
     row: dict = {"run": spec.run_id(opts.size), "scene": bscene.key, "group": bscene.group,
@@ -370,43 +425,37 @@ def run_one(ctx, bscene: BenchScene, scene: Scene, spec: RunSpec, opts: BenchOpt
                  "width": opts.size[0], "height": opts.size[1], "frames": opts.frames,
                  "warmup": opts.warmup, **context.describe(ctx)}
     try:
-        renderer = Renderer(ctx, scene, opts.size, s)
-        try:
-            row["clock"] = renderer.timer.clock
-            g = renderer.geom
-            row["static_triangles"] = g.triangle_count(range(g.first_static, g.first_character))
-            row["characters"] = g.n_characters
-            timed = []
-            for k in range(opts.warmup + opts.frames):
-                if spec.rerender:
-                    renderer.method.mark_rendered_lost()
-                view = orbit_view(scene, opts.size, ORBIT_DEG * k)
-                frame = renderer.render(k / FPS, view)
-                if k >= opts.warmup:
-                    timed.append(frame)
-            plan = renderer.method.plan(renderer_models(scene, k / FPS), view)
-            statics = set(range(g.first_static, g.first_character))
-            row.update(footprints([m for m in plan.maps if statics.intersection(m.objects)]))
-            for p in PASSES:
-                row[f"{p}_ms_median"], row[f"{p}_ms_p95"] = _stats(
-                    [f.ms.get(p, 0.0) for f in timed])
-            for name in ("maps_total", "maps_rendered", "triangles_to_maps", "texels_to_maps",
-                         "maps_per_fragment"):
-                row[name] = float(np.mean([getattr(f, name) for f in timed]))
-            row["shadow_memory_mib"] = renderer.shadow_memory_bytes / 2**20
-            row["notes"] = "; ".join(renderer.method.notes + floors.floor_warnings(scene))
-        finally:
-            renderer.release()
+        reps = timings if timings is not None else [measure_timing(ctx, scene, spec, opts)]
+        for rep in reps:
+            if isinstance(rep, BaseException):
+                raise rep
+        row.update(combine(reps))
         with tempfile.TemporaryDirectory(prefix="bench-", dir=opts.out) as tmp:
             row.update(_score(ctx, scene, spec, opts, Path(tmp)))
         row["status"] = "ok"
-    except (GameError, RuntimeError, ValueError) as exc:
+    except FAILURES as exc:
         row["status"] = f"failed: {type(exc).__name__}: {str(exc).splitlines()[0][:200]}"
     error = ctx.error
     if error != "GL_NO_ERROR":
         row["status"] = f"failed: {error}" if row.get("status") == "ok" else row["status"]
     row["seconds"] = time.perf_counter() - start
     return row
+
+
+def interleaved_timings(ctx, scene: Scene, specs: list[RunSpec], opts: BenchOptions
+                        ) -> dict[RunSpec, list]:
+    """``opts.repeat`` timings of each run, round-robin over the scene's runs, so that a
+    change in the machine's load over the sweep falls on every method alike."""
+    timings: dict[RunSpec, list] = {spec: [] for spec in specs}
+    for _ in range(opts.repeat):
+        for spec in specs:
+            if timings[spec] and isinstance(timings[spec][-1], BaseException):
+                continue
+            try:
+                timings[spec].append(measure_timing(ctx, scene, spec, opts))
+            except FAILURES as exc:
+                timings[spec].append(exc)
+    return timings
 
 
 # -- the CSV ----------------------------------------------------------------------------------
@@ -472,12 +521,20 @@ def run(opts: BenchOptions, ctx=None) -> dict:
                  f"{len(todo)} to go ({context.describe(ctx)['renderer']})")
         bar = _progress(len(todo), opts.progress)
         loaded: tuple[str, Scene] | None = None
+        timings: dict = {}
         try:
             for bscene, spec in todo:
                 bar.set_description(f"{bscene.key} {spec.method}")
                 if loaded is None or loaded[0] != bscene.key:
                     loaded = (bscene.key, _load(bscene, opts.out / "scenes"))
-                row = run_one(ctx, bscene, loaded[1], spec, opts)
+                    if opts.repeat > 1:
+                        bar.set_description(f"{bscene.key}: {opts.repeat} interleaved timings")
+                        specs = [sp for b, sp in todo if b.key == bscene.key]
+                        timings = interleaved_timings(ctx, loaded[1], specs, opts)
+                if opts.repeat > 1:
+                    row = run_one(ctx, bscene, loaded[1], spec, opts, timings.pop(spec))
+                else:
+                    row = run_one(ctx, bscene, loaded[1], spec, opts)
                 rows.append(row)
                 write_rows(csv_path, rows)
                 bar.update(1)

@@ -178,6 +178,9 @@ def _add_bench_parser(sub) -> None:
                        help="frames scored against Embree per run (default 2, quick 1)")
     bench.add_argument("--flicker-frames", type=int, default=None,
                        help="frames with only the camera moving, for flicker (default 3, quick 2)")
+    bench.add_argument("--repeat", type=_positive_int, default=1,
+                       help="time each run N times, round-robin over the scene's runs, and "
+                            "keep the median (steadier ratios on a loaded machine)")
     bench.add_argument("--scenes", help="comma-separated scene keys or patterns (town_*)")
     bench.add_argument("--methods", help="comma-separated methods")
     bench.add_argument("--list", action="store_true", help="print the runs and exit")
@@ -203,7 +206,7 @@ def cmd_bench(args) -> int:
             raise ArgumentError(f"--methods: unknown method {m!r}; valid: "
                                 f"{', '.join(shadow_methods.METHODS)}")
     opts = bench.BenchOptions(
-        out=args.out, quick=quick, size=args.size,
+        out=args.out, quick=quick, size=args.size, repeat=args.repeat,
         scenes=args.scenes.split(",") if args.scenes else None, methods=methods,
         progress=not args.no_progress, **values)
     if args.list:

@@ -151,3 +151,29 @@ def test_cli_lists_runs_and_rejects_a_bad_method(tmp_path):
                          capture_output=True, text=True)
     assert bad.returncode == 2 and "unknown method 'nope'" in bad.stderr
     assert "Traceback" not in bad.stderr
+
+
+def test_repeated_timings_are_interleaved_and_combined(ctx, tmp_path, monkeypatch):
+    opts = tiny_options(tmp_path, reference=False, repeat=2)
+    order = []
+    original = bench.measure_timing
+
+    def spy(ctx_, scene, spec, opts_):
+        order.append(spec.method)
+        return original(ctx_, scene, spec, opts_)
+
+    monkeypatch.setattr(bench, "measure_timing", spy)
+    bench.run(opts, ctx)
+    assert order == ["clumped", "single", "clumped", "single"]  # round-robin, not back to back
+    rows = bench.read_rows(opts.out / "bench.csv")
+    for r in rows:
+        assert r["status"] == "ok" and r["repeats"] == "2"
+        assert float(r["total_ms_spread"]) >= 0.0
+
+
+def test_combine_takes_the_median_of_repetitions():
+    reps = [{f"{p}_ms_{s}": v for p in bench.PASSES for s in ("median", "p95")}
+            for v in (10.0, 30.0, 12.0)]
+    row = bench.combine(reps)
+    assert row["total_ms_median"] == 12.0 and row["repeats"] == 3
+    assert row["total_ms_spread"] == pytest.approx(20.0 / 12.0)
