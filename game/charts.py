@@ -50,6 +50,15 @@ def _figure():
     return plt
 
 
+def _plain_log_ticks(axis) -> None:
+    """Plain numbers (20, 50, 100) on a log axis instead of 2x10^1."""
+    from matplotlib.ticker import LogLocator, NullFormatter, ScalarFormatter
+
+    axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+    axis.set_major_formatter(ScalarFormatter())
+    axis.set_minor_formatter(NullFormatter())
+
+
 def _save(plt, fig, folder: Path, stem: str, renderer: str) -> list[Path]:
     fig.text(0.99, 0.005, renderer, ha="right", va="bottom", fontsize=6, color="#666666")
     fig.tight_layout()
@@ -90,6 +99,7 @@ def pareto(plt, rows: list[dict], scene: str, folder: Path, renderer: str) -> li
     for m, c in COLOURS.items():
         ax.scatter([], [], color=c, marker=MARKERS[m], label=m)
     ax.set_xscale("log")
+    _plain_log_ticks(ax.xaxis)
     ax.set_xlabel("per-frame total, ms (median after warm-up)")
     ax.set_ylabel("shadow error vs Embree, %")
     ax.set_title(f"{scene}: error against cost (large, outlined: defaults)")
@@ -122,6 +132,8 @@ def scaling(plt, rows: list[dict], axis: str, folder: Path, renderer: str) -> li
                 label=f"{m} {town}".strip())
     ax.set_xscale("log")
     ax.set_yscale("log")
+    _plain_log_ticks(ax.xaxis)
+    _plain_log_ticks(ax.yaxis)
     ax.set_xlabel(label)
     ax.set_ylabel("per-frame total, ms")
     ax.grid(True, which="both", alpha=0.3)
