@@ -172,8 +172,9 @@ def test_repeated_timings_are_interleaved_and_combined(ctx, tmp_path, monkeypatc
 
 
 def test_combine_takes_the_median_of_repetitions():
-    reps = [{f"{p}_ms_{s}": v for p in bench.PASSES for s in ("median", "p95")}
+    reps = [{f"{p}_ms_{s}": v for p in bench.PASSES for s in ("median", "p95", "min")}
             for v in (10.0, 30.0, 12.0)]
     row = bench.combine(reps)
     assert row["total_ms_median"] == 12.0 and row["repeats"] == 3
+    assert row["total_ms_min"] == 10.0
     assert row["total_ms_spread"] == pytest.approx(20.0 / 12.0)
