@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from . import context, frame_log, outputs, resources, shadow_methods
+from . import context, floors, frame_log, outputs, resources, shadow_methods
 from .renderer import Frame, Renderer, View
 from .scene import Scene
 
@@ -110,7 +110,7 @@ def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
             "static_triangles": renderer.geom.triangle_count(
                 range(renderer.geom.first_static, renderer.geom.first_character)),
             "characters": renderer.geom.n_characters,
-            "notes": list(renderer.method.notes),
+            "notes": list(renderer.method.notes) + floors.floor_warnings(scene),
             "frames": frames,
         }
     finally:

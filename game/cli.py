@@ -19,9 +19,6 @@ from .errors import GameError
 CAPTURE_METHODS = ("clumped", "single", "static-dynamic", "csm", "traced")
 TRACE_METHODS = ("brute", "grid", "tri-cache", "voxel-cache", "analytic")
 NOT_YET = {
-    "static-dynamic": "the static-dynamic baseline arrives with the benchmark (issue 3)",
-
-    "csm": "cascaded shadow maps arrive with the benchmark (issue 3)",
 }
 MAX_SIZE = 16384
 DEFAULT_OUT = Path("captures")
@@ -86,6 +83,13 @@ def _non_negative(text: str) -> float:
     return value
 
 
+def _unit(text: str) -> float:
+    value = _finite(text)
+    if not 0.0 <= value <= 1.0:
+        raise argparse.ArgumentTypeError(f"must be in [0, 1], got {text!r}")
+    return value
+
+
 def _add_shadow_options(p: argparse.ArgumentParser) -> None:
     d = shadow_methods.ShadowSettings()
     g = p.add_argument_group("hard-shadow parameters")
@@ -101,6 +105,12 @@ def _add_shadow_options(p: argparse.ArgumentParser) -> None:
                    default=d.character_resolution, help="texels per side of each character map")
     g.add_argument("--single-resolution", type=_positive_int, default=d.single_resolution,
                    help="texels per side of the single baseline map")
+    g.add_argument("--cascades", type=_positive_int, default=d.cascades,
+                   help="csm: number of cascades")
+    g.add_argument("--cascade-lambda", type=_unit, default=d.cascade_lambda,
+                   help="csm: split blend, 1 logarithmic, 0 uniform")
+    g.add_argument("--cascade-resolution", type=_positive_int, default=d.cascade_resolution,
+                   help="csm: texels per side of each cascade")
     g.add_argument("--normal-bias", type=_non_negative, default=d.normal_bias,
                    help="normal offset in texels")
     g.add_argument("--depth-bias", type=_non_negative, default=d.depth_bias,
@@ -123,7 +133,9 @@ def _settings(args) -> shadow_methods.ShadowSettings:
         texels_per_metre=args.texels_per_metre, clump_resolution=args.clump_resolution,
         character_resolution=args.character_resolution,
         single_resolution=args.single_resolution, normal_bias=args.normal_bias,
-        depth_bias=args.depth_bias, slope_bias=args.slope_bias, pcf=args.pcf, grid=args.grid)
+        depth_bias=args.depth_bias, slope_bias=args.slope_bias, pcf=args.pcf, grid=args.grid,
+        cascades=args.cascades, cascade_lambda=args.cascade_lambda,
+        cascade_resolution=args.cascade_resolution)
 
 
 # -- play (the walkaround window, issue 5) -------------------------------------------------
@@ -205,11 +217,72 @@ def cmd_trace(args) -> int:
 
 # -- bench (speed-versus-accuracy sweeps, issue 3) ------------------------------------------
 def _add_bench_parser(sub) -> None:
-    sub.add_parser("bench", help="speed-versus-accuracy sweeps and charts")
+    bench = sub.add_parser(
+        "bench", help="speed-versus-accuracy sweeps and charts",
+        description="Sweep methods x parameters x scenes along a fixed camera path; write "
+                    "OUT/bench.csv (one row per run; finished rows are kept and skipped on a "
+                    "rerun), OUT/charts/*.png|svg and OUT/summary.json. See docs/results.md.")
+    bench.add_argument("--quick", action="store_true",
+                       help="the short sweep (default scene, a small town, stability scenes)")
+    bench.add_argument("--out", type=Path, default=Path("bench"), metavar="DIR")
+    bench.add_argument("--size", type=_size, default=(320, 180), metavar="WxH")
+    bench.add_argument("--frames", type=_positive_int, default=None,
+                       help="timed frames per run (default 8, quick 4)")
+    bench.add_argument("--warmup", type=int, default=None,
+                       help="frames before timing (default 2, quick 1)")
+    bench.add_argument("--error-frames", type=int, default=None,
+                       help="frames scored against Embree per run (default 2, quick 1)")
+    bench.add_argument("--flicker-frames", type=int, default=None,
+                       help="frames with only the camera moving, for flicker (default 3, quick 2)")
+    bench.add_argument("--repeat", type=_positive_int, default=1,
+                       help="time each run N times, round-robin over the scene's runs, and "
+                            "keep the median (steadier ratios on a loaded machine)")
+    bench.add_argument("--scenes", help="comma-separated scene keys or patterns (town_*)")
+    bench.add_argument("--methods", help="comma-separated methods")
+    bench.add_argument("--list", action="store_true", help="print the runs and exit")
+    bench.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
 def cmd_bench(args) -> int:
-    raise GameError("bench: not available yet (issue 3)")
+    from . import bench
+
+    _check_out(args.out)
+    quick = args.quick
+    counts = {"frames": (8, 4), "warmup": (2, 1), "error_frames": (2, 1),
+              "flicker_frames": (3, 2)}
+    values = {}
+    for name, (full, short) in counts.items():
+        value = getattr(args, name)
+        if value is not None and value < 0:
+            raise ArgumentError(f"--{name.replace('_', '-')}: must be zero or more, got {value}")
+        values[name] = (short if quick else full) if value is None else value
+    methods = args.methods.split(",") if args.methods else None
+    for m in methods or []:
+        if m not in shadow_methods.METHODS:
+            raise ArgumentError(f"--methods: unknown method {m!r}; valid: "
+                                f"{', '.join(shadow_methods.METHODS)}")
+    opts = bench.BenchOptions(
+        out=args.out, quick=quick, size=args.size, repeat=args.repeat,
+        scenes=args.scenes.split(",") if args.scenes else None, methods=methods,
+        progress=not args.no_progress, **values)
+    if args.list:
+        for _scene, spec in bench.plan_runs(opts, MAX_SIZE):
+            print(spec.run_id(opts.size))
+        return 0
+    try:
+        import embreex  # noqa: F401 - only to learn whether the reference can run
+    except ImportError:
+        opts.reference = False
+        print("note: embreex missing: no shadow error or reference flicker "
+              "(pip install -e '.[bench]')", file=sys.stderr)
+    result = bench.run(opts)
+    print(f"bench: {result['rows']} rows in {result['csv']}; "
+          f"{len(result['charts'])} chart files in {args.out / 'charts'}")
+    for c in result["summary"].get("comparisons", []):
+        print(f"  {c['scene']}: clumped {c['clumped_ms']:.1f} ms, error "
+              f"{100 * c['clumped_error']:.2f}% vs {c['baseline']}: {c['baseline_ms']:.1f} ms, "
+              f"{100 * c['baseline_error']:.2f}% -> {c['speedup']:.1f}x")
+    return 0
 
 
 def build_parser() -> argparse.ArgumentParser:

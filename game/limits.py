@@ -62,8 +62,17 @@ def fit_settings(settings, limits: GLLimits, n_characters: int):
     """
     notes: list[str] = []
     changes: dict[str, int] = {}
-    used = (("single_resolution",) if settings.method == "single"
-            else ("clump_resolution", "character_resolution"))
+    # The resolution each method's array uses, and the fewest layers it can work with.
+    if settings.method in ("single", "static-dynamic"):
+        used = ("single_resolution",)
+        needed = 1 if settings.method == "single" else 2
+    elif settings.method == "csm":
+        used, needed = ("cascade_resolution",), settings.cascades
+    elif settings.method == "clumped":
+        # One clump and one (shared) character map.
+        used, needed = ("clump_resolution", "character_resolution"), 1 + min(n_characters, 1)
+    else:  # traced: no maps
+        return settings, notes
     for name in used:
         value = getattr(settings, name)
         if value > limits.max_texture_size:
@@ -71,11 +80,7 @@ def fit_settings(settings, limits: GLLimits, n_characters: int):
             notes.append(f"{name.replace('_', '-')} {value} is above this GL's "
                          f"GL_MAX_TEXTURE_SIZE; clamped to {limits.max_texture_size}")
     budget = settings.budget_mib * 2**20
-    if settings.method == "single":
-        name, needed = "single_resolution", 1
-    else:
-        # The fewest layers clumped can work with: one clump and one (shared) character map.
-        name, needed = "clump_resolution", 1 + min(n_characters, 1)
+    name = used[0]
     res = changes.get(name, getattr(settings, name))
     start = res
     while res > MIN_MAP_RESOLUTION and layer_bytes(res) * needed > budget:

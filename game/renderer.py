@@ -58,6 +58,7 @@ class Frame:
     triangles_to_maps: int
     gbuffer: dict[str, np.ndarray] | None = None  # position, normal, object, lit
     gl_objects: dict[str, int] | None = None  # live GL objects by owner, after the frame
+    texels_to_maps: int = 0    # depth texels cleared and rendered into maps this frame
 
     @property
     def maps_per_fragment(self) -> float:
@@ -70,7 +71,8 @@ def _defines(ctx, extra: dict | None = None) -> dict:
     d.update(MAX_MAPS=gpu_blocks.max_maps(ctx),
              GRID_NONE=gpu_blocks.GRID_NONE, GRID_ORTHO=gpu_blocks.GRID_ORTHO,
              GRID_OCTAHEDRAL=gpu_blocks.GRID_OCTAHEDRAL,
-             DEBUG_MAP=gpu_blocks.DEBUG_MAP, DEBUG_MAP_COUNT=gpu_blocks.DEBUG_MAP_COUNT)
+             DEBUG_MAP=gpu_blocks.DEBUG_MAP, DEBUG_MAP_COUNT=gpu_blocks.DEBUG_MAP_COUNT,
+             KIND_CASCADE=shadow_methods.KIND_CASCADE)
     d.update(extra or {})
     return d
 
@@ -290,7 +292,7 @@ class Renderer:
         with timer.measure("total", wall=True):
             # The array first: re-creating it marks every cached layer for re-rendering.
             array = self._ensure_array(self.method.resolution, self.method.layers)
-            plan = self.method.plan(models)
+            plan = self.method.plan(models, view)
             # The method keeps one order list until it re-clumps: identity says "unchanged".
             if plan.static_order is not None and plan.static_order is not self._static_order:
                 self.layout = geometry.layout(self.geom, plan.static_order)
@@ -361,7 +363,9 @@ class Renderer:
             maps_sampled=np.maximum(rgba[..., 3].astype(np.int32) - 1, 0),
             ms=ms, maps_rendered=rendered, maps_cached=len(plan.maps) - rendered,
             maps_total=len(plan.maps), triangles_to_maps=triangles, gbuffer=gbuffer,
-            gl_objects=self.gl_objects())
+            gl_objects=self.gl_objects(),
+            texels_to_maps=sum(plan.maps[i].viewport ** 2
+                               for i in (*plan.render_static, *plan.render_dynamic)))
 
     def _read_gbuffer(self, rgba: np.ndarray) -> dict[str, np.ndarray]:
         h, w = self.size[1], self.size[0]

@@ -28,8 +28,9 @@ from .shadow_fit import (
     outside_cone,
 )
 
-KIND_CLUMP, KIND_CHARACTER, KIND_ALL = 0, 1, 2
-METHODS = ("clumped", "single")
+# KIND_CASCADE: keep in sync with shaders/shadow.glsl (the finest cascade holding a fragment wins).
+KIND_CLUMP, KIND_CHARACTER, KIND_ALL, KIND_CASCADE = 0, 1, 2, 3
+METHODS = ("clumped", "single", "static-dynamic", "csm")
 CLUMPINGS = clumping.STRATEGIES
 
 # Defaults chosen so the accuracy bar of tests/test_accuracy.py holds without per-scene tuning.
@@ -42,6 +43,9 @@ DEPTH_BIAS_TEXELS = 1.0        # offset towards the light
 SLOPE_BIAS_TEXELS = 1.0        # offset towards the light, times tan(angle to the light)
 MAX_SLOPE = 8.0                # cap on that tan, for grazing light
 SHADOW_BUDGET_MIB = 512        # depth-array memory the clumped method may use
+CASCADES = 4                   # csm: cascades (Bevy, Godot and Filament default to 4)
+CASCADE_LAMBDA = 0.75          # csm: practical split blend, 1 logarithmic, 0 uniform
+CASCADE_RESOLUTION = 2048      # csm: texels per side of each cascade
 
 
 @dataclass
@@ -62,6 +66,9 @@ class ShadowSettings:
     pcf: bool = False
     grid: str = "auto"
     budget_mib: float = SHADOW_BUDGET_MIB
+    cascades: int = CASCADES
+    cascade_lambda: float = CASCADE_LAMBDA
+    cascade_resolution: int = CASCADE_RESOLUTION
 
 
 @dataclass
@@ -374,8 +381,12 @@ class ClumpedShadows:
         self._assign_characters()
 
     # -- frame ------------------------------------------------------------------------------
-    def plan(self, models: np.ndarray) -> ShadowPlan:
-        """The maps for this frame; ``models`` are the characters' (n, 4, 4) matrices."""
+    def plan(self, models: np.ndarray, view=None) -> ShadowPlan:
+        """The maps for this frame; ``models`` are the characters' (n, 4, 4) matrices.
+
+        ``view`` (the camera's renderer.View) is unused here; view-dependent methods (csm)
+        need it.
+        """
         s = self.settings
         maps = list(self.static_maps)
         render_static = sorted(i for k in self._dirty for i in self._map_of_clump.get(k, []))
@@ -463,7 +474,7 @@ class SingleShadows:
     def mark_rendered_lost(self) -> None:
         pass
 
-    def plan(self, models: np.ndarray) -> ShadowPlan:
+    def plan(self, models: np.ndarray, view=None) -> ShadowPlan:
         res = self.settings.single_resolution
         parts = [self._static_points] + [
             transforms.transform_points(models[i], self.geom.character_points[i])
@@ -490,6 +501,12 @@ def create(geom: PackedGeometry, light: Light, settings: ShadowSettings, max_lay
         return ClumpedShadows(geom, light, settings, max_layers)
     if settings.method == "single":
         return SingleShadows(geom, light, settings)
+    if settings.method in ("static-dynamic", "csm"):
+        from . import baselines  # the baselines build on this module's records
+
+        if settings.method == "csm":
+            return baselines.CascadedShadows(geom, light, settings)
+        return baselines.StaticDynamicShadows(geom, light, settings)
     if settings.method == "traced":  # exact, from the soft-shadow tracer (issue 4)
         from .traced_shadows import TracedShadows
 

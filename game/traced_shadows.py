@@ -38,5 +38,5 @@ class TracedShadows:
     def mark_rendered_lost(self) -> None:
         pass
 
-    def plan(self, models: np.ndarray) -> ShadowPlan:
+    def plan(self, models: np.ndarray, view=None) -> ShadowPlan:
         return ShadowPlan(resolution=PLACEHOLDER_RESOLUTION, maps=[])

@@ -5,6 +5,14 @@
 
 uniform sampler2DArrayShadow u_shadow_maps;
 
+// KIND_CASCADE (a #define from game/shadow_methods.py) marks csm cascades. They are listed
+// finest first, and the first one that holds the fragment decides (coarser ones would only add
+// their larger error under the minimum).
+
+bool decided(int i, int sampled_before, int sampled) {
+    return sampled > sampled_before && int(u_maps[i].eye.w) == KIND_CASCADE;
+}
+
 vec3 to_light(vec3 p) {
     return u_light_dir.w < 0.5 ? -u_light_dir.xyz : normalize(u_light_pos.xyz - p);
 }
@@ -120,7 +128,11 @@ float shadow_visibility(vec3 p, vec3 n, out int sampled, out int used) {
     float vis = 1.0;
     if (u_counts.y == GRID_NONE) {
         for (int i = 0; i < u_counts.x && vis > 0.0; ++i) {
+            int before = sampled;
             consider(i, r, vis, sampled, used);
+            if (decided(i, before, sampled)) {
+                break;
+            }
         }
         return vis;
     }
@@ -133,7 +145,11 @@ float shadow_visibility(vec3 p, vec3 n, out int sampled, out int used) {
     ivec2 cell = min(ivec2(f * float(size)), ivec2(size - 1));
     int c = cell.y * size + cell.x;
     for (int k = u_grid[c]; k < u_grid[c + 1] && vis > 0.0; ++k) {
+        int before = sampled;
         consider(u_grid[k], r, vis, sampled, used);
+        if (decided(u_grid[k], before, sampled)) {
+            break;
+        }
     }
     return vis;
 }
