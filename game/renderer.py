@@ -45,9 +45,11 @@ class View:
 class Frame:
     """What one rendered frame produced."""
 
-    image: np.ndarray          # (H, W, 3) uint8, row 0 at the top
-    covered: np.ndarray        # (H, W) bool: geometry under the pixel centre
-    maps_sampled: np.ndarray   # (H, W) int: shadow maps read for the pixel
+    # The next three are None when the frame was rendered with ``read=False`` (the window
+    # blits the target instead of reading it back).
+    image: np.ndarray | None          # (H, W, 3) uint8, row 0 at the top
+    covered: np.ndarray | None        # (H, W) bool: geometry under the pixel centre
+    maps_sampled: np.ndarray | None   # (H, W) int: shadow maps read for the pixel
     ms: dict[str, float]
     maps_rendered: int
     maps_cached: int
@@ -56,7 +58,9 @@ class Frame:
     gbuffer: dict[str, np.ndarray] | None = None  # position, normal, object, lit
 
     @property
-    def maps_per_fragment(self) -> float:
+    def maps_per_fragment(self) -> float | None:
+        if self.covered is None:
+            return None
         n = int(self.covered.sum())
         return float(self.maps_sampled[self.covered].sum()) / n if n else 0.0
 
@@ -152,6 +156,16 @@ class Renderer:
     def _release_target(self) -> None:
         for obj in [self.target, self.depth_rb, self.color_tex, *self.gbuffer_tex]:
             obj.release()
+
+    def resize(self, size: tuple[int, int]) -> None:
+        """Re-create the frame target at ``size`` (the window's framebuffer changed)."""
+        size = (int(size[0]), int(size[1]))
+        if size == self.size:
+            return
+        self.ctx.detect_framebuffer(0).use()
+        self._release_target()
+        self.size = size
+        self._make_target()
 
     def release(self) -> None:
         """Release every GL object this renderer made."""
@@ -270,8 +284,12 @@ class Renderer:
             self.layered_vao.render(moderngl.TRIANGLES, vertices=count, first=first)
         return sum(self.geom.triangle_count(plan.maps[i].objects) for i in indices)
 
-    def render(self, t: float, view: View) -> Frame:
-        """Render the scene at time ``t`` seen from ``view``."""
+    def render(self, t: float, view: View, read: bool = True) -> Frame:
+        """Render the scene at time ``t`` seen from ``view``.
+
+        With ``read=False`` the pixels stay in :attr:`target` (the window blits them) and the
+        frame's image, coverage and maps-per-fragment are None.
+        """
         ctx, timer = self.ctx, self.timer
         timer.begin_frame()
         models = self._models(t)
@@ -336,12 +354,17 @@ class Renderer:
                 if total > closed:
                     self.shade_vao.render(moderngl.TRIANGLES, vertices=total - closed,
                                           first=closed)
+        ms = dict(timer.ms)
+        rendered = len(plan.render_static) + len(plan.render_dynamic)
+        if not read:
+            return Frame(image=None, covered=None, maps_sampled=None, ms=ms,
+                         maps_rendered=rendered, maps_cached=len(plan.maps) - rendered,
+                         maps_total=len(plan.maps), triangles_to_maps=triangles)
         with timer.measure("readback", wall=True):
             rgba = np.frombuffer(self.target.read(components=4, attachment=0), np.uint8)
             rgba = rgba.reshape(self.size[1], self.size[0], 4)[::-1]
             gbuffer = self._read_gbuffer(rgba) if self.gbuffer else None
         ms = dict(timer.ms)
-        rendered = len(plan.render_static) + len(plan.render_dynamic)
         return Frame(
             image=np.ascontiguousarray(rgba[..., :3]),
             covered=rgba[..., 3] > 0,
