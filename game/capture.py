@@ -28,6 +28,7 @@ class CaptureOptions:
     stats: Path | None = None
     debug_view: str = "none"
     clock: str = "auto"
+    overlay: bool = False      # draw the timing overlay (game/overlay.py) into the frames
     settings: shadow_methods.ShadowSettings = field(default_factory=shadow_methods.ShadowSettings)
 
 
@@ -74,10 +75,17 @@ def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
     renderer.debug_view = opts.debug_view
     view = View.from_camera(scene.camera, opts.size)
     frames = []
+    hud = None
     try:
+        if opts.overlay:
+            from . import overlay
+
+            hud = overlay.Overlay()
         for k in range(opts.frames):
             t = opts.time + k / opts.fps
             frame = renderer.render(t, view)
+            if hud is not None:
+                frame.image = overlay.draw_over_frame(hud, renderer, frame, 1.0 / opts.fps)
             stem = opts.out / f"frame_{k:04d}"
             outputs.write_png(stem.with_suffix(".png"), frame.image)
             if opts.dump:
@@ -96,6 +104,8 @@ def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
             "frames": frames,
         }
     finally:
+        if hud is not None:
+            hud.release()
         renderer.release()
     if opts.stats is not None:
         outputs.write_json(opts.stats, stats)

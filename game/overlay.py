@@ -56,6 +56,7 @@ class Figures:
     triangles_to_maps: int
     maps_per_fragment: float | None   # None until a frame has been read back
     fps: float | None
+    fps_from_total: bool = False      # headless: 1000 / total ms, not frames over wall time
 
     @staticmethod
     def of(frame: Frame, clock: str, fps: float | None,
@@ -199,6 +200,8 @@ class Overlay:
 
     def _draw_figures(self, f: Figures) -> None:
         fps = f"{f.fps:.1f}" if f.fps else "-"
+        if f.fps_from_total:
+            fps += " (1000/total)"
         imgui.text(f"FPS {fps}   clock {f.clock}")
         if imgui.begin_table("passes", 2):
             for name in self._pass_names():
@@ -336,3 +339,19 @@ class Overlay:
         implot.destroy_context(self.plot_context)
         imgui.destroy_context(self.context)
         self.context = None
+
+
+def draw_over_frame(overlay: Overlay, renderer: Renderer, frame: Frame, dt: float) -> np.ndarray:
+    """Headless: draw the panel over the frame in the renderer's target and read it back.
+
+    The frame rate shown is ``1000 / total`` ms, the rate this frame's work alone would allow.
+    """
+    total = frame.ms.get("total")
+    figures = Figures.of(frame, renderer.timer.clock, 1e3 / total if total else None)
+    figures.fps_from_total = True
+    overlay.draw(figures, renderer, False, renderer.size, dt)
+    renderer.target.use()
+    overlay.render()
+    w, h = renderer.size
+    data = renderer.target.read(viewport=(0, 0, w, h), components=3, attachment=0)
+    return np.frombuffer(data, np.uint8).reshape(h, w, 3)[::-1].copy()

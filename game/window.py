@@ -66,7 +66,9 @@ def init_glfw(platform: str = "auto") -> None:
         glfw.init_hint(glfw.PLATFORM, glfw.ANY_PLATFORM)
     if not glfw.init():
         description = glfw.get_error()[1] or b"unknown reason"
-        raise GameError(f"cannot open a window ({description.decode(errors='replace')})")
+        raise GameError(f"cannot open a window ({description.decode(errors='replace')}); "
+                        "play --platform null runs it without a display, capture renders "
+                        "headless")
 
 
 def display_available() -> bool:
@@ -89,6 +91,7 @@ class PlayOptions:
     time_step: float | None = None       # scene seconds per frame; None: real time
     overlay: bool = True
     clock: str = "auto"
+    debug_view: str = "none"
     platform: str = "auto"               # "null": no display (tests)
     settings: shadow_methods.ShadowSettings = dataclasses.field(
         default_factory=shadow_methods.ShadowSettings)
@@ -122,6 +125,7 @@ class Walkaround:
         self.controller = CameraController(scene.camera)
         self.renderer = Renderer(self.ctx, scene, self.framebuffer_size() or opts.size,
                                  opts.settings, clock=opts.clock)
+        self.renderer.debug_view = opts.debug_view
         # Our callbacks first: the imgui backend chains to the ones installed before it.
         glfw.set_key_callback(self.window, self._on_key)
         glfw.set_mouse_button_callback(self.window, self._on_mouse_button)
@@ -316,3 +320,15 @@ def play(scene: Scene, opts: PlayOptions) -> dict:
     if opts.stats is not None:
         outputs.write_json(opts.stats, stats)
     return stats
+
+
+def summary(stats: dict) -> str:
+    """One line: the frame rate and median ms per pass over the frames after the first."""
+    frames = stats["frames"][1:] or stats["frames"]
+    names = [n for n in ("shadow_static", "shadow_dynamic", "shade", "total", "overlay")
+             if any(n in f["ms"] for f in frames)]
+    med = {n: float(np.median([f["ms"].get(n, 0.0) for f in frames])) for n in names}
+    fps = f"{stats['fps']:.1f} fps" if stats["fps"] else "fps -"
+    return (f"{fps}, median ms: " + ", ".join(f"{k} {v:.2f}" for k, v in med.items())
+            + f" ({stats['clock']} on {stats['renderer']}, {stats['size'][0]}x"
+            f"{stats['size'][1]})")
