@@ -117,7 +117,6 @@ class Overlay:
         self.plot_context = implot.create_context()
         io = imgui.get_io()
         io.set_ini_filename("")  # no imgui.ini next to the user's files
-        io.config_flags |= imgui.ConfigFlags_.nav_enable_keyboard.value
         if window is not None:
             import ctypes
 

@@ -292,6 +292,8 @@ class Walkaround:
                 "scene": str(self.scene.source) if self.scene.source else self.scene.name,
                 "size": list(self.renderer.size), "method": self.renderer.settings.method,
                 "overlay": self.overlay is not None,
+                # x, y, w, h in window pixels from the top-left: where the panel was drawn last
+                "overlay_rect": list(self.overlay.rect) if self.overlay is not None else None,
                 "fps": round(timed / elapsed, 3) if timed and elapsed > 0 else None,
                 "frames": self.frame_stats}
 
