@@ -126,6 +126,13 @@ def _settings(args) -> shadow_methods.ShadowSettings:
 
 
 # -- play (the walkaround window, issue 5) -------------------------------------------------
+def _render_scale(text: str) -> float:
+    value = _finite(text)
+    if not 0.25 <= value <= 1.0:
+        raise argparse.ArgumentTypeError(f"must be 0.25..1, got {text!r}")
+    return value
+
+
 def _add_play_parser(sub) -> None:
     play = sub.add_parser(
         "play", help="the walkaround window",
@@ -143,6 +150,9 @@ def _add_play_parser(sub) -> None:
     play.add_argument("--method", choices=CAPTURE_METHODS, default="clumped")
     play.add_argument("--fps", type=_positive, default=None,
                       help="scene seconds advance 1/F per frame (default: real time)")
+    play.add_argument("--render-scale", type=_render_scale, default=1.0, metavar="S",
+                      help="render the scene at S times the window's size per side, then "
+                           "scale it up (0.25..1; llvmpipe is fill-bound)")
     play.add_argument("--no-overlay", action="store_true", help="hide the timing overlay")
     play.add_argument("--platform", choices=("auto", "null"), default="auto",
                       help="null: GLFW's null platform, a window with no display (scripts, CI)")
@@ -164,7 +174,7 @@ def cmd_play(args) -> int:
         size=args.size, frames=args.frames, screenshot=args.screenshot, stats=args.stats,
         time_step=None if args.fps is None else 1.0 / args.fps, overlay=not args.no_overlay,
         clock=args.clock, platform=args.platform, settings=_settings(args),
-        debug_view=args.debug_view)
+        debug_view=args.debug_view, render_scale=args.render_scale)
     stats = window.play(scene, opts)
     if args.frames is not None:
         print(f"played {len(stats['frames'])} frame(s): {window.summary(stats)}")

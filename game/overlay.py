@@ -28,13 +28,18 @@ from .renderer import DEBUG_VIEWS, Frame, Renderer
 
 GLSL_VERSION = "#version 430"
 HISTORY_FRAMES = 300               # frames in the rolling graph
-PANEL_WIDTH = 330                  # pixels; the panel sits at the top-left corner
+PANEL_WIDTH = 400                  # pixels; the panel sits at the top-left corner
 PANEL_MARGIN = 6
 GRAPH_HEIGHT = 150
+GRAPH_PERCENTILE = 98              # the y axis spans this percentile of the plotted ms ...
+GRAPH_HEADROOM = 1.25              # ... times this
+GRAPH_MIN_MS = 1.0
 LABELLED_ITEM_WIDTH = 170          # pixels for a control, the rest of the row for its label
 # Passes in display order; any other pass a renderer times (a soft trace, say) follows them.
 PASS_ORDER = ("shadow_static", "shadow_dynamic", "shade", "soft", "trace")
-HIDDEN_PASSES = ("readback",)      # CPU copy for files, not part of drawing a frame
+HIDDEN_PASSES = ("readback",)
+# Window work after the scene's passes; shown after "total", which does not include them.
+WINDOW_PASSES = ("present", "overlay")      # CPU copy for files, not part of drawing a frame
 RESOLUTIONS = (128, 256, 512, 1024, 2048, 4096, 8192)
 # Settings read only by the shading pass: edited in place, no re-clumping, maps stay cached.
 SHADING_ONLY = {"normal_bias", "depth_bias", "slope_bias", "max_slope", "pcf"}
@@ -43,6 +48,7 @@ SETTING_CHOICES = {"method": lambda: shadow_methods.METHODS,
                    "grid": lambda: ("auto", "on", "off")}
 MAX_INT_EDIT = 1 << 16           # drag limits of whole-number and real settings
 MAX_FLOAT_EDIT = 1e6
+MIN_RENDER_SCALE = 0.25
 
 
 @dataclass
@@ -77,6 +83,7 @@ class Changes:
     light: object | None = None
     debug_view: str | None = None
     paused: bool | None = None
+    render_scale: float | None = None
     soft: bool | None = None
 
     def apply(self, renderer: Renderer) -> None:
@@ -155,12 +162,16 @@ class Overlay:
 
     def _pass_names(self) -> list[str]:
         known = [n for n in PASS_ORDER if n in self.history]
-        others = sorted(n for n in self.history if n not in PASS_ORDER and n != "total")
-        return known + others + (["total"] if "total" in self.history else [])
+        others = sorted(n for n in self.history
+                        if n not in PASS_ORDER and n not in WINDOW_PASSES and n != "total")
+        window = [n for n in WINDOW_PASSES if n in self.history]
+        return known + others + (["total"] if "total" in self.history else []) + window
 
     def draw(self, figures: Figures, renderer: Renderer, paused: bool, size: tuple[int, int],
-             dt: float | None = None) -> Changes:
+             dt: float | None = None, render_scale: float | None = None) -> Changes:
         """Build this frame's panel; ``size`` is the framebuffer's, ``dt`` the frame time.
+
+        ``render_scale`` (the window's scene-to-window pixel ratio) adds a slider for it.
 
         Call :meth:`render` afterwards to draw it into the bound framebuffer.
         """
@@ -185,6 +196,11 @@ class Overlay:
         self._draw_figures(figures)
         self._draw_graph()
         self._draw_controls(renderer, paused, changes)
+        if render_scale is not None:
+            changed, scale = imgui.slider_float("render scale", render_scale, MIN_RENDER_SCALE,
+                                                1.0, "%.2f")
+            if changed:
+                changes.render_scale = scale
         pos, extent = imgui.get_window_pos(), imgui.get_window_size()
         self.rect = (int(pos.x), int(pos.y), int(math.ceil(extent.x)), int(math.ceil(extent.y)))
         imgui.pop_item_width()
@@ -220,12 +236,17 @@ class Overlay:
         if not self.history:
             return
         if implot.begin_plot("ms per pass", imgui.ImVec2(-1, GRAPH_HEIGHT)):
-            flags = implot.AxisFlags_.no_tick_labels.value
-            implot.setup_axes("", "ms", flags, implot.AxisFlags_.auto_fit.value)
-            implot.setup_legend(implot.Location_.north.value,
-                                implot.LegendFlags_.outside.value
-                                | implot.LegendFlags_.horizontal.value)
+            implot.setup_axes("", "ms", implot.AxisFlags_.no_tick_labels.value, 0)
+            implot.setup_legend(implot.Location_.east.value, implot.LegendFlags_.outside.value)
             implot.setup_axis_limits(implot.ImAxis_.x1.value, 0, HISTORY_FRAMES,
+                                     implot.Cond_.always.value)
+            # Fit the y axis to the usual frames, not to a one-off spike (the first frame
+            # compiles shaders and renders every map).
+            recent = np.concatenate([v for v in self.history.values()])
+            recent = recent[np.isfinite(recent)]
+            top = float(np.percentile(recent, GRAPH_PERCENTILE)) if len(recent) else 1.0
+            implot.setup_axis_limits(implot.ImAxis_.y1.value, 0.0,
+                                     max(GRAPH_MIN_MS, top * GRAPH_HEADROOM),
                                      implot.Cond_.always.value)
             for name in self._pass_names():
                 implot.plot_line(name, self.history[name])

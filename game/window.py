@@ -31,6 +31,7 @@ import numpy as np
 from . import context, outputs, shadow_methods
 from .errors import GameError
 from .overlay import Figures, Overlay
+from .present import Presenter
 from .renderer import Renderer, View
 from .scene import Scene
 
@@ -92,6 +93,7 @@ class PlayOptions:
     overlay: bool = True
     clock: str = "auto"
     debug_view: str = "none"
+    render_scale: float = 1.0            # scene pixels per window pixel, per side
     platform: str = "auto"               # "null": no display (tests)
     settings: shadow_methods.ShadowSettings = dataclasses.field(
         default_factory=shadow_methods.ShadowSettings)
@@ -126,6 +128,8 @@ class Walkaround:
         self.renderer = Renderer(self.ctx, scene, self.framebuffer_size() or opts.size,
                                  opts.settings, clock=opts.clock)
         self.renderer.debug_view = opts.debug_view
+        self.render_scale = opts.render_scale
+        self.presenter = Presenter(self.ctx)
         # Our callbacks first: the imgui backend chains to the ones installed before it.
         glfw.set_key_callback(self.window, self._on_key)
         glfw.set_mouse_button_callback(self.window, self._on_mouse_button)
@@ -140,6 +144,7 @@ class Walkaround:
         self.frame_stats: list[dict] = []
         self._frame_times: deque[float] = deque(maxlen=FPS_WINDOW_FRAMES)
         self._mpf: float | None = None
+        self._window_ms: dict[str, float] = {}
 
     # -- input --------------------------------------------------------------------------------
     def _on_key(self, window, key, scancode, action, mods) -> None:
@@ -192,6 +197,11 @@ class Walkaround:
             return None
         return w, h
 
+    def render_size(self, size: tuple[int, int]) -> tuple[int, int]:
+        """The scene's render size for a window framebuffer of ``size``."""
+        return (max(1, round(size[0] * self.render_scale)),
+                max(1, round(size[1] * self.render_scale)))
+
     def view(self, size: tuple[int, int]) -> View:
         return View(self.controller.view_matrix(), self.controller.camera.proj_matrix(size))
 
@@ -206,7 +216,7 @@ class Walkaround:
         if not self.paused:
             self.scene_time += dt
         self.controller.update(dt)
-        self.renderer.resize(size)
+        self.renderer.resize(self.render_size(size))
         read = self.frames % MPF_EVERY_FRAMES == 0
         frame = self.renderer.render(self.scene_time, self.view(size), read=read)
         if frame.maps_per_fragment is not None:
@@ -214,18 +224,33 @@ class Walkaround:
         fps = (len(self._frame_times) / sum(self._frame_times)
                if self._frame_times and sum(self._frame_times) > 0 else None)
         figures = Figures.of(frame, self.renderer.timer.clock, fps, self._mpf)
+        figures.ms.update(self._window_ms)  # the panel shows the last frame's window passes
+        timer = self.renderer.timer
+        # The overlay goes over the scene in a window-sized canvas (the renderer's own target
+        # unless the scene was rendered smaller); one blit shows both, and a screenshot reads
+        # exactly what the window shows.
+        with timer.measure("present", wall=True):
+            if self.renderer.size == size:
+                self.canvas = self.renderer.target
+            else:
+                self.presenter.resize(size)
+                self.presenter.show(self.renderer.target, self.renderer.color_tex)
+                self.canvas = self.presenter.target
         if self.overlay is not None:
-            with self.renderer.timer.measure("overlay", wall=True):
-                changes = self.overlay.draw(figures, self.renderer, self.paused, size)
-                self.renderer.target.use()
+            with timer.measure("overlay", wall=True):
+                changes = self.overlay.draw(figures, self.renderer, self.paused, size,
+                                            render_scale=self.render_scale)
+                self.canvas.use()
                 self.overlay.render()
-            figures.ms["overlay"] = self.renderer.timer.ms["overlay"]
             if changes.paused is not None:
                 self.paused = changes.paused
+            if changes.render_scale is not None:
+                self.render_scale = changes.render_scale
             changes.apply(self.renderer)
-        # The overlay went into the renderer's target too: one blit shows both, and a
-        # screenshot reads exactly what the window shows.
-        self.ctx.copy_framebuffer(self.ctx.detect_framebuffer(0), self.renderer.target)
+        with timer.measure("present", wall=True):
+            self.ctx.copy_framebuffer(self.ctx.detect_framebuffer(0), self.canvas)
+        self._window_ms = {k: timer.ms[k] for k in ("present", "overlay") if k in timer.ms}
+        figures.ms.update(self._window_ms)
         self.last_figures = figures
         self.frame_stats.append(self._stats_entry(frame, figures))
         self.frames += 1
@@ -246,7 +271,7 @@ class Walkaround:
 
     def read_screen(self, size: tuple[int, int]) -> np.ndarray:
         """What the window shows now, (H, W, 3) uint8 with row 0 at the top."""
-        data = self.renderer.target.read(viewport=(0, 0, *size), components=3, attachment=0)
+        data = self.canvas.read(viewport=(0, 0, *size), components=3, attachment=0)
         return np.frombuffer(data, np.uint8).reshape(size[1], size[0], 3)[::-1].copy()
 
     def _save_screenshot(self, size: tuple[int, int], path: Path | None) -> None:
@@ -290,7 +315,8 @@ class Walkaround:
         timed = max(0, self.frames - 1)  # the first frame compiles and renders every map
         return {**context.describe(self.ctx), "clock": self.renderer.timer.clock,
                 "scene": str(self.scene.source) if self.scene.source else self.scene.name,
-                "size": list(self.renderer.size), "method": self.renderer.settings.method,
+                "size": list(glfw.get_framebuffer_size(self.window)),
+                "render_size": list(self.renderer.size), "method": self.renderer.settings.method,
                 "overlay": self.overlay is not None,
                 # x, y, w, h in window pixels from the top-left: where the panel was drawn last
                 "overlay_rect": list(self.overlay.rect) if self.overlay is not None else None,
@@ -305,6 +331,7 @@ class Walkaround:
         if self.overlay is not None:
             self.overlay.release()
             self.overlay = None
+        self.presenter.release()
         self.renderer.release()
         self.ctx.release()
         glfw.destroy_window(self.window)
@@ -327,10 +354,11 @@ def play(scene: Scene, opts: PlayOptions) -> dict:
 def summary(stats: dict) -> str:
     """One line: the frame rate and median ms per pass over the frames after the first."""
     frames = stats["frames"][1:] or stats["frames"]
-    names = [n for n in ("shadow_static", "shadow_dynamic", "shade", "total", "overlay")
+    names = [n for n in ("shadow_static", "shadow_dynamic", "shade", "total", "present",
+                         "overlay")
              if any(n in f["ms"] for f in frames)]
     med = {n: float(np.median([f["ms"].get(n, 0.0) for f in frames])) for n in names}
     fps = f"{stats['fps']:.1f} fps" if stats["fps"] else "fps -"
     return (f"{fps}, median ms: " + ", ".join(f"{k} {v:.2f}" for k, v in med.items())
-            + f" ({stats['clock']} on {stats['renderer']}, {stats['size'][0]}x"
-            f"{stats['size'][1]})")
+            + f" ({stats['clock']} on {stats['renderer']}, window {stats['size'][0]}x"
+            f"{stats['size'][1]}, scene {stats['render_size'][0]}x{stats['render_size'][1]})")

@@ -171,7 +171,7 @@ def test_resize_and_minimise_cycles(driven):
 def test_screenshot_matches_a_headless_capture_outside_the_overlay(tmp_path):
     shot, stats = tmp_path / "shot.png", tmp_path / "play.json"
     result = run_game("play", TINY, "--platform", "null", "--frames", "3", "--fps", "10",
-                      "--size", "480x270", "--screenshot", shot, "--stats", stats)
+                      "--size", "640x360", "--screenshot", shot, "--stats", stats)
     if result.returncode != 0 and "cannot open" in result.stderr:
         pytest.skip(result.stderr.strip())
     assert result.returncode == 0, result.stderr
@@ -180,12 +180,12 @@ def test_screenshot_matches_a_headless_capture_outside_the_overlay(tmp_path):
     assert len(play["frames"]) == 3 and play["fps"] > 0
     assert play["frames"][-1]["time"] == pytest.approx(0.3)
     out = tmp_path / "cap"
-    result = run_game("capture", TINY, "--frames", "1", "--time", "0.3", "--size", "480x270",
+    result = run_game("capture", TINY, "--frames", "1", "--time", "0.3", "--size", "640x360",
                       "--out", out)
     assert result.returncode == 0, result.stderr
     window = _read_png(shot)
     headless = _read_png(out / "frame_0000.png")
-    assert window.shape == headless.shape == (270, 480, 3)
+    assert window.shape == headless.shape == (360, 640, 3)
     x, y, w, h = play["overlay_rect"]
     outside = np.ones(window.shape[:2], bool)
     outside[y:y + h, x:x + w] = False
@@ -199,14 +199,14 @@ def test_screenshot_matches_a_headless_capture_outside_the_overlay(tmp_path):
 def test_capture_overlay_draws_the_panel_into_headless_frames(tmp_path):
     plain, over = tmp_path / "plain", tmp_path / "over"
     for out, extra in ((plain, []), (over, ["--overlay"])):
-        result = run_game("capture", TINY, "--frames", "2", "--size", "480x270", "--out", out,
+        result = run_game("capture", TINY, "--frames", "2", "--size", "640x360", "--out", out,
                           *extra)
         assert result.returncode == 0, result.stderr
     a = _read_png(plain / "frame_0001.png").astype(int)
     b = _read_png(over / "frame_0001.png").astype(int)
     # The panel sits at the top left; the right edge of the frame is untouched.
     assert (np.abs(a - b)[20:200, 20:300].max(axis=2) > 8).mean() > 0.2
-    np.testing.assert_array_equal(a[:, 400:], b[:, 400:])
+    np.testing.assert_array_equal(a[:, 420:], b[:, 420:])
 
 
 def test_play_without_a_display_is_one_line(tmp_path):
