@@ -24,6 +24,7 @@ import numpy as np
 from imgui_bundle import imgui, implot
 
 from . import shadow_methods
+from .layer_view import LayerViewer
 from .renderer import DEBUG_VIEWS, Frame, Renderer
 
 GLSL_VERSION = "#version 430"
@@ -49,6 +50,11 @@ SETTING_CHOICES = {"method": lambda: shadow_methods.METHODS,
 MAX_INT_EDIT = 1 << 16           # drag limits of whole-number and real settings
 MAX_FLOAT_EDIT = 1e6
 MIN_RENDER_SCALE = 0.25
+TABS = ("view", "shadows", "maps")  # the tabs of controls under the figures
+LAYER_VIEW_PIXELS = 200            # on-screen side of the layer viewer
+MAP_LIST_HEIGHT = 110
+RENDERED_COLOUR = imgui.ImVec4(1.0, 0.45, 0.4, 1.0)
+CACHED_COLOUR = imgui.ImVec4(0.5, 0.95, 0.5, 1.0)
 
 
 @dataclass
@@ -117,9 +123,16 @@ def sun_direction(azimuth: float, elevation: float) -> np.ndarray:
 class Overlay:
     """The panel, drawn into whatever framebuffer is bound when :meth:`render` runs."""
 
-    def __init__(self, window=None):
-        """``window``: a glfw window whose context is current, or None to draw headless."""
+    def __init__(self, window=None, open_tab: str = TABS[0]):
+        """``window``: a glfw window whose context is current, or None to draw headless.
+
+        ``open_tab`` is the tab of controls shown first (one of :data:`TABS`).
+        """
+        if open_tab not in TABS:
+            raise ValueError(f"unknown overlay tab {open_tab!r}; valid: {', '.join(TABS)}")
         self.window = window
+        self.open_tab = open_tab
+        self._first_frame = True
         self.context = imgui.create_context()
         self.plot_context = implot.create_context()
         io = imgui.get_io()
@@ -135,6 +148,8 @@ class Overlay:
         self.rect = (0, 0, 0, 0)   # x, y, w, h of the panel last drawn, window pixels
         self._azimuth_elevation: tuple[float, float] | None = None
         self._pending: dict[str, float] = {}   # drags in progress on re-planning fields
+        self._viewer: LayerViewer | None = None
+        self._map_index = 0
 
     # -- input ------------------------------------------------------------------------------
     @property
@@ -189,18 +204,16 @@ class Overlay:
         changes = Changes()
         imgui.set_next_window_pos(imgui.ImVec2(PANEL_MARGIN, PANEL_MARGIN),
                                   imgui.Cond_.first_use_ever.value)
-        imgui.set_next_window_size(imgui.ImVec2(PANEL_WIDTH, 0), imgui.Cond_.first_use_ever.value)
+        # As tall as its contents, within the framebuffer; a fixed width.
+        imgui.set_next_window_size_constraints(
+            imgui.ImVec2(PANEL_WIDTH, 0),
+            imgui.ImVec2(PANEL_WIDTH, max(1.0, size[1] - 2 * PANEL_MARGIN)))
         imgui.set_next_window_bg_alpha(0.8)
-        imgui.begin("shadows")
+        imgui.begin("shadows", None, imgui.WindowFlags_.always_auto_resize.value)
         imgui.push_item_width(LABELLED_ITEM_WIDTH)
         self._draw_figures(figures)
         self._draw_graph()
-        self._draw_controls(renderer, paused, changes)
-        if render_scale is not None:
-            changed, scale = imgui.slider_float("render scale", render_scale, MIN_RENDER_SCALE,
-                                                1.0, "%.2f")
-            if changed:
-                changes.render_scale = scale
+        self._draw_controls(renderer, paused, render_scale, changes)
         pos, extent = imgui.get_window_pos(), imgui.get_window_size()
         self.rect = (int(pos.x), int(pos.y), int(math.ceil(extent.x)), int(math.ceil(extent.y)))
         imgui.pop_item_width()
@@ -253,7 +266,26 @@ class Overlay:
             implot.end_plot()
 
     # -- controls -----------------------------------------------------------------------------
-    def _draw_controls(self, renderer: Renderer, paused: bool, changes: Changes) -> None:
+    def _draw_controls(self, renderer: Renderer, paused: bool, render_scale: float | None,
+                       changes: Changes) -> None:
+        if not imgui.begin_tab_bar("controls"):
+            return
+        if self._tab("view"):
+            self._draw_view(renderer, paused, render_scale, changes)
+            imgui.end_tab_item()
+        if self._tab("shadows"):
+            self._draw_settings(renderer.settings, changes)
+            for note in renderer.method.notes[-2:]:
+                imgui.text_wrapped(f"note: {note}")
+            imgui.end_tab_item()
+        if self._tab("maps"):
+            self._draw_maps(renderer)
+            imgui.end_tab_item()
+        imgui.end_tab_bar()
+        self._first_frame = False
+
+    def _draw_view(self, renderer: Renderer, paused: bool, render_scale: float | None,
+                   changes: Changes) -> None:
         changed, value = imgui.checkbox("pause characters (P)", paused)
         if changed:
             changes.paused = value
@@ -266,10 +298,45 @@ class Overlay:
             if changed:
                 changes.soft = value
         self._draw_sun(renderer, changes)
-        if imgui.collapsing_header("hard-shadow settings"):
-            self._draw_settings(renderer.settings, changes)
-        for note in renderer.method.notes[-2:]:
-            imgui.text_wrapped(f"note: {note}")
+        if render_scale is not None:
+            changed, scale = imgui.slider_float("render scale", render_scale, MIN_RENDER_SCALE,
+                                                1.0, "%.2f")
+            if changed:
+                changes.render_scale = scale
+
+    def _tab(self, name: str) -> bool:
+        flags = (imgui.TabItemFlags_.set_selected.value
+                 if self._first_frame and name == self.open_tab else 0)
+        return imgui.begin_tab_item(name, None, flags)[0]
+
+    def _draw_maps(self, renderer: Renderer) -> None:
+        """The maps of the last frame, cached or re-rendered, and a viewer of one layer."""
+        plan, array = renderer.last_plan, renderer.shadow_array
+        if plan is None or array is None or not plan.maps:
+            imgui.text("no shadow maps yet")
+            return
+        rendered = set(plan.render_static) | set(plan.render_dynamic)
+        self._map_index = min(self._map_index, len(plan.maps) - 1)
+        _, self._map_index = imgui.slider_int("map", self._map_index, 0, len(plan.maps) - 1)
+        rec = plan.maps[self._map_index]
+        state = "re-rendered" if self._map_index in rendered else "cached"
+        imgui.text(f"{rec.name}: layer {rec.layer}, {rec.viewport}^2 texels, "
+                   f"{len(rec.objects)} object(s), {state}")
+        if self._viewer is None:
+            self._viewer = LayerViewer(renderer.ctx)
+        self._viewer.draw(array, rec.layer, rec.viewport / array.resolution)
+        side = min(LAYER_VIEW_PIXELS, imgui.get_content_region_avail().x)
+        # GL textures start at the bottom row: flip v.
+        imgui.image(imgui.ImTextureRef(self._viewer.texture.glo), imgui.ImVec2(side, side),
+                    imgui.ImVec2(0, 1), imgui.ImVec2(1, 0))
+        # Every map this frame: red re-rendered, green served from the cache.
+        if imgui.begin_child("map list", imgui.ImVec2(0, MAP_LIST_HEIGHT)):
+            for i, m in enumerate(plan.maps):
+                fresh = i in rendered
+                imgui.text_colored(RENDERED_COLOUR if fresh else CACHED_COLOUR,
+                                   f"{i:3d} {m.name:<14} layer {m.layer:3d} "
+                                   f"{'re-rendered' if fresh else 'cached'}")
+        imgui.end_child()
 
     def _draw_sun(self, renderer: Renderer, changes: Changes) -> None:
         light = renderer.scene.light
@@ -353,6 +420,9 @@ class Overlay:
         if self.context is None:
             return
         imgui.set_current_context(self.context)
+        if self._viewer is not None:
+            self._viewer.release()
+            self._viewer = None
         imgui.backends.opengl3_shutdown()
         if self.window is not None:
             imgui.backends.glfw_shutdown()

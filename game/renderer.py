@@ -93,6 +93,7 @@ class Renderer:
         self._owned: list = []
         self._array: DepthArray | None = None
         self._static_order: list[int] | None = None
+        self.last_plan: shadow_methods.ShadowPlan | None = None  # for the overlay's map list
 
         self.depth_prog = self._own(ctx.program(
             vertex_shader=glsl.build("depth.vert", _defines(ctx)),
@@ -297,6 +298,7 @@ class Renderer:
             # The array first: re-creating it marks every cached layer for re-rendering.
             array = self._ensure_array(self.method.resolution, self.method.layers)
             plan = self.method.plan(models)
+            self.last_plan = plan
             # The method keeps one order list until it re-clumps: identity says "unchanged".
             if plan.static_order is not None and plan.static_order is not self._static_order:
                 self.layout = geometry.layout(self.geom, plan.static_order)
@@ -384,6 +386,11 @@ class Renderer:
         obj = np.where(covered, np.rint(pos[..., 3]), -1).astype(np.int32)
         lit = np.where(covered, nrm[..., 3], np.nan).astype(np.float32)
         return {"position": position, "normal": normal, "object": obj, "lit": lit}
+
+    @property
+    def shadow_array(self) -> DepthArray | None:
+        """The depth texture array of the last frame (the overlay's layer viewer reads it)."""
+        return self._array
 
     @property
     def shadow_memory_bytes(self) -> int:

@@ -247,3 +247,30 @@ def _read_png(path: Path) -> np.ndarray:
     rows = np.frombuffer(zlib.decompress(idat), np.uint8).reshape(h, 1 + 3 * w)
     assert not rows[:, 0].any(), "expected filter 0 on every row"
     return rows[:, 1:].reshape(h, w, 3)
+
+
+# -- the overlay headless, in the session context ----------------------------------------------
+def test_layer_viewer_shows_a_rendered_map_and_the_cache_state(ctx):
+    from game import overlay
+    from game.renderer import Renderer, View
+    from game.scene import load_scene
+
+    scene = load_scene(TINY)
+    size = (480, 320)
+    renderer = Renderer(ctx, scene, size)
+    hud = overlay.Overlay(open_tab="maps")
+    try:
+        view = View.from_camera(scene.camera, size)
+        for k in range(3):
+            frame = renderer.render(k / 30, view)
+            image = overlay.draw_over_frame(hud, renderer, frame, 1 / 30)
+        plan = renderer.last_plan
+        assert plan.render_static == [] and plan.render_dynamic  # statics cached by now
+        assert hud._viewer is not None
+        depth = np.frombuffer(hud._viewer.texture.read(), np.uint8).reshape(256, 256, 4)
+        grey = depth[..., 0] > 64  # casters drawn (the cleared background is dark blue)
+        assert 0.001 < grey.mean() < 0.95
+        assert image.shape == (320, 480, 3) and not np.array_equal(image, frame.image)
+    finally:
+        hud.release()
+        renderer.release()
