@@ -213,8 +213,6 @@ class Walkaround:
         size = self.framebuffer_size()
         if size is None or self.quit:
             return False
-        if not self.paused:
-            self.scene_time += dt
         self.controller.update(dt)
         self.renderer.resize(self.render_size(size))
         read = self.frames % MPF_EVERY_FRAMES == 0
@@ -254,6 +252,8 @@ class Walkaround:
         self.last_figures = figures
         self.frame_stats.append(self._stats_entry(frame, figures))
         self.frames += 1
+        if not self.paused:  # frame k shows scene time k * dt, as capture's frames do
+            self.scene_time += dt
         last = self.opts.frames is not None and self.frames >= self.opts.frames
         if self._screenshot_next or (last and self.opts.screenshot is not None):
             self._save_screenshot(size, self.opts.screenshot if last else None)

@@ -178,9 +178,9 @@ def test_screenshot_matches_a_headless_capture_outside_the_overlay(tmp_path):
     assert len(result.stdout.strip().splitlines()) == 1
     play = json.loads(stats.read_text())
     assert len(play["frames"]) == 3 and play["fps"] > 0
-    assert play["frames"][-1]["time"] == pytest.approx(0.3)
+    assert play["frames"][-1]["time"] == pytest.approx(0.2)
     out = tmp_path / "cap"
-    result = run_game("capture", TINY, "--frames", "1", "--time", "0.3", "--size", "640x360",
+    result = run_game("capture", TINY, "--frames", "1", "--time", "0.2", "--size", "640x360",
                       "--out", out)
     assert result.returncode == 0, result.stderr
     window = _read_png(shot)
