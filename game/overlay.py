@@ -41,7 +41,7 @@ PASS_ORDER = ("shadow_static", "shadow_dynamic", "shade", "soft", "trace")
 HIDDEN_PASSES = ("readback",)
 # Window work after the scene's passes; shown after "total", which does not include them.
 WINDOW_PASSES = ("present", "overlay")      # CPU copy for files, not part of drawing a frame
-RESOLUTIONS = (128, 256, 512, 1024, 2048, 4096, 8192)
+RESOLUTIONS = (128, 256, 512, 1024, 2048, 4096)  # larger layers: GiBs of depth array
 # Settings read only by the shading pass: edited in place, no re-clumping, maps stay cached.
 SHADING_ONLY = {"normal_bias", "depth_bias", "slope_bias", "max_slope", "pcf"}
 SETTING_CHOICES = {"method": lambda: shadow_methods.METHODS,
@@ -150,6 +150,7 @@ class Overlay:
         self._pending: dict[str, float] = {}   # drags in progress on re-planning fields
         self._viewer: LayerViewer | None = None
         self._map_index = 0
+        self.message = ""   # the last change the renderer refused, shown in the panel
 
     # -- input ------------------------------------------------------------------------------
     @property
@@ -212,6 +213,8 @@ class Overlay:
         imgui.begin("shadows", None, imgui.WindowFlags_.always_auto_resize.value)
         imgui.push_item_width(LABELLED_ITEM_WIDTH)
         self._draw_figures(figures)
+        if self.message:
+            imgui.text_colored(RENDERED_COLOUR, self.message)
         self._draw_graph()
         self._draw_controls(renderer, paused, render_scale, changes)
         pos, extent = imgui.get_window_pos(), imgui.get_window_size()

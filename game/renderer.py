@@ -209,6 +209,7 @@ class Renderer:
         if a is None or a.resolution != resolution or a.layers < layers:
             if a is not None:
                 a.release()
+                self._array = None  # a refused new array must not leave the released one
             self._array = DepthArray(self.ctx, resolution, layers)
             self.method.mark_rendered_lost()
         return self._array

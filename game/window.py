@@ -134,17 +134,20 @@ class Walkaround:
         glfw.set_key_callback(self.window, self._on_key)
         glfw.set_mouse_button_callback(self.window, self._on_mouse_button)
         glfw.set_cursor_pos_callback(self.window, self._on_cursor)
+        glfw.set_window_focus_callback(self.window, self._on_focus)
         self.overlay = Overlay(self.window) if opts.overlay else None
         self.paused = False
         self.scene_time = 0.0
         self.frames = 0
         self.quit = False
+        self._screenshot_next = False
         self.shots = 0
         self.last_figures: Figures | None = None
         self.frame_stats: list[dict] = []
         self._frame_times: deque[float] = deque(maxlen=FPS_WINDOW_FRAMES)
         self._mpf: float | None = None
         self._window_ms: dict[str, float] = {}
+        self._good_settings: shadow_methods.ShadowSettings | None = None
 
     # -- input --------------------------------------------------------------------------------
     def _on_key(self, window, key, scancode, action, mods) -> None:
@@ -176,6 +179,10 @@ class Walkaround:
             return
         self.controller.mouse_button(action == glfw.PRESS)
 
+    def _on_focus(self, window, focused) -> None:
+        if not focused:  # keys released elsewhere never reach us
+            self.controller.release_all()
+
     def _on_cursor(self, window, x, y) -> None:
         self.controller.mouse_move(x, y)
 
@@ -188,8 +195,6 @@ class Walkaround:
                                                        method=following))
 
     # -- frames -------------------------------------------------------------------------------
-    _screenshot_next = False
-
     def framebuffer_size(self) -> tuple[int, int] | None:
         """The framebuffer's size, or None while it is zero-sized or the window minimised."""
         w, h = glfw.get_framebuffer_size(self.window)
@@ -216,7 +221,15 @@ class Walkaround:
         self.controller.update(dt)
         self.renderer.resize(self.render_size(size))
         read = self.frames % MPF_EVERY_FRAMES == 0
-        frame = self.renderer.render(self.scene_time, self.view(size), read=read)
+        try:
+            frame = self.renderer.render(self.scene_time, self.view(size), read=read)
+        except GameError as exc:  # settings the GL cannot take (too many texels): undo them
+            if self._good_settings is None or self.overlay is None:
+                raise
+            self.renderer.set_settings(self._good_settings)
+            self.overlay.message = str(exc)
+            frame = self.renderer.render(self.scene_time, self.view(size), read=read)
+        self._good_settings = self.renderer.settings
         if frame.maps_per_fragment is not None:
             self._mpf = frame.maps_per_fragment
         fps = (len(self._frame_times) / sum(self._frame_times)

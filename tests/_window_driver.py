@@ -6,6 +6,7 @@ one) on GLFW's null platform with an EGL context, and prints what it saw as one 
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import sys
 from pathlib import Path
@@ -61,6 +62,12 @@ def main(scene_path: str) -> None:
             glfw.restore_window(w.window)
         elif k == 28:
             glfw.set_window_size(w.window, *SIZE)
+        elif k == 35:  # a map larger than the GL allows: undone, and said in the panel
+            w.renderer.set_settings(dataclasses.replace(w.renderer.settings,
+                                                        single_resolution=1 << 20))
+        elif k == 36:
+            seen["refused"] = {"message": w.overlay.message,
+                               "resolution": w.renderer.settings.single_resolution}
         elif k == 41:
             w.key("escape", True)
 

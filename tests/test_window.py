@@ -156,6 +156,11 @@ def test_overlay_figures_are_populated(driven):
     assert w > 100 and h > 50
 
 
+def test_settings_the_gl_refuses_are_undone_and_shown(driven):
+    assert "GL_MAX_TEXTURE_SIZE" in driven["refused"]["message"]
+    assert driven["refused"]["resolution"] < 1 << 20
+
+
 def test_resize_and_minimise_cycles(driven):
     assert driven["final_error"] == "GL_NO_ERROR"
     assert set(driven["errors"]) == {"GL_NO_ERROR"}
