@@ -144,6 +144,9 @@ class Walkaround:
         self.shots = 0
         self.last_figures: Figures | None = None
         self.frame_stats: list[dict] = []
+        # Per-frame entries only for runs that end by themselves or write them: an open-ended
+        # session must not grow.
+        self.keep_stats = opts.frames is not None or opts.stats is not None
         self._frame_times: deque[float] = deque(maxlen=FPS_WINDOW_FRAMES)
         self._mpf: float | None = None
         self._window_ms: dict[str, float] = {}
@@ -263,7 +266,8 @@ class Walkaround:
         self._window_ms = {k: timer.ms[k] for k in ("present", "overlay") if k in timer.ms}
         figures.ms.update(self._window_ms)
         self.last_figures = figures
-        self.frame_stats.append(self._stats_entry(frame, figures))
+        if self.keep_stats:
+            self.frame_stats.append(self._stats_entry(frame, figures))
         self.frames += 1
         if not self.paused:  # frame k shows scene time k * dt, as capture's frames do
             self.scene_time += dt
@@ -320,7 +324,8 @@ class Walkaround:
                 continue
             end = time.perf_counter()
             self._frame_times.append(end - last)
-            self.frame_stats[-1]["frame_ms"] = round((end - last) * 1e3, 4)
+            if self.keep_stats:
+                self.frame_stats[-1]["frame_ms"] = round((end - last) * 1e3, 4)
             if first_frame_end is None:
                 first_frame_end = end
             last = end
