@@ -299,7 +299,6 @@ class Renderer:
             # The array first: re-creating it marks every cached layer for re-rendering.
             array = self._ensure_array(self.method.resolution, self.method.layers)
             plan = self.method.plan(models)
-            self.last_plan = plan
             # The method keeps one order list until it re-clumps: identity says "unchanged".
             if plan.static_order is not None and plan.static_order is not self._static_order:
                 self.layout = geometry.layout(self.geom, plan.static_order)
@@ -313,6 +312,7 @@ class Renderer:
                         character_maps[rec.objects[0] - self.geom.first_character] = index
                 self.character_maps_ssbo.write(character_maps.tobytes())
             self._upload_maps(plan)
+            self.last_plan = plan
             s = self.settings
             # How far the shader may look from a fragment, in texels: the bias offsets (as in
             # shaders/shadow.glsl) plus one PCF tap and one for rounding.
