@@ -418,6 +418,21 @@ class Overlay:
         if imgui.is_item_deactivated() and name in self._pending:
             new[name] = self._pending.pop(name)
 
+    def draw_over_frame(self, renderer: Renderer, frame: Frame, dt: float) -> np.ndarray:
+        """Headless: draw the panel over the frame in the renderer's target and read it back.
+
+        The frame rate shown is ``1000 / total`` ms, the rate this frame's work alone would allow.
+        """
+        total = frame.ms.get("total")
+        figures = Figures.of(frame, renderer.timer.clock, 1e3 / total if total else None)
+        figures.fps_from_total = True
+        self.draw(figures, renderer, False, renderer.size, dt)
+        renderer.target.use()
+        self.render()
+        w, h = renderer.size
+        data = renderer.target.read(viewport=(0, 0, w, h), components=3, attachment=0)
+        return np.frombuffer(data, np.uint8).reshape(h, w, 3)[::-1].copy()
+
     def release(self) -> None:
         """Free the backends' GL objects and the imgui and implot contexts."""
         if self.context is None:
@@ -433,18 +448,3 @@ class Overlay:
         imgui.destroy_context(self.context)
         self.context = None
 
-
-def draw_over_frame(overlay: Overlay, renderer: Renderer, frame: Frame, dt: float) -> np.ndarray:
-    """Headless: draw the panel over the frame in the renderer's target and read it back.
-
-    The frame rate shown is ``1000 / total`` ms, the rate this frame's work alone would allow.
-    """
-    total = frame.ms.get("total")
-    figures = Figures.of(frame, renderer.timer.clock, 1e3 / total if total else None)
-    figures.fps_from_total = True
-    overlay.draw(figures, renderer, False, renderer.size, dt)
-    renderer.target.use()
-    overlay.render()
-    w, h = renderer.size
-    data = renderer.target.read(viewport=(0, 0, w, h), components=3, attachment=0)
-    return np.frombuffer(data, np.uint8).reshape(h, w, 3)[::-1].copy()

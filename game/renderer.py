@@ -93,7 +93,6 @@ class Renderer:
         self._owned: list = []
         self._array: DepthArray | None = None
         self._static_order: list[int] | None = None
-        self.last_plan: shadow_methods.ShadowPlan | None = None  # for the overlay's map list
 
         self.depth_prog = self._own(ctx.program(
             vertex_shader=glsl.build("depth.vert", _defines(ctx)),
@@ -137,6 +136,7 @@ class Renderer:
         self._light_rot = self._light_rotation(scene.light)
         self.method = shadow_methods.create(self.geom, scene.light, self.settings,
                                             self.max_layers)
+        self.last_plan: shadow_methods.ShadowPlan | None = None  # for the overlay's map list
 
     # -- ownership --------------------------------------------------------------------------
     def _own(self, obj):

@@ -268,7 +268,7 @@ def test_layer_viewer_shows_a_rendered_map_and_the_cache_state(ctx):
         view = View.from_camera(scene.camera, size)
         for k in range(3):
             frame = renderer.render(k / 30, view)
-            image = overlay.draw_over_frame(hud, renderer, frame, 1 / 30)
+            image = hud.draw_over_frame(renderer, frame, 1 / 30)
         plan = renderer.last_plan
         assert plan.render_static == [] and plan.render_dynamic  # statics cached by now
         assert hud._viewer is not None
