@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from . import context, frame_log, outputs, resources, shadow_methods
+from . import context, outputs, shadow_methods
 from .renderer import Frame, Renderer, View
 from .scene import Scene
 
@@ -38,15 +38,7 @@ def frame_stats(index: int, t: float, frame: Frame) -> dict:
     return {"frame": index, "time": t, "ms": ms, **ms,
             "maps_rendered": frame.maps_rendered, "maps_cached": frame.maps_cached,
             "maps_total": frame.maps_total, "triangles_to_maps": frame.triangles_to_maps,
-            "maps_per_fragment": round(frame.maps_per_fragment, 5),
-            **_resource_stats(frame)}
-
-
-def _resource_stats(frame: Frame) -> dict:
-    """Live GL objects (by owner) and the process's resident memory: flat over long runs."""
-    owners = frame.gl_objects or {}
-    return {"gl_objects": sum(owners.values()), "gl_objects_by_owner": owners,
-            "rss_mib": round(resources.rss_bytes() / 2**20, 2)}
+            "maps_per_fragment": round(frame.maps_per_fragment, 5)}
 
 
 def frame_geometry(scene: Scene, t: float) -> trimesh.Scene:
@@ -83,7 +75,7 @@ def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
     renderer.debug_view = opts.debug_view
     hud = _overlay() if opts.overlay else None
     view = View.from_camera(scene.camera, opts.size)
-    frames = frame_log.FrameLog()  # on disk: a long run's memory stays flat (issue 6)
+    frames = []
     try:
         for k in range(opts.frames):
             t = opts.time + k / opts.fps
@@ -112,7 +104,7 @@ def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
             hud.release()
         renderer.release()
     if opts.stats is not None:
-        frames.write_json(opts.stats, stats)
+        outputs.write_json(opts.stats, stats)
     return stats
 
 
@@ -125,10 +117,9 @@ def _overlay():
 
 def summary(stats: dict) -> str:
     """One line: medians over the frames after the first."""
-    keys = ("shadow_static", "shadow_dynamic", "shade", "total")
-    ms = np.array([[f["ms"].get(k, 0.0) for k in keys] for f in stats["frames"]])
-    ms = ms[1:] if len(ms) > 1 else ms
-    med = dict(zip(keys, np.median(ms, axis=0).tolist(), strict=True))
+    frames = stats["frames"][1:] or stats["frames"]
+    med = {k: float(np.median([f["ms"].get(k, 0.0) for f in frames]))
+           for k in ("shadow_static", "shadow_dynamic", "shade", "total")}
     return (f"{len(stats['frames'])} frames, median ms: "
             + ", ".join(f"{k} {v:.2f}" for k, v in med.items())
             + f" ({stats['clock']} on {stats['renderer']})")
