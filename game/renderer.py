@@ -88,6 +88,7 @@ class Renderer:
         self.gbuffer = gbuffer
         self.debug_view = "none"
         self.timer = PassTimer(ctx, clock)
+        self.last_plan: shadow_methods.ShadowPlan | None = None  # for the overlay's map list
         self.geom = geometry.pack(scene)
         self.max_maps = gpu_blocks.max_maps(ctx)
         self._owned: list = []
@@ -136,7 +137,6 @@ class Renderer:
         self._light_rot = self._light_rotation(scene.light)
         self.method = shadow_methods.create(self.geom, scene.light, self.settings,
                                             self.max_layers)
-        self.last_plan: shadow_methods.ShadowPlan | None = None  # for the overlay's map list
 
     # -- ownership --------------------------------------------------------------------------
     def _own(self, obj):
