@@ -67,6 +67,7 @@ def main(scene_path: str) -> None:
                                                         single_resolution=1 << 20))
         elif k == 36:
             seen["refused"] = {"message": w.overlay.message,
+                               "notes": list(w.renderer.method.notes),
                                "resolution": w.renderer.settings.single_resolution}
         elif k == 41:
             w.key("escape", True)

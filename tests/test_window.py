@@ -157,8 +157,13 @@ def test_overlay_figures_are_populated(driven):
 
 
 def test_settings_the_gl_refuses_are_undone_and_shown(driven):
-    assert "GL_MAX_TEXTURE_SIZE" in driven["refused"]["message"]
-    assert driven["refused"]["resolution"] < 1 << 20
+    # Undone by the window (message in the panel), or fitted to the GL by the renderer (a note,
+    # which the panel shows too); either way the window lives on at a size the GL can take.
+    refused = driven["refused"]
+    assert refused["resolution"] < 1 << 20
+    assert ("GL_MAX_TEXTURE_SIZE" in refused["message"]
+            or any("GL_MAX_TEXTURE_SIZE" in note or "texture size" in note.lower()
+                   for note in refused["notes"])), refused
 
 
 def test_resize_and_minimise_cycles(driven):
