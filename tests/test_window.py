@@ -284,3 +284,19 @@ def test_layer_viewer_shows_a_rendered_map_and_the_cache_state(ctx):
     finally:
         hud.release()
         renderer.release()
+
+
+def test_render_scale_renders_smaller_and_shows_the_window_size(tmp_path):
+    shot, stats = tmp_path / "shot.png", tmp_path / "play.json"
+    result = run_game("play", TINY, "--platform", "null", "--frames", "2", "--size", "320x180",
+                      "--render-scale", "0.5", "--no-overlay", "--screenshot", shot,
+                      "--stats", stats)
+    if result.returncode != 0 and "cannot open" in result.stderr:
+        pytest.skip(result.stderr.strip())
+    assert result.returncode == 0, result.stderr
+    play = json.loads(stats.read_text())
+    assert play["size"] == [320, 180] and play["render_size"] == [160, 90]
+    image = _read_png(shot)
+    assert image.shape == (180, 320, 3)
+    # Scaled up with a linear filter: neighbouring pixels are close, yet the scene is there.
+    assert len(np.unique(image.reshape(-1, 3), axis=0)) > 20
