@@ -22,7 +22,7 @@ from .timing import PassTimer
 
 SKY = (0.58, 0.68, 0.80)
 DEBUG_VIEWS = {"none": gpu_blocks.DEBUG_NONE, "map": gpu_blocks.DEBUG_MAP,
-               "map-count": gpu_blocks.DEBUG_MAP_COUNT}
+               "map-count": gpu_blocks.DEBUG_MAP_COUNT, "cache": gpu_blocks.DEBUG_CACHE}
 SHADOW_UNIT = 0  # texture unit of the depth array
 LAYERED_EXTENSION = "GL_ARB_shader_viewport_layer_array"
 
@@ -70,7 +70,8 @@ def _defines(ctx, extra: dict | None = None) -> dict:
     d.update(MAX_MAPS=gpu_blocks.max_maps(ctx),
              GRID_NONE=gpu_blocks.GRID_NONE, GRID_ORTHO=gpu_blocks.GRID_ORTHO,
              GRID_OCTAHEDRAL=gpu_blocks.GRID_OCTAHEDRAL,
-             DEBUG_MAP=gpu_blocks.DEBUG_MAP, DEBUG_MAP_COUNT=gpu_blocks.DEBUG_MAP_COUNT)
+             DEBUG_MAP=gpu_blocks.DEBUG_MAP, DEBUG_MAP_COUNT=gpu_blocks.DEBUG_MAP_COUNT,
+             DEBUG_CACHE=gpu_blocks.DEBUG_CACHE)
     d.update(extra or {})
     return d
 
@@ -223,13 +224,15 @@ class Renderer:
         if len(plan.maps) > self.max_maps:
             raise RuntimeError(f"{len(plan.maps)} maps exceed the uniform block ({self.max_maps})")
         block = np.zeros(max(1, len(plan.maps)), MAP_DTYPE)
+        fresh = set(plan.render_static) | set(plan.render_dynamic)  # for the "cache" view
         for i, rec in enumerate(plan.maps):
             block[i]["view_proj"] = rec.fit.view_proj.T
             block[i]["params"] = (rec.layer, rec.fit.texel, float(rec.fit.perspective),
                                   rec.viewport / plan.resolution)
             block[i]["eye"] = (*rec.fit.eye, rec.kind)
             block[i]["bounds"] = rec.fit.rect
-            block[i]["depth"] = (rec.fit.near, 1.0 / (rec.fit.far - rec.fit.near), 0.0, 0.0)
+            block[i]["depth"] = (rec.fit.near, 1.0 / (rec.fit.far - rec.fit.near),
+                                 float(i in fresh), 0.0)
         self.maps_ubo.write(block.tobytes())
 
     def _upload_frame(self, view: View, n_maps: int, grid: map_grid.MapGrid) -> None:

@@ -300,3 +300,31 @@ def test_render_scale_renders_smaller_and_shows_the_window_size(tmp_path):
     assert image.shape == (180, 320, 3)
     # Scaled up with a linear filter: neighbouring pixels are close, yet the scene is there.
     assert len(np.unique(image.reshape(-1, 3), axis=0)) > 20
+
+
+def test_cache_debug_view_colours_re_rendered_and_cached_maps(ctx):
+    from game.renderer import Renderer, View
+    from game.scene import load_scene
+
+    scene = load_scene(TINY)
+    size = (160, 90)
+    renderer = Renderer(ctx, scene, size)
+    renderer.debug_view = "cache"
+    try:
+        view = View.from_camera(scene.camera, size)
+        first, second = renderer.render(0.0, view), renderer.render(0.1, view)
+    finally:
+        renderer.release()
+
+    def shares(frame):
+        rgb = frame.image.astype(int)
+        red = (rgb[..., 0] > rgb[..., 1] + 40) & frame.covered
+        green = (rgb[..., 1] > rgb[..., 0] + 40) & frame.covered
+        return red.mean(), green.mean()
+
+    # Frame 0 renders every map; frame 1 serves the clumps from the cache.
+    assert first.maps_cached == 0 and second.maps_cached > 0
+    red0, green0 = shares(first)
+    red1, green1 = shares(second)
+    assert green0 == 0 and red0 > 0.01
+    assert green1 > 0.01 and red1 > 0
