@@ -70,9 +70,9 @@ def _defines(ctx, extra: dict | None = None) -> dict:
     d.update(MAX_MAPS=gpu_blocks.max_maps(ctx),
              GRID_NONE=gpu_blocks.GRID_NONE, GRID_ORTHO=gpu_blocks.GRID_ORTHO,
              GRID_OCTAHEDRAL=gpu_blocks.GRID_OCTAHEDRAL,
-             DEBUG_MAP=gpu_blocks.DEBUG_MAP, DEBUG_MAP_COUNT=gpu_blocks.DEBUG_MAP_COUNT,
-             DEBUG_CACHE=gpu_blocks.DEBUG_CACHE)
+             DEBUG_MAP=gpu_blocks.DEBUG_MAP, DEBUG_MAP_COUNT=gpu_blocks.DEBUG_MAP_COUNT)
     d.update(extra or {})
+    d.setdefault("DEBUG_CACHE", gpu_blocks.DEBUG_CACHE)
     return d
 
 
