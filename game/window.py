@@ -123,10 +123,21 @@ class Walkaround:
         glfw.make_context_current(self.window)
         # Scripted runs are measured: never wait for the display's refresh.
         glfw.swap_interval(0 if opts.frames else 1)
-        self.ctx = context.wrap_current()
+        try:
+            self.ctx = context.wrap_current()
+        except GameError:
+            glfw.destroy_window(self.window)
+            glfw.terminate()
+            raise
         self.controller = CameraController(scene.camera)
-        self.renderer = Renderer(self.ctx, scene, self.framebuffer_size() or opts.size,
-                                 opts.settings, clock=opts.clock)
+        try:
+            self.renderer = Renderer(self.ctx, scene, self.framebuffer_size() or opts.size,
+                                     opts.settings, clock=opts.clock)
+        except BaseException:
+            self.ctx.release()
+            glfw.destroy_window(self.window)
+            glfw.terminate()
+            raise
         self.renderer.debug_view = opts.debug_view
         self.render_scale = opts.render_scale
         self.presenter = Presenter(self.ctx)
