@@ -4,8 +4,10 @@ Rendering the scene below the window's resolution (``play --render-scale``) is t
 to a fill-bound renderer, and Mesa llvmpipe is fill-bound: the shading pass costs about the
 number of pixels. The overlay is then drawn at the window's full resolution on top.
 
-A :class:`Presenter` owns a window-sized colour framebuffer and the scaling program; the window
-(game/window.py) owns the presenter and releases it.
+Most frames are drawn straight into the window's framebuffer; a frame that is saved as a screenshot
+goes through :attr:`Presenter.target`, a window-sized colour framebuffer that can be read back
+(moderngl cannot read the window's own). A :class:`Presenter` owns that framebuffer and the
+scaling program; the window (game/window.py) owns the presenter and releases it.
 """
 
 from __future__ import annotations
@@ -42,8 +44,12 @@ class Presenter:
         if tuple(frame_texture.size) == self.size:
             self.ctx.copy_framebuffer(self.target, frame_target)
             return
-        self.target.use()
-        self.target.viewport = (0, 0, *self.size)
+        self.draw(frame_texture, self.target, self.size)
+
+    def draw(self, frame_texture, into, size: tuple[int, int]) -> None:
+        """Draw the frame over all of ``into`` (``size`` pixels), filtered linearly."""
+        into.use()
+        into.viewport = (0, 0, *size)
         self.ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE | moderngl.BLEND)
         frame_texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
         frame_texture.use(FRAME_UNIT)

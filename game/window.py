@@ -251,14 +251,22 @@ class Walkaround:
         figures = Figures.of(frame, self.renderer.timer.clock, fps, self._mpf)
         figures.ms.update(self._window_ms)  # the panel shows the last frame's window passes
         timer = self.renderer.timer
-        # The overlay goes over the scene in the presenter's window-sized, colour-only canvas;
-        # one blit shows both, and a screenshot reads exactly what the window shows. (Blitting
-        # the renderer's target to the window directly costs more on llvmpipe: 3.1 ms against
-        # 0.03 + 1.2 ms at 960x540, its depth attachment takes the slow path.)
+        # Scene, then overlay, straight into the window with one textured draw (a blit from
+        # the renderer's target, which has a depth attachment, costs 3.1 ms on llvmpipe at
+        # 960x540, the draw about 1.1). A frame saved as a screenshot goes through the
+        # presenter's readable canvas instead (a copy, then one blit to the window), so the
+        # file holds exactly what the window shows.
+        last = self.opts.frames is not None and self.frames + 1 >= self.opts.frames
+        shot = self._screenshot_next or (last and self.opts.screenshot is not None)
+        screen = self.ctx.detect_framebuffer(0)
         with timer.measure("present", wall=True):
-            self.presenter.resize(size)
-            self.presenter.show(self.renderer.target, self.renderer.color_tex)
-            self.canvas = self.presenter.target
+            if shot:
+                self.presenter.resize(size)
+                self.presenter.show(self.renderer.target, self.renderer.color_tex)
+                self.canvas = self.presenter.target
+            else:
+                self.presenter.draw(self.renderer.color_tex, screen, size)
+                self.canvas = screen
         if self.overlay is not None:
             with timer.measure("overlay", wall=True):
                 changes = self.overlay.draw(figures, self.renderer, self.paused, size,
@@ -270,8 +278,9 @@ class Walkaround:
             if changes.render_scale is not None:
                 self.render_scale = changes.render_scale
             changes.apply(self.renderer)
-        with timer.measure("present", wall=True):
-            self.ctx.copy_framebuffer(self.ctx.detect_framebuffer(0), self.canvas)
+        if shot:
+            with timer.measure("present", wall=True):
+                self.ctx.copy_framebuffer(screen, self.canvas)
         self._window_ms = {k: timer.ms[k] for k in ("present", "overlay") if k in timer.ms}
         figures.ms.update(self._window_ms)
         self.last_figures = figures
@@ -280,8 +289,7 @@ class Walkaround:
         self.frames += 1
         if not self.paused:  # frame k shows scene time k * dt, as capture's frames do
             self.scene_time += dt
-        last = self.opts.frames is not None and self.frames >= self.opts.frames
-        if self._screenshot_next or (last and self.opts.screenshot is not None):
+        if shot:
             self._save_screenshot(size, self.opts.screenshot if last else None)
         glfw.swap_buffers(self.window)
         return True

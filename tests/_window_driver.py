@@ -25,6 +25,57 @@ STEP_S = 1.0 / 30.0
 NO_WINDOW = 77  # exit status: this machine cannot open a null-platform EGL window
 
 
+def screen_matches_screenshot(scene_path: str, shots: str) -> None:
+    """Most frames go straight to the window, screenshots through a canvas: same pixels?
+
+    Reads the window's framebuffer (which moderngl cannot) with PyOpenGL just before each swap.
+    """
+    import numpy as np
+    from OpenGL import GL
+
+    import game.window
+
+    game.window.SCREENSHOT_DIR = Path(shots)
+    scene = load_scene(Path(scene_path))
+    result = {}
+    for scale in (1.0, 0.5):
+        try:
+            app = Walkaround(scene, PlayOptions(size=SIZE, time_step=0.0, platform="null",
+                                                render_scale=scale))
+        except GameError as exc:
+            print(exc, file=sys.stderr)
+            sys.exit(NO_WINDOW)
+        swap, shown = glfw.swap_buffers, []
+
+        def read_then_swap(window, app=app, swap=swap, shown=shown):
+            GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, 0)
+            data = GL.glReadPixels(0, 0, SIZE[0], SIZE[1], GL.GL_RGB, GL.GL_UNSIGNED_BYTE)
+            shown.append(np.frombuffer(data, np.uint8).reshape(SIZE[1], SIZE[0], 3)[::-1])
+            app.ctx.detect_framebuffer(0).use()
+            swap(window)
+
+        glfw.swap_buffers = read_then_swap
+        try:
+            app.paused = True
+            app.step(0.0)                 # straight to the window
+            app.key("f12", True)          # through the canvas, saved
+            app.step(0.0)
+            x, y, w, h = app.overlay.rect
+        finally:
+            glfw.swap_buffers = swap
+            app.close()
+        # The panel's figures change between the frames: compare outside it.
+        keep = np.ones(shown[0].shape[:2], bool)
+        keep[y:y + h, x:x + w] = False
+        result[str(scale)] = {
+            "direct_vs_canvas": int(np.abs(shown[0].astype(int) - shown[1].astype(int))[keep]
+                                    .max()),
+            "screenshot_vs_window": int(np.abs(app.screenshot.astype(int)
+                                               - shown[1].astype(int)).max()),
+            "mean": float(shown[0].mean())}
+    print(json.dumps(result))
+
+
 def main(scene_path: str) -> None:
     scene = load_scene(Path(scene_path))
     try:
@@ -88,4 +139,7 @@ def main(scene_path: str) -> None:
 
 
 if __name__ == "__main__":
-    main(sys.argv[1])
+    if len(sys.argv) > 2:
+        screen_matches_screenshot(sys.argv[1], sys.argv[2])
+    else:
+        main(sys.argv[1])

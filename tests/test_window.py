@@ -129,6 +129,20 @@ def driven():
     return json.loads(result.stdout.strip().splitlines()[-1])
 
 
+def test_the_window_shows_what_its_screenshots_hold(tmp_path):
+    result = subprocess.run([sys.executable, str(DRIVER), str(TINY), str(tmp_path)],
+                            capture_output=True, text=True, timeout=300, env=_env(), cwd=ROOT)
+    if result.returncode == NO_WINDOW:
+        pytest.skip(f"no null-platform EGL window here: {result.stderr.strip()}")
+    assert result.returncode == 0, result.stderr
+    seen = json.loads(result.stdout.strip().splitlines()[-1])
+    for scale in ("1.0", "0.5"):
+        assert seen[scale]["screenshot_vs_window"] == 0
+        assert seen[scale]["direct_vs_canvas"] == 0
+        assert 20 < seen[scale]["mean"] < 235   # the scene, not a blank window
+    assert len(list(tmp_path.glob("screenshot_*.png"))) == 2
+
+
 def test_scripted_keys_move_the_camera(driven):
     positions = np.array(driven["positions"])
     np.testing.assert_array_equal(positions[3], positions[0])      # nothing held yet
