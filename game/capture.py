@@ -28,6 +28,7 @@ class CaptureOptions:
     stats: Path | None = None
     debug_view: str = "none"
     clock: str = "auto"
+    overlay: bool = False      # draw the timing overlay (game/overlay.py) into the frames
     settings: shadow_methods.ShadowSettings = field(default_factory=shadow_methods.ShadowSettings)
     soft: object | None = None  # a tracer.TraceSettings: composite the linear light's shadows
 
@@ -86,6 +87,7 @@ def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
     renderer = Renderer(ctx, scene, opts.size, opts.settings,
                         gbuffer=opts.dump or traced or opts.soft is not None, clock=opts.clock)
     renderer.debug_view = opts.debug_view
+    hud = _overlay() if opts.overlay else None
     view = View.from_camera(scene.camera, opts.size)
     frames = frame_log.FrameLog()  # on disk: a long run's memory stays flat (issue 6)
     try:
@@ -97,6 +99,8 @@ def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
             if opts.soft is not None:
                 frame, _ = trace_run.soft_frame(renderer, frame, t, opts.soft)
             stem = opts.out / f"frame_{k:04d}"
+            if hud is not None:
+                frame.image = hud.draw_over_frame(renderer, frame, 1.0 / opts.fps)
             outputs.write_png(stem.with_suffix(".png"), frame.image)
             if opts.dump:
                 write_dump(stem, scene, view, opts.size, t, frame)
@@ -114,10 +118,19 @@ def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
             "frames": frames,
         }
     finally:
+        if hud is not None:
+            hud.release()
         renderer.release()
     if opts.stats is not None:
         frames.write_json(opts.stats, stats)
     return stats
+
+
+def _overlay():
+    """The timing overlay, imported only when asked for (it loads imgui)."""
+    from .overlay import Overlay
+
+    return Overlay()
 
 
 def summary(stats: dict) -> str:

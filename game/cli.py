@@ -139,15 +139,59 @@ def _settings(args) -> shadow_methods.ShadowSettings:
 
 
 # -- play (the walkaround window, issue 5) -------------------------------------------------
+def _render_scale(text: str) -> float:
+    value = _finite(text)
+    if not 0.25 <= value <= 1.0:
+        raise argparse.ArgumentTypeError(f"must be 0.25..1, got {text!r}")
+    return value
+
+
 def _add_play_parser(sub) -> None:
-    play = sub.add_parser("play", help="the walkaround window")
+    play = sub.add_parser(
+        "play", help="the walkaround window",
+        description="WASD move, right mouse button (or Tab) looks, Shift faster, Q/E down/up, "
+                    "R resets the view, P pauses the characters, M next method, F12 screenshot, "
+                    "Esc quits. See docs/window.md.")
     play.add_argument("scene", nargs="?", help="scene file (default: the built-in scene)")
-    play.add_argument("--frames", type=_positive_int)
-    play.add_argument("--screenshot", type=Path)
+    play.add_argument("--frames", type=_positive_int, help="quit by itself after N frames")
+    play.add_argument("--screenshot", type=Path, metavar="FILE",
+                      help="save the last frame as the window shows it, overlay included")
+    play.add_argument("--stats", type=Path, metavar="FILE",
+                      help="write per-frame stats JSON and the frame rate")
+    play.add_argument("--size", type=_size, default=(960, 540), metavar="WxH",
+                      help="window size in pixels")
+    play.add_argument("--method", choices=CAPTURE_METHODS, default="clumped")
+    play.add_argument("--fps", type=_positive, default=None,
+                      help="scene seconds advance 1/F per frame (default: real time)")
+    play.add_argument("--render-scale", type=_render_scale, default=1.0, metavar="S",
+                      help="render the scene at S times the window's size per side, then "
+                           "scale it up (0.25..1; llvmpipe is fill-bound)")
+    play.add_argument("--no-overlay", action="store_true", help="hide the timing overlay")
+    play.add_argument("--platform", choices=("auto", "null"), default="auto",
+                      help="null: GLFW's null platform, a window with no display (scripts, CI)")
+    _add_shadow_options(play)
 
 
 def cmd_play(args) -> int:
-    raise GameError("the walkaround window is not built yet (issue 5); use python -m game capture")
+    from . import window
+
+    if args.method in NOT_YET:
+        raise ArgumentError(f"--method {args.method}: not available yet: {NOT_YET[args.method]}")
+    for flag, path in (("--screenshot", args.screenshot), ("--stats", args.stats)):
+        if path is not None and (path.is_dir() or not path.parent.is_dir()):
+            raise ArgumentError(f"{flag} {path}: not a file in an existing folder")
+    if args.screenshot is not None and args.frames is None:
+        raise ArgumentError("--screenshot needs --frames (F12 saves screenshots interactively)")
+    scene = _load(args.scene)
+    opts = window.PlayOptions(
+        size=args.size, frames=args.frames, screenshot=args.screenshot, stats=args.stats,
+        time_step=None if args.fps is None else 1.0 / args.fps, overlay=not args.no_overlay,
+        clock=args.clock, platform=args.platform, settings=_settings(args),
+        debug_view=args.debug_view, render_scale=args.render_scale)
+    stats = window.play(scene, opts)
+    if args.frames is not None:
+        print(f"played {len(stats['frames'])} frame(s): {window.summary(stats)}")
+    return 0
 
 
 # -- trace (soft shadows of the linear light, issue 4) --------------------------------------
@@ -346,9 +390,6 @@ def cmd_capture(args) -> int:
 
     if args.method in NOT_YET:
         raise ArgumentError(f"--method {args.method}: not available yet: {NOT_YET[args.method]}")
-    if args.overlay:
-        raise ArgumentError("--overlay: the timing overlay arrives with the walkaround window "
-                            "(issue 5)")
     _check_out(args.out)
     if args.stats is not None and args.stats.is_dir():
         raise ArgumentError(f"--stats {args.stats}: is a folder")
@@ -358,7 +399,7 @@ def cmd_capture(args) -> int:
         opts = capture.CaptureOptions(
             out=args.out, frames=args.frames, size=args.size, time=args.time, fps=args.fps,
             dump=args.dump, stats=args.stats, debug_view=args.debug_view, clock=args.clock,
-            settings=_settings(args), soft=_soft_settings(args, scene))
+            overlay=args.overlay, settings=_settings(args), soft=_soft_settings(args, scene))
         stats = capture.run(ctx, scene, opts)
     finally:
         ctx.release()
@@ -398,12 +439,15 @@ def cmd_verify(args) -> int:
 
 
 def cmd_default() -> int:
-    """``python -m game``: the walkaround; until the window exists, a headless capture."""
-    from . import capture, context
+    """``python -m game``: the walkaround; with no display, one headless frame and a line."""
+    from . import capture, context, window
     from .scene import default_scene_path
 
-    out = DEFAULT_OUT / "default"
     scene = _load(None)
+    if window.display_available():
+        window.play(scene, window.PlayOptions())
+        return 0
+    out = DEFAULT_OUT / "default"
     ctx = context.create_headless()
     try:
         opts = capture.CaptureOptions(out=out, frames=1, size=(960, 540))
@@ -411,9 +455,9 @@ def cmd_default() -> int:
     finally:
         ctx.release()
     reason = ("no display" if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
-              else "no walkaround window in this build yet")
-    print(f"{reason}: rendered {default_scene_path().name} headless to {out}/frame_0000.png "
-          "(see python -m game capture --help)")
+              else "cannot open a window on this display")
+    print(f"{reason} for the walkaround window: rendered {default_scene_path().name} headless "
+          f"to {out}/frame_0000.png (see python -m game capture --help)")
     return 0
 
 

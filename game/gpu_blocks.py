@@ -18,7 +18,8 @@ MAP_DTYPE = np.dtype([
     ("eye", "<f4", 4),  # xyz: the map's eye; w: caster kind (0 static clump, 1 character, 2 all)
     # orthographic maps: the light-space rectangle (xmin, ymin, xmax, ymax) the map covers
     ("bounds", "<f4", 4),
-    # orthographic maps: x the near plane's distance along the light, y 1 / (far - near)
+    # orthographic maps: x the near plane's distance along the light, y 1 / (far - near);
+    # z: 1 when the map was re-rendered this frame, 0 when it came from the cache (debug view)
     ("depth", "<f4", 4),
 ])
 assert MAP_DTYPE.itemsize == 128
@@ -39,7 +40,7 @@ assert FRAME_DTYPE.itemsize == 64 * 2 + 16 * 7
 
 LIGHT_KINDS = {"directional": 0, "spot": 1, "point": 2}
 GRID_NONE, GRID_ORTHO, GRID_OCTAHEDRAL = 0, 1, 2
-DEBUG_NONE, DEBUG_MAP, DEBUG_MAP_COUNT = 0, 1, 2
+DEBUG_NONE, DEBUG_MAP, DEBUG_MAP_COUNT, DEBUG_CACHE = 0, 1, 2, 3
 
 # Binding points, shared by Python and shaders/blocks.glsl (passed in as #defines).
 BINDINGS = {

@@ -24,7 +24,7 @@ from .tracer import SoftTracer, TraceResult, TraceSettings
 
 SKY = (0.58, 0.68, 0.80)
 DEBUG_VIEWS = {"none": gpu_blocks.DEBUG_NONE, "map": gpu_blocks.DEBUG_MAP,
-               "map-count": gpu_blocks.DEBUG_MAP_COUNT}
+               "map-count": gpu_blocks.DEBUG_MAP_COUNT, "cache": gpu_blocks.DEBUG_CACHE}
 SHADOW_UNIT = 0  # texture unit of the depth array
 SOFT_UNIT = 4    # texture unit of the soft visibility (game/tracer.py uses 1-3)
 LAYERED_EXTENSION = "GL_ARB_shader_viewport_layer_array"
@@ -48,9 +48,11 @@ class View:
 class Frame:
     """What one rendered frame produced."""
 
-    image: np.ndarray          # (H, W, 3) uint8, row 0 at the top
-    covered: np.ndarray        # (H, W) bool: geometry under the pixel centre
-    maps_sampled: np.ndarray   # (H, W) int: shadow maps read for the pixel
+    # The next three are None when the frame was rendered with ``read=False`` (the window
+    # blits the target instead of reading it back).
+    image: np.ndarray | None          # (H, W, 3) uint8, row 0 at the top
+    covered: np.ndarray | None        # (H, W) bool: geometry under the pixel centre
+    maps_sampled: np.ndarray | None   # (H, W) int: shadow maps read for the pixel
     ms: dict[str, float]
     maps_rendered: int
     maps_cached: int
@@ -61,7 +63,9 @@ class Frame:
     texels_to_maps: int = 0    # depth texels cleared and rendered into maps this frame
 
     @property
-    def maps_per_fragment(self) -> float:
+    def maps_per_fragment(self) -> float | None:
+        if self.covered is None:
+            return None
         n = int(self.covered.sum())
         return float(self.maps_sampled[self.covered].sum()) / n if n else 0.0
 
@@ -74,6 +78,7 @@ def _defines(ctx, extra: dict | None = None) -> dict:
              DEBUG_MAP=gpu_blocks.DEBUG_MAP, DEBUG_MAP_COUNT=gpu_blocks.DEBUG_MAP_COUNT,
              KIND_CASCADE=shadow_methods.KIND_CASCADE)
     d.update(extra or {})
+    d.setdefault("DEBUG_CACHE", gpu_blocks.DEBUG_CACHE)
     return d
 
 
@@ -90,6 +95,7 @@ class Renderer:
         self.gbuffer = gbuffer
         self.debug_view = "none"
         self.timer = PassTimer(ctx, clock)
+        self.last_plan: shadow_methods.ShadowPlan | None = None  # for the overlay's map list
         self.geom = geometry.pack(scene)
         self.max_maps = gpu_blocks.max_maps(ctx)
         self._owned: list = []
@@ -162,6 +168,16 @@ class Renderer:
         for obj in [self.target, self.depth_rb, self.color_tex, *self.gbuffer_tex]:
             obj.release()
 
+    def resize(self, size: tuple[int, int]) -> None:
+        """Re-create the frame target at ``size`` (the window's framebuffer changed)."""
+        size = (int(size[0]), int(size[1]))
+        if size == self.size:
+            return
+        self.ctx.detect_framebuffer(0).use()
+        self._release_target()
+        self.size = size
+        self._make_target()
+
     def release(self) -> None:
         """Release every GL object this renderer made."""
         # moderngl re-binds the framebuffer it last used after creating one; leave it the
@@ -208,6 +224,7 @@ class Renderer:
         if a is None or a.resolution != resolution or a.layers < layers:
             if a is not None:
                 a.release()
+                self._array = None  # a refused new array must not leave the released one
             self._array = DepthArray(self.ctx, resolution, layers)
             self.method.mark_rendered_lost()
         return self._array
@@ -221,13 +238,15 @@ class Renderer:
         if len(plan.maps) > self.max_maps:
             raise RuntimeError(f"{len(plan.maps)} maps exceed the uniform block ({self.max_maps})")
         block = np.zeros(max(1, len(plan.maps)), MAP_DTYPE)
+        fresh = set(plan.render_static) | set(plan.render_dynamic)  # for the "cache" view
         for i, rec in enumerate(plan.maps):
             block[i]["view_proj"] = rec.fit.view_proj.T
             block[i]["params"] = (rec.layer, rec.fit.texel, float(rec.fit.perspective),
                                   rec.viewport / plan.resolution)
             block[i]["eye"] = (*rec.fit.eye, rec.kind)
             block[i]["bounds"] = rec.fit.rect
-            block[i]["depth"] = (rec.fit.near, 1.0 / (rec.fit.far - rec.fit.near), 0.0, 0.0)
+            block[i]["depth"] = (rec.fit.near, 1.0 / (rec.fit.far - rec.fit.near),
+                                 float(i in fresh), 0.0)
         self.maps_ubo.write(block.tobytes())
 
     def _upload_frame(self, view: View, n_maps: int, grid: map_grid.MapGrid) -> None:
@@ -284,8 +303,12 @@ class Renderer:
             self.layered_vao.render(moderngl.TRIANGLES, vertices=count, first=first)
         return sum(self.geom.triangle_count(plan.maps[i].objects) for i in indices)
 
-    def render(self, t: float, view: View) -> Frame:
-        """Render the scene at time ``t`` seen from ``view``."""
+    def render(self, t: float, view: View, read: bool = True) -> Frame:
+        """Render the scene at time ``t`` seen from ``view``.
+
+        With ``read=False`` the pixels stay in :attr:`target` (the window blits them) and the
+        frame's image, coverage and maps-per-fragment are None.
+        """
         ctx, timer = self.ctx, self.timer
         timer.begin_frame()
         models = self._models(t)
@@ -307,6 +330,7 @@ class Renderer:
                             character_maps[obj - self.geom.first_character] = index
                 self.character_maps_ssbo.write(character_maps.tobytes())
             self._upload_maps(plan)
+            self.last_plan = plan
             s = self.settings
             # How far the shader may look from a fragment, in texels: the bias offsets (as in
             # shaders/shadow.glsl) plus one PCF tap and one for rounding.
@@ -351,12 +375,17 @@ class Renderer:
                 if total > closed:
                     self.shade_vao.render(moderngl.TRIANGLES, vertices=total - closed,
                                           first=closed)
+        ms = dict(timer.ms)
+        rendered = len(plan.render_static) + len(plan.render_dynamic)
+        if not read:
+            return Frame(image=None, covered=None, maps_sampled=None, ms=ms,
+                         maps_rendered=rendered, maps_cached=len(plan.maps) - rendered,
+                         maps_total=len(plan.maps), triangles_to_maps=triangles)
         with timer.measure("readback", wall=True):
             rgba = np.frombuffer(self.target.read(components=4, attachment=0), np.uint8)
             rgba = rgba.reshape(self.size[1], self.size[0], 4)[::-1]
             gbuffer = self._read_gbuffer(rgba) if self.gbuffer else None
         ms = dict(timer.ms)
-        rendered = len(plan.render_static) + len(plan.render_dynamic)
         return Frame(
             image=np.ascontiguousarray(rgba[..., :3]),
             covered=rgba[..., 3] > 0,
@@ -448,6 +477,11 @@ class Renderer:
     @property
     def soft_tracer(self) -> SoftTracer | None:
         return self._tracer
+
+    @property
+    def shadow_array(self) -> DepthArray | None:
+        """The depth texture array of the last frame (the overlay's layer viewer reads it)."""
+        return self._array
 
     @property
     def shadow_memory_bytes(self) -> int:

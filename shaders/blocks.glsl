@@ -7,7 +7,8 @@ struct ShadowMap {      // keep in sync with gpu_blocks.MAP_DTYPE
     vec4 params;        // x layer, y texel size (ortho m; perspective per m of depth), z perspective, w uv scale
     vec4 eye;           // xyz the map's eye; w caster kind (0 clump, 1 character, 2 all)
     vec4 bounds;        // orthographic maps: light-space rectangle (xmin, ymin, xmax, ymax)
-    vec4 depth;         // orthographic maps: x near distance along the light, y 1 / (far - near)
+    vec4 depth;         // orthographic maps: x near distance along the light, y 1 / (far - near);
+                        // z 1 re-rendered this frame, 0 cached (debug view)
 };
 
 layout(std140, binding = FRAME_BINDING) uniform Frame {   // keep in sync with gpu_blocks.FRAME_DTYPE

@@ -62,6 +62,11 @@ void main() {
         colour = (used < 0 ? vec3(0.5) : palette(used + 7)) * (0.55 + 0.45 * vis);
     } else if (u_counts.w == DEBUG_MAP_COUNT) {
         colour = heat(float(sampled) / 4.0);
+    } else if (u_counts.w == DEBUG_CACHE) {
+        // The map that decided the pixel: red re-rendered this frame, green from the cache.
+        vec3 state = u_maps[max(used, 0)].depth.z > 0.5 ? vec3(0.9, 0.3, 0.25)
+                                                        : vec3(0.3, 0.8, 0.35);
+        colour = (used < 0 ? vec3(0.5) : state) * (0.55 + 0.45 * vis);
     }
     out_color = vec4(colour, float(1 + sampled) / 255.0);
 #if GBUFFER

@@ -1,6 +1,7 @@
 """The command line: every bad input is one line on stderr and a non-zero exit, no traceback."""
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -12,9 +13,9 @@ ROOT = Path(__file__).resolve().parent.parent
 TINY = ROOT / "tests" / "scenes" / "tiny.toml"
 
 
-def run(*args, cwd=None):
+def run(*args, cwd=None, env=None):
     return subprocess.run([sys.executable, "-m", "game", *map(str, args)], cwd=cwd or ROOT,
-                          capture_output=True, text=True, timeout=300)
+                          capture_output=True, text=True, timeout=300, env=env)
 
 
 def assert_one_line_error(result, *fragments):
@@ -94,7 +95,9 @@ def test_capture_writes_frames_dumps_and_stats(tmp_path):
 
 
 def test_default_command_renders_headless_and_says_where(tmp_path):
-    result = run(cwd=tmp_path)
+    # With a display, python -m game would open the walkaround: take the display away.
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    result = run(cwd=tmp_path, env=env)
     assert result.returncode == 0, result.stderr
     assert len(result.stdout.strip().splitlines()) == 1
     assert "headless" in result.stdout
