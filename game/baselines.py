@@ -17,12 +17,18 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import trimesh
 
 from . import transforms
 from .geometry import PackedGeometry
 from .scene import Light
-from .shadow_fit import DEPTH_MARGIN, MARGIN_TEXELS, MapFit, fit_directional, fit_perspective
+from .shadow_fit import (
+    DEPTH_MARGIN,
+    MARGIN_TEXELS,
+    MapFit,
+    deciding_points,
+    fit_directional,
+    fit_perspective,
+)
 from .shadow_methods import (
     KIND_ALL,
     KIND_CASCADE,
@@ -31,17 +37,6 @@ from .shadow_methods import (
     ShadowPlan,
     ShadowSettings,
 )
-
-
-def _extreme_points(points: np.ndarray, light: Light, light_rot: np.ndarray | None
-                    ) -> np.ndarray:
-    """The few points that decide a fit: per-axis extremes (directional) or the convex hull."""
-    if not len(points):
-        return points
-    if light.kind == "directional":
-        q = points @ light_rot.T
-        return points[np.unique(np.concatenate([q.argmin(axis=0), q.argmax(axis=0)]))]
-    return trimesh.convex.hull_points(points) if len(points) > 4 else points
 
 
 def _fit(points: np.ndarray, light: Light, light_rot: np.ndarray | None, resolution: int
@@ -81,8 +76,7 @@ class StaticDynamicShadows:
                            if light.kind == "directional" else None)
         points = (np.concatenate(self.geom.static_points) if self.geom.static_points
                   else np.zeros((0, 3)))
-        fit = _fit(_extreme_points(points, light, self._light_rot), light, self._light_rot,
-                   self.resolution)
+        fit = _fit(points, light, self._light_rot, self.resolution)
         objects = [self.geom.static_object(i) for i in range(self.geom.n_statics)]
         self._static = (None if fit is None else
                         MapRecord("statics", KIND_CLUMP, fit, 0, self.resolution, objects))
@@ -211,7 +205,7 @@ class CascadedShadows:
                 self.notes.append(note)
             self._light_rot = None
             points = np.concatenate(g.static_points) if g.static_points else np.zeros((0, 3))
-            self._static_points = _extreme_points(points, light, None)
+            self._static_points = deciding_points(points, None)
             return
         self._light_rot = transforms.light_rotation(light.direction)
         # Light-space boxes of the statics, once per light: per-cascade culling is then a

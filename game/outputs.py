@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import json
 import os
+import secrets
 import struct
-import tempfile
 import zlib
 from collections.abc import Callable
 from contextlib import contextmanager
@@ -24,7 +24,7 @@ def _umask() -> int:
     return mask
 
 
-# mkstemp makes files readable by the owner only; outputs get the usual permissions.
+# Temp files are made readable by the owner only; outputs get the usual permissions.
 FILE_MODE = 0o666 & ~_umask()
 
 
@@ -32,8 +32,11 @@ FILE_MODE = 0o666 & ~_umask()
 def atomic_file(path: str | Path):
     """Open a temp file beside ``path`` for binary writing; rename it over ``path`` on success."""
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    # The temp name is chosen before the file exists, so an interrupt that lands anywhere after
+    # this line (even inside the open) still finds the name to remove.
+    tmp = path.parent / f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp"
     try:
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
         with os.fdopen(fd, "wb") as f:
             yield f
             f.flush()

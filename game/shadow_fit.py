@@ -190,3 +190,19 @@ def fit_cube_faces(points: np.ndarray, eye: np.ndarray, resolution: int) -> list
                            eye=eye.copy(), rect=np.array([x0, y0, x0 + size, y0 + size]),
                            near=near, far=far))
     return fits
+
+
+def deciding_points(points: np.ndarray, light_rot: np.ndarray | None) -> np.ndarray:
+    """The points of a static caster that can decide its fit, computed once per light.
+
+    Directional light (``light_rot`` given): the extremes along each light-space axis. Spot and
+    point lights: every distinct point, because a perspective fit is aimed at the moving centre
+    of all casters and any point of the convex hull may become the widest direction (the hull
+    itself would need scipy).
+    """
+    if not len(points):
+        return points
+    if light_rot is not None:
+        q = points @ light_rot.T
+        return points[np.unique(np.concatenate([q.argmin(axis=0), q.argmax(axis=0)]))]
+    return np.unique(points, axis=0)

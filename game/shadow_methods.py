@@ -13,7 +13,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-import trimesh
 
 from . import clumping, transforms
 from .geometry import PackedGeometry
@@ -21,6 +20,7 @@ from .map_grid import octahedral_encode
 from .scene import Light
 from .shadow_fit import (
     MapFit,
+    deciding_points,
     fit_cube_faces,
     fit_directional,
     fit_perspective,
@@ -450,14 +450,7 @@ class SingleShadows:
                   else np.zeros((0, 3)))
         self._light_rot = (transforms.light_rotation(light.direction)
                            if light.kind == "directional" else None)
-        if light.kind == "directional" and len(points):
-            q = points @ self._light_rot.T
-            keep = np.unique(np.concatenate([q.argmin(axis=0), q.argmax(axis=0)]))
-            points = points[keep]
-        elif len(points):
-            # Perspective fits need every direction; the vertices of the convex hull suffice.
-            points = trimesh.convex.hull_points(points) if len(points) > 4 else points
-        self._static_points = points
+        self._static_points = deciding_points(points, self._light_rot)
 
     def invalidate_statics(self) -> None:
         self.set_light(self.light)
