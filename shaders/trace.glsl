@@ -51,7 +51,10 @@ Ray make_ray(vec3 o, vec3 d) {
     return r;
 }
 
-bool ray_hits_triangle(Ray r, int tri) {
+// The one watertight ray-triangle test (Woop, Benthin and Wald 2013). Returns (T, det) with
+// det > 0 where the ray's line crosses the triangle: the hit lies at ray parameter T / det.
+// det = 0: no crossing (outside an edge, or the ray in the triangle's plane).
+vec2 ray_triangle_crossing(Ray r, int tri) {
     vec3 A = tri_vertex(tri, 0) - r.o;
     vec3 B = tri_vertex(tri, 1) - r.o;
     vec3 C = tri_vertex(tri, 2) - r.o;
@@ -66,44 +69,26 @@ bool ray_hits_triangle(Ray r, int tri) {
     float V = Ax * Cy - Ay * Cx;
     float W = Bx * Ay - By * Ax;
     if ((U < 0.0 || V < 0.0 || W < 0.0) && (U > 0.0 || V > 0.0 || W > 0.0)) {
-        return false;
+        return vec2(0.0);
     }
     float det = U + V + W;
-    if (det == 0.0) {
-        return false;
-    }
     float T = U * (r.shear.z * A[kz]) + V * (r.shear.z * B[kz]) + W * (r.shear.z * C[kz]);
-    if (det < 0.0) {
-        T = -T;
-        det = -det;
-    }
-    return T > 0.0 && T < det;
+    return det < 0.0 ? vec2(-T, -det) : vec2(T, det);
+}
+
+// Does the ray hit the triangle strictly between its origin (s = 0) and its end (s = 1)?
+bool ray_hits_triangle(Ray r, int tri) {
+    vec2 h = ray_triangle_crossing(r, tri);
+    return h.y > 0.0 && h.x > 0.0 && h.x < h.y;
 }
 
 // The ray parameter s of the hit, or -1 if none (analytic's collinear case needs the distance).
 float ray_triangle_s(Ray r, int tri) {
-    vec3 A = tri_vertex(tri, 0) - r.o;
-    vec3 B = tri_vertex(tri, 1) - r.o;
-    vec3 C = tri_vertex(tri, 2) - r.o;
-    int kx = r.k.x, ky = r.k.y, kz = r.k.z;
-    float Ax = A[kx] - r.shear.x * A[kz];
-    float Ay = A[ky] - r.shear.y * A[kz];
-    float Bx = B[kx] - r.shear.x * B[kz];
-    float By = B[ky] - r.shear.y * B[kz];
-    float Cx = C[kx] - r.shear.x * C[kz];
-    float Cy = C[ky] - r.shear.y * C[kz];
-    float U = Cx * By - Cy * Bx;
-    float V = Ax * Cy - Ay * Cx;
-    float W = Bx * Ay - By * Ax;
-    if ((U < 0.0 || V < 0.0 || W < 0.0) && (U > 0.0 || V > 0.0 || W > 0.0)) {
+    vec2 h = ray_triangle_crossing(r, tri);
+    if (h.y == 0.0) {
         return -1.0;
     }
-    float det = U + V + W;
-    if (det == 0.0) {
-        return -1.0;
-    }
-    float T = U * (r.shear.z * A[kz]) + V * (r.shear.z * B[kz]) + W * (r.shear.z * C[kz]);
-    float s = T / det;
+    float s = h.x / h.y;
     return s > 0.0 ? s : -1.0;
 }
 
