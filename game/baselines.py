@@ -29,7 +29,7 @@ from .shadow_fit import (
     fit_directional,
     fit_perspective,
 )
-from .shadow_methods import (
+from .shadow_plan import (
     KIND_ALL,
     KIND_CASCADE,
     KIND_CLUMP,

@@ -587,16 +587,6 @@ def is_default(row: dict) -> bool:
     return row["run"].split("|")[2] == "defaults"
 
 
-def pareto_front(points: list[tuple[float, float]]) -> list[int]:
-    """Indices of points no other point beats in both cost and error (lower is better)."""
-    front = []
-    for i, (c, e) in enumerate(points):
-        if not any((c2 <= c and e2 <= e) and (c2 < c or e2 < e)
-                   for j, (c2, e2) in enumerate(points) if j != i):
-            front.append(i)
-    return front
-
-
 def compare(rows: list[dict], scene: str, baseline: str) -> dict | None:
     """clumped (defaults) against a baseline's runs on one scene, at equal or lower error.
 

@@ -21,6 +21,16 @@ COLOURS = {"clumped": "#d62728", "single": "#1f77b4", "static-dynamic": "#2ca02c
 MARKERS = {"clumped": "o", "single": "s", "static-dynamic": "^", "csm": "D"}
 
 
+def pareto_front(points: list[tuple[float, float]]) -> list[int]:
+    """Indices of points no other point beats in both cost and error (lower is better)."""
+    front = []
+    for i, (c, e) in enumerate(points):
+        if not any((c2 <= c and e2 <= e) and (c2 < c or e2 < e)
+                   for j, (c2, e2) in enumerate(points) if j != i):
+            front.append(i)
+    return front
+
+
 def _num(row: dict, key: str) -> float:
     try:
         return float(row.get(key, ""))
@@ -72,7 +82,6 @@ def _save(plt, fig, folder: Path, stem: str, renderer: str) -> list[Path]:
 
 
 def pareto(plt, rows: list[dict], scene: str, folder: Path, renderer: str) -> list[Path]:
-    from .bench import pareto_front
 
     pts = [r for r in rows if r["scene"] == scene and _ok(r)
            and math.isfinite(_num(r, "error")) and math.isfinite(_num(r, "total_ms_median"))]

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .shadow_methods import ShadowPlan
+from .shadow_plan import ShadowPlan
 
 # The depth array still exists (the shading pass binds it); keep it as small as GL allows.
 PLACEHOLDER_RESOLUTION = 16

@@ -6,7 +6,7 @@ import sys
 import numpy as np
 import pytest
 
-from game import baselines, bench
+from game import baselines, bench, charts
 
 pytest.importorskip("matplotlib", reason="bench charts need matplotlib (pip install .[bench])")
 pytest.importorskip("tqdm", reason="bench needs tqdm (pip install .[bench])")
@@ -123,7 +123,7 @@ def test_flicker_counts_only_the_methods_own_flips():
 
 def test_pareto_front_and_comparison():
     pts = [(10.0, 0.01), (5.0, 0.05), (20.0, 0.005), (12.0, 0.02), (5.0, 0.06)]
-    assert bench.pareto_front(pts) == [0, 1, 2]
+    assert charts.pareto_front(pts) == [0, 1, 2]
     rows = [
         {"run": "s|clumped|defaults|1x1", "scene": "s", "method": "clumped", "status": "ok",
          "error": "0.02", "total_ms_median": "10"},
