@@ -31,7 +31,16 @@ from pathlib import Path
 
 import numpy as np
 
-from . import capture, context, floors, outputs, reference, shadow_methods, stability, transforms
+from . import (
+    context,
+    dumps,
+    floors,
+    outputs,
+    reference,
+    shadow_methods,
+    stability,
+    transforms,
+)
 from .errors import GameError
 from .renderer import Renderer, View
 from .scene import Scene, default_scene_path, parse_scene
@@ -325,7 +334,7 @@ def _score(ctx, scene: Scene, spec: RunSpec, opts: BenchOptions, tmp: Path) -> d
             if not opts.reference:
                 continue
             stem = tmp / f"frame_{j:04d}"
-            capture.write_dump(stem, scene, view, opts.size, t, frame)
+            dumps.write_dump(stem, scene, view, opts.size, t, frame)
             dump = reference.load_frame(stem.with_suffix(".npz"))
             mesh = reference.load_geometry(stem.with_suffix(".glb"))
             exact = reference.hard_visibility(mesh, dump["position"], dump["normal"], scene.light)
@@ -351,7 +360,7 @@ def _score(ctx, scene: Scene, spec: RunSpec, opts: BenchOptions, tmp: Path) -> d
             if opts.reference:
                 if mesh is None:  # time is frozen: one geometry for every flicker frame
                     stem = tmp / "flicker"
-                    capture.write_dump(stem, scene, view, opts.size, t0, frame)
+                    dumps.write_dump(stem, scene, view, opts.size, t0, frame)
                     mesh = reference.load_geometry(stem.with_suffix(".glb"))
                 entry["exact"] = reference.hard_visibility(mesh, g["position"], g["normal"],
                                                            scene.light)

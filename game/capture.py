@@ -10,9 +10,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import trimesh
 
-from . import context, floors, frame_log, outputs, resources, shadow_methods
+from . import context, dumps, floors, frame_log, outputs, resources, shadow_methods
 from .renderer import Frame, Renderer, View
 from .scene import Scene
 
@@ -50,34 +49,6 @@ def _resource_stats(frame: Frame) -> dict:
             "rss_mib": round(resources.rss_bytes() / 2**20, 2)}
 
 
-def frame_geometry(scene: Scene, t: float) -> trimesh.Scene:
-    """All geometry at time ``t`` in world space, one node per object named as in the dumps."""
-    out = trimesh.Scene()
-    for body in scene.floors + scene.statics:
-        out.add_geometry(body.mesh, node_name=body.name, geom_name=body.name)
-    for character in scene.characters:
-        mesh = character.mesh.copy()
-        mesh.apply_transform(character.model_matrix(t))
-        out.add_geometry(mesh, node_name=character.name, geom_name=character.name)
-    return out
-
-
-def write_dump(stem: Path, scene: Scene, view: View, size: tuple[int, int], t: float,
-               frame: Frame) -> None:
-    g = frame.gbuffer
-    arrays = {
-        "position": g["position"], "normal": g["normal"], "object": g["object"],
-        "names": np.array(scene.object_names()), "lit": g["lit"],
-        "view": view.view.astype(np.float64), "proj": view.proj.astype(np.float64),
-        "size": np.array(size, dtype=np.int64), "time": np.float64(t),
-    }
-    if "soft" in g:  # the linear light's traced visibility (game/trace_run.py)
-        arrays["soft"] = g["soft"]
-    outputs.write_npz(stem.with_suffix(".npz"), arrays)
-    glb = frame_geometry(scene, t).export(file_type="glb")
-    outputs.write_bytes(stem.with_suffix(".glb"), glb)
-
-
 def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
     """Render ``opts.frames`` frames and write them; returns the stats document."""
     opts.out.mkdir(parents=True, exist_ok=True)
@@ -103,7 +74,7 @@ def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
                 frame.image = hud.draw_over_frame(renderer, frame, 1.0 / opts.fps)
             outputs.write_png(stem.with_suffix(".png"), frame.image)
             if opts.dump:
-                write_dump(stem, scene, view, opts.size, t, frame)
+                dumps.write_dump(stem, scene, view, opts.size, t, frame)
             frames.append(frame_stats(k, t, frame))
         stats = {
             **context.describe(ctx), "clock": renderer.timer.clock,

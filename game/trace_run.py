@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import capture, context, gpu_blocks, outputs
+from . import context, dumps, gpu_blocks, outputs
 from .errors import GameError
 from .renderer import Frame, Renderer, View
 from .scene import Light, Scene
@@ -115,7 +115,7 @@ def run(ctx, scene: Scene, opts: TraceOptions) -> dict:
             stem = opts.out / f"frame_{k:04d}"
             outputs.write_png(stem.with_suffix(".png"), frame.image)
             if opts.dump:
-                capture.write_dump(stem, scene, view, opts.size, t, frame)
+                dumps.write_dump(stem, scene, view, opts.size, t, frame)
             frames.append(frame_stats(k, t, frame, result))
         tracer = renderer.soft_tracer
         spec = tracer.grid.spec

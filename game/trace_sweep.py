@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import capture, context, outputs
+from . import context, dumps, outputs
 from . import soft_reference as sr
 from .renderer import Renderer, View
 from .scene import default_scene_path, load_scene
@@ -61,7 +61,7 @@ def sweep(ctx, scene, size: tuple[int, int], samples=SAMPLES, methods=METHODS,
         exact, exact_ms = timed(TraceSettings(method="analytic", **extra))
         tracer = renderer.soft_tracer
         spec = tracer.grid.spec
-        occluder = sr.EmbreeOccluder(capture.frame_geometry(scene, 0.0).to_geometry())
+        occluder = sr.EmbreeOccluder(dumps.frame_geometry(scene, 0.0).to_geometry())
         normals = g["normal"][covered].astype(np.float64)
         origins = sr.ray_origins(g["position"][covered], normals,
                                  RAY_OFFSET_SCENE * spec.diagonal, RAY_OFFSET_DISTANCE)

@@ -11,7 +11,7 @@ import io
 import numpy as np
 import trimesh
 
-from game import capture, reference
+from game import dumps, reference
 from game.renderer import Frame, Renderer, View
 
 MAX_ERROR = 0.05  # the foundation's bound (tests/test_accuracy.py)
@@ -19,7 +19,7 @@ MAX_ERROR = 0.05  # the foundation's bound (tests/test_accuracy.py)
 
 def occluders(scene, t: float) -> trimesh.Trimesh:
     """The frame's geometry as the dumps would hold it, read back like load_geometry."""
-    glb = capture.frame_geometry(scene, t).export(file_type="glb")
+    glb = dumps.frame_geometry(scene, t).export(file_type="glb")
     loaded = trimesh.load(io.BytesIO(glb), file_type="glb", force="scene", process=False)
     parts = [loaded.geometry[name].copy().apply_transform(transform)
              for node in sorted(loaded.graph.nodes_geometry)

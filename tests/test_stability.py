@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import shadow_check
 
-from game import capture, floors, reference, shadow_methods, stability
+from game import dumps, floors, reference, shadow_methods, stability
 from game.renderer import Renderer, View
 from game.scene import parse_scene
 
@@ -31,7 +31,7 @@ def _render(ctx, scene, method, t, tmp_path):
     finally:
         renderer.release()
     stem = tmp_path / f"{method}_{t:g}"
-    capture.write_dump(stem, scene, view, SIZE, t, frame)
+    dumps.write_dump(stem, scene, view, SIZE, t, frame)
     dump = reference.load_frame(stem.with_suffix(".npz"))
     mesh = reference.load_geometry(stem.with_suffix(".glb"))
     exact = reference.hard_visibility(mesh, dump["position"], dump["normal"], scene.light)

@@ -5,7 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from game import capture, geometry, reference
+from game import dumps, geometry, reference
 from game import soft_reference as sr
 from game.gpu_blocks import TRACE_LIGHT_POINT, TRACE_LIGHT_SEGMENT
 from game.renderer import Renderer, View
@@ -32,7 +32,7 @@ def gbuffer_trace(ctx, scene, methods, samples, size=SIZE, t=0.0):
 
 
 def embree_of(scene, t=0.0):
-    return sr.EmbreeOccluder(capture.frame_geometry(scene, t).to_geometry())
+    return sr.EmbreeOccluder(dumps.frame_geometry(scene, t).to_geometry())
 
 
 def origins_of(frame, diagonal):
@@ -198,7 +198,7 @@ def test_occluder_coplanar_with_the_light_triangle(points_tracer):
     for z in (1e-3, -1e-3):
         pts = np.stack([xs, np.zeros_like(xs), np.full_like(xs, z)], axis=1)
         ours = tracer("analytic", pts, [0.0, 1.0, 0.0]).visibility
-        occ = sr.EmbreeOccluder(capture.frame_geometry(tracer.scene, 0.0).to_geometry())
+        occ = sr.EmbreeOccluder(dumps.frame_geometry(tracer.scene, 0.0).to_geometry())
         origins = sr.ray_origins(pts, np.tile([0.0, 1.0, 0.0], (len(pts), 1)),
                                  RAY_OFFSET_SCENE * tracer.tracer.grid.spec.diagonal,
                                  RAY_OFFSET_DISTANCE)
@@ -238,7 +238,7 @@ def test_zero_length_segment_equals_a_point_light(ctx, tiny):
     finally:
         r.release()
     g = frame.gbuffer
-    mesh = capture.frame_geometry(tiny, 0.0).to_geometry()
+    mesh = dumps.frame_geometry(tiny, 0.0).to_geometry()
     hard = reference.hard_visibility(mesh, g["position"], g["normal"],
                                      {"kind": "point", "position": a})
     covered = np.isfinite(hard)
