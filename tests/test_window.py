@@ -416,3 +416,16 @@ def test_cache_debug_view_colours_re_rendered_and_cached_maps(ctx):
     red1, green1 = shares(second)
     assert green0 == 0 and red0 > 0.01
     assert green1 > 0.01 and red1 > 0
+
+
+def test_capture_takes_the_cache_debug_view(tmp_path):
+    result = run_game("capture", TINY, "--frames", "2", "--size", "160x90", "--debug-view",
+                      "cache", "--out", tmp_path)
+    assert result.returncode == 0, result.stderr
+    first = _read_png(tmp_path / "frame_0000.png").astype(int)
+    second = _read_png(tmp_path / "frame_0001.png").astype(int)
+
+    def green(rgb):  # pixels whose map came from the cache
+        return (rgb[..., 1] > rgb[..., 0] + 40).mean()
+
+    assert green(first) == 0 and green(second) > 0.01
