@@ -120,8 +120,10 @@ def _add_shadow_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--pcf", action="store_true", help="3x3 percentage-closer filtering")
     g.add_argument("--grid", choices=("auto", "on", "off"), default=d.grid,
                    help="light-space grid of map lists (auto: when there are many maps)")
-    g.add_argument("--debug-view", choices=("none", "map", "map-count"), default="none",
-                   help="colour pixels by the map they used, or by the number of maps read")
+    g.add_argument("--debug-view", choices=("none", "map", "map-count", "cache"),
+                   default="none",
+                   help="colour pixels by the map they used, by the number of maps read, or "
+                        "by whether their map was re-rendered (red) or cached (green)")
     g.add_argument("--clock", choices=("auto", "cpu-finish", "gpu-query"), default="auto",
                    help="timing clock (auto: CPU around glFinish on llvmpipe, GPU queries "
                         "elsewhere)")
@@ -167,6 +169,9 @@ def _add_play_parser(sub) -> None:
                       help="render the scene at S times the window's size per side, then "
                            "scale it up (0.25..1; llvmpipe is fill-bound)")
     play.add_argument("--no-overlay", action="store_true", help="hide the timing overlay")
+    play.add_argument("--soft", action="store_true",
+                      help="start with soft shadows of the scene's [linear_light], traced at a "
+                           "quarter of the window's size per side (overlay checkbox)")
     play.add_argument("--platform", choices=("auto", "null"), default="auto",
                       help="null: GLFW's null platform, a window with no display (scripts, CI)")
     _add_shadow_options(play)
@@ -183,11 +188,13 @@ def cmd_play(args) -> int:
     if args.screenshot is not None and args.frames is None:
         raise ArgumentError("--screenshot needs --frames (F12 saves screenshots interactively)")
     scene = _load(args.scene)
+    if args.soft and scene.linear_light is None:
+        raise GameError(f"--soft: {args.scene or 'the built-in scene'} has no [linear_light]")
     opts = window.PlayOptions(
         size=args.size, frames=args.frames, screenshot=args.screenshot, stats=args.stats,
         time_step=None if args.fps is None else 1.0 / args.fps, overlay=not args.no_overlay,
         clock=args.clock, platform=args.platform, settings=_settings(args),
-        debug_view=args.debug_view, render_scale=args.render_scale)
+        debug_view=args.debug_view, render_scale=args.render_scale, soft=args.soft)
     stats = window.play(scene, opts)
     if args.frames is not None:
         print(f"played {len(stats['frames'])} frame(s): {window.summary(stats)}")

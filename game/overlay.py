@@ -2,7 +2,8 @@
 
 It shows, every frame, the milliseconds of each pass now and as a rolling graph, the clock that
 timed them, maps rendered and cached, triangles drawn into maps, maps read per shaded pixel and
-the frame rate; and it edits the hard-shadow settings, the sun and the debug view.
+the frame rate; and it edits the hard-shadow settings (the method among them, ``traced``
+included), the sun, the debug view and, in a window, whether soft shadows are traced.
 
 The same overlay draws into a window (``window`` given: the GLFW backend feeds it input) or into
 any framebuffer with no window at all (``capture --overlay``: display size and frame time are set
@@ -26,6 +27,7 @@ from imgui_bundle import imgui, implot
 from . import shadow_methods
 from .layer_view import LayerViewer
 from .renderer import DEBUG_VIEWS, Frame, Renderer
+from .trace_run import TRACED_METHOD
 
 GLSL_VERSION = "#version 430"
 HISTORY_FRAMES = 300               # frames in the rolling graph
@@ -36,15 +38,22 @@ GRAPH_PERCENTILE = 98              # the y axis spans this percentile of the plo
 GRAPH_HEADROOM = 1.25              # ... times this
 GRAPH_MIN_MS = 1.0
 LABELLED_ITEM_WIDTH = 170          # pixels for a control, the rest of the row for its label
-# Passes in display order; any other pass a renderer times (a soft trace, say) follows them.
-PASS_ORDER = ("shadow_static", "shadow_dynamic", "shade", "soft", "trace")
-HIDDEN_PASSES = ("readback",)
+# Passes in display order; any other pass a renderer times follows them. The tracer's passes
+# (game/trace_run.py) are prefixed ``traced_`` (the traced method) or ``soft_`` (soft shadows);
+# ``composite`` shades the frame again through the traced visibility.
+PASS_ORDER = ("shadow_static", "shadow_dynamic", "shade", "traced_build", "traced_trace",
+              "soft_build", "soft_trace", "composite")
+HIDDEN_PASSES = ("readback", "gbuffer")
+# The tracer's sub-totals and parts: counted in the passes above and in "total".
+HIDDEN_SUFFIXES = ("_total", "_build_static", "_build_dynamic", "_trace_discarded")
+# The methods offered: the map-based ones and the compute tracer's exact hard shadows.
+METHODS = (*shadow_methods.METHODS, TRACED_METHOD)
 # Window work after the scene's passes; shown after "total", which does not include them.
 WINDOW_PASSES = ("present", "overlay")      # CPU copy for files, not part of drawing a frame
 RESOLUTIONS = (128, 256, 512, 1024, 2048, 4096)  # larger layers: GiBs of depth array
 # Settings read only by the shading pass: edited in place, no re-clumping, maps stay cached.
 SHADING_ONLY = {"normal_bias", "depth_bias", "slope_bias", "max_slope", "pcf"}
-SETTING_CHOICES = {"method": lambda: shadow_methods.METHODS,
+SETTING_CHOICES = {"method": lambda: METHODS,
                    "clumping": lambda: shadow_methods.CLUMPINGS,
                    "grid": lambda: ("auto", "on", "off")}
 MAX_INT_EDIT = 1 << 16           # drag limits of whole-number and real settings
@@ -74,7 +83,7 @@ class Figures:
     def of(frame: Frame, clock: str, fps: float | None,
            maps_per_fragment: float | None = None) -> Figures:
         mpf = frame.maps_per_fragment
-        return Figures(ms={k: v for k, v in frame.ms.items() if k not in HIDDEN_PASSES},
+        return Figures(ms={k: v for k, v in frame.ms.items() if shown_pass(k)},
                        clock=clock, maps_rendered=frame.maps_rendered,
                        maps_cached=frame.maps_cached,
                        triangles_to_maps=frame.triangles_to_maps,
@@ -90,7 +99,7 @@ class Changes:
     debug_view: str | None = None
     paused: bool | None = None
     render_scale: float | None = None
-    soft: bool | None = None
+    soft: bool | None = None   # the window applies this one (it runs the soft trace)
 
     def apply(self, renderer: Renderer) -> None:
         if self.settings is not None:
@@ -99,8 +108,11 @@ class Changes:
             renderer.set_light(self.light)
         if self.debug_view is not None:
             renderer.debug_view = self.debug_view
-        if self.soft is not None:
-            renderer.set_soft(self.soft)
+
+
+def shown_pass(name: str) -> bool:
+    """Whether the panel lists a pass of the frame's times (sub-totals are left out)."""
+    return name not in HIDDEN_PASSES and not name.endswith(HIDDEN_SUFFIXES)
 
 
 def sun_angles(direction: np.ndarray) -> tuple[float, float]:
@@ -184,10 +196,12 @@ class Overlay:
         return known + others + (["total"] if "total" in self.history else []) + window
 
     def draw(self, figures: Figures, renderer: Renderer, paused: bool, size: tuple[int, int],
-             dt: float | None = None, render_scale: float | None = None) -> Changes:
+             dt: float | None = None, render_scale: float | None = None,
+             soft: bool | None = None) -> Changes:
         """Build this frame's panel; ``size`` is the framebuffer's, ``dt`` the frame time.
 
-        ``render_scale`` (the window's scene-to-window pixel ratio) adds a slider for it.
+        ``render_scale`` (the window's scene-to-window pixel ratio) adds a slider for it;
+        ``soft`` (whether the window traces soft shadows) a checkbox.
 
         Call :meth:`render` afterwards to draw it into the bound framebuffer.
         """
@@ -216,7 +230,7 @@ class Overlay:
         if self.message:
             imgui.text_colored(RENDERED_COLOUR, self.message)
         self._draw_graph()
-        self._draw_controls(renderer, paused, render_scale, changes)
+        self._draw_controls(renderer, paused, render_scale, soft, changes)
         pos, extent = imgui.get_window_pos(), imgui.get_window_size()
         self.rect = (int(pos.x), int(pos.y), int(math.ceil(extent.x)), int(math.ceil(extent.y)))
         imgui.pop_item_width()
@@ -270,11 +284,11 @@ class Overlay:
 
     # -- controls -----------------------------------------------------------------------------
     def _draw_controls(self, renderer: Renderer, paused: bool, render_scale: float | None,
-                       changes: Changes) -> None:
+                       soft: bool | None, changes: Changes) -> None:
         if not imgui.begin_tab_bar("controls"):
             return
         if self._tab("view"):
-            self._draw_view(renderer, paused, render_scale, changes)
+            self._draw_view(renderer, paused, render_scale, soft, changes)
             imgui.end_tab_item()
         if self._tab("shadows"):
             self._draw_settings(renderer.settings, changes)
@@ -288,7 +302,7 @@ class Overlay:
         self._first_frame = False
 
     def _draw_view(self, renderer: Renderer, paused: bool, render_scale: float | None,
-                   changes: Changes) -> None:
+                   soft: bool | None, changes: Changes) -> None:
         changed, value = imgui.checkbox("pause characters (P)", paused)
         if changed:
             changes.paused = value
@@ -296,8 +310,10 @@ class Overlay:
         changed, index = imgui.combo("debug view", views.index(renderer.debug_view), views)
         if changed:
             changes.debug_view = views[index]
-        if hasattr(renderer, "set_soft"):  # the soft-shadow trace, where the renderer has one
-            changed, value = imgui.checkbox("soft shadows", bool(renderer.soft))
+        if soft is not None and renderer.scene.linear_light is None:
+            imgui.text_disabled("soft shadows: the scene has no [linear_light]")
+        elif soft is not None:
+            changed, value = imgui.checkbox("soft shadows (linear light)", soft)
             if changed:
                 changes.soft = value
         self._draw_sun(renderer, changes)

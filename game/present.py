@@ -42,7 +42,9 @@ class Presenter:
 
     def show(self, frame_target, frame_texture) -> None:
         """Put the renderer's frame into :attr:`target`: a copy, or a scaled draw."""
-        if tuple(frame_texture.size) == self.size:
+        # A copy needs the same attachments: a target with a G-buffer is drawn instead.
+        if (tuple(frame_texture.size) == self.size
+                and len(frame_target.color_attachments) == 1):
             self.ctx.copy_framebuffer(self.target, frame_target)
             return
         self.draw(frame_texture, self.target, self.size)

@@ -117,10 +117,6 @@ class Renderer:
             self.clear_prog = self._own(ctx.program(
                 vertex_shader=glsl.build("depth_clear.vert", _defines(ctx)),
                 fragment_shader=glsl.build("depth.frag")))
-        self.shade_prog = self._own(ctx.program(
-            vertex_shader=glsl.build("shade.vert", _defines(ctx)),
-            fragment_shader=glsl.build("shade.frag", _defines(ctx, {"GBUFFER": gbuffer,
-                                                                    "SOFT": False}))))
 
         vertices = np.empty(len(self.geom.positions), dtype=[("p", "<f4", 3), ("o", "<i4")])
         vertices["p"] = self.geom.positions
@@ -134,7 +130,10 @@ class Renderer:
             self.layered_vao = self._own(ctx.vertex_array(self.layered_prog, content, self.ibo,
                                                           4))
             self.clear_vao = self._own(ctx.vertex_array(self.clear_prog, []))
-        self.shade_vao = self._own(ctx.vertex_array(self.shade_prog, content, self.ibo, 4))
+        # The shading pass, with and without G-buffer outputs: each made on first use and kept,
+        # so that switching the G-buffer (set_gbuffer) makes no new objects after the first.
+        self._shading: dict[bool, tuple] = {}
+        self.shade_prog, self.shade_vao = self._shading_pass(gbuffer)
 
         self.frame_ubo = self._own(ctx.buffer(reserve=FRAME_DTYPE.itemsize))
         self.maps_ubo = self._own(ctx.buffer(reserve=MAP_DTYPE.itemsize * self.max_maps))
@@ -167,6 +166,29 @@ class Renderer:
     def _release_target(self) -> None:
         for obj in [self.target, self.depth_rb, self.color_tex, *self.gbuffer_tex]:
             obj.release()
+
+    def _shading_pass(self, gbuffer: bool) -> tuple:
+        if gbuffer not in self._shading:
+            ctx = self.ctx
+            prog = self._own(ctx.program(
+                vertex_shader=glsl.build("shade.vert", _defines(ctx)),
+                fragment_shader=glsl.build("shade.frag", _defines(ctx, {"GBUFFER": gbuffer,
+                                                                        "SOFT": False}))))
+            content = [(self.vbo, "3f 1i", "in_position", "in_object")]
+            vao = self._own(ctx.vertex_array(prog, content, self.ibo, 4))
+            self._shading[gbuffer] = (prog, vao)
+        return self._shading[gbuffer]
+
+    def set_gbuffer(self, on: bool) -> None:
+        """Add or drop the G-buffer that the tracer reads (the window turns it on for soft
+        shadows and the traced method only: it costs fill on llvmpipe)."""
+        if on == self.gbuffer:
+            return
+        self.ctx.detect_framebuffer(0).use()
+        self._release_target()
+        self.gbuffer = on
+        self._make_target()
+        self.shade_prog, self.shade_vao = self._shading_pass(on)
 
     def resize(self, size: tuple[int, int]) -> None:
         """Re-create the frame target at ``size`` (the window's framebuffer changed)."""
@@ -449,6 +471,11 @@ class Renderer:
             tex = self._own(ctx.texture(self.size, 1, dtype="f4"))
             self._soft_shading = (prog, vao, tex)
         prog, vao, tex = self._soft_shading
+        if tuple(tex.size) != self.size:  # the frame was resized since: swap the texture
+            self._owned.remove(tex)
+            tex.release()
+            tex = self._own(ctx.texture(self.size, 1, dtype="f4"))
+            self._soft_shading = (prog, vao, tex)
         vis = np.nan_to_num(result.visibility[::-1], nan=1.0).astype(np.float32)
         tex.write(np.ascontiguousarray(vis).tobytes())
         segment = self.scene.linear_light

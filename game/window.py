@@ -1,8 +1,16 @@
 """The walkaround window (``python -m game play``): glfw, the renderer's frame, the overlay.
 
 Each frame: poll input -> move the camera (game/camera_control.py) -> render the scene into the
-renderer's own target -> draw the overlay over it there -> blit the target to the window ->
-swap. The scene clock runs in real time (or in fixed steps, for scripts) and stops while the
+renderer's own target -> with the ``traced`` method or soft shadows on, trace over the frame's
+G-buffer and shade it again through the traced visibility (game/trace_run.py) -> draw the
+overlay over it -> blit to the window -> swap.
+
+Soft shadows (the scene's ``[linear_light]``, overlay checkbox or ``play --soft``) are traced at
+a reduced resolution: the whole frame renders at :data:`SOFT_RENDER_SCALE` of the window per side
+and is scaled up. The renderer keeps a G-buffer only while soft shadows or the traced method need
+it (it costs fill on llvmpipe).
+
+The scene clock runs in real time (or in fixed steps, for scripts) and stops while the
 characters are paused. A minimised window, whose framebuffer is zero-sized, renders nothing
 and waits.
 
@@ -28,12 +36,13 @@ import imgui_bundle  # noqa: F401 - before glfw, so pyGLFW loads the GLFW 3.5 bu
 import glfw
 import numpy as np
 
-from . import context, outputs, shadow_methods
+from . import context, outputs, shadow_methods, trace_run
 from .errors import GameError
-from .overlay import Figures, Overlay
+from .overlay import METHODS, Figures, Overlay
 from .present import Presenter
 from .renderer import Renderer, View
 from .scene import Scene
+from .tracer import TraceSettings
 
 TITLE = "shadowgame"
 DEFAULT_SIZE = (960, 540)
@@ -42,6 +51,10 @@ FPS_WINDOW_FRAMES = 60       # frames in the rolling frame-rate average
 MINIMISED_WAIT_S = 0.1
 SCREENSHOT_DIR = Path("screenshots")
 GL_VERSION = (4, 3)
+# Soft shadows in the window: a quarter of the window's size per side, and the fastest sampled
+# method on llvmpipe (grid; docs/soft.md) at 8 samples per point: interactive, not converged.
+SOFT_RENDER_SCALE = 0.25
+SOFT_SETTINGS = TraceSettings(method="grid", samples=8)
 
 KEY_NAMES = {
     glfw.KEY_W: "w", glfw.KEY_A: "a", glfw.KEY_S: "s", glfw.KEY_D: "d", glfw.KEY_Q: "q",
@@ -94,6 +107,7 @@ class PlayOptions:
     clock: str = "auto"
     debug_view: str = "none"
     render_scale: float = 1.0            # scene pixels per window pixel, per side
+    soft: bool = False                   # trace the linear light's soft shadows
     platform: str = "auto"               # "null": no display (tests)
     settings: shadow_methods.ShadowSettings = dataclasses.field(
         default_factory=shadow_methods.ShadowSettings)
@@ -105,8 +119,11 @@ class Walkaround:
     def __init__(self, scene: Scene, opts: PlayOptions):
         from .camera_control import CameraController
 
+        if opts.soft and scene.linear_light is None:
+            raise GameError("soft shadows: the scene has no [linear_light]")
         self.scene = scene
         self.opts = opts
+        self.soft = opts.soft
         init_glfw(opts.platform)
         glfw.window_hint(glfw.CONTEXT_CREATION_API, glfw.EGL_CONTEXT_API)
         glfw.window_hint(glfw.CONTEXT_VERSION_MAJOR, GL_VERSION[0])
@@ -201,12 +218,24 @@ class Walkaround:
         self.controller.mouse_move(x, y)
 
     def next_method(self) -> None:
-        methods = list(shadow_methods.METHODS)
+        methods = list(METHODS)
         current = self.renderer.settings.method
         following = methods[(methods.index(current) + 1) % len(methods)] \
             if current in methods else methods[0]
         self.renderer.set_settings(dataclasses.replace(self.renderer.settings,
                                                        method=following))
+
+    def set_soft(self, on: bool) -> None:
+        """Soft shadows of the linear light on or off, from the next frame."""
+        if on and self.scene.linear_light is None:
+            raise GameError("soft shadows: the scene has no [linear_light]")
+        self.soft = on
+
+    def gl_objects(self) -> int:
+        """Live GL objects of the renderer and its tracer (toggling must not grow them)."""
+        tracer = self.renderer.soft_tracer
+        return (sum(self.renderer.gl_objects().values())
+                + (tracer.gl_objects if tracer is not None else 0))
 
     # -- frames -------------------------------------------------------------------------------
     def framebuffer_size(self) -> tuple[int, int] | None:
@@ -218,8 +247,8 @@ class Walkaround:
 
     def render_size(self, size: tuple[int, int]) -> tuple[int, int]:
         """The scene's render size for a window framebuffer of ``size``."""
-        return (max(1, round(size[0] * self.render_scale)),
-                max(1, round(size[1] * self.render_scale)))
+        scale = min(self.render_scale, SOFT_RENDER_SCALE) if self.soft else self.render_scale
+        return (max(1, round(size[0] * scale)), max(1, round(size[1] * scale)))
 
     def view(self, size: tuple[int, int]) -> View:
         return View(self.controller.view_matrix(), self.controller.camera.proj_matrix(size))
@@ -233,6 +262,7 @@ class Walkaround:
         if size is None or self.quit:
             return False
         self.controller.update(dt)
+        self.renderer.set_gbuffer(self.soft or self._traced)
         self.renderer.resize(self.render_size(size))
         read = self.frames % MPF_EVERY_FRAMES == 0
         try:
@@ -242,8 +272,16 @@ class Walkaround:
                 raise
             self.renderer.set_settings(self._good_settings)
             self.overlay.message = str(exc)
+            self.renderer.set_gbuffer(self.soft or self._traced)
             frame = self.renderer.render(self.scene_time, self.view(size), read=read)
         self._good_settings = self.renderer.settings
+        # Soft shadows light the frame by the linear light, so they replace the hard method's
+        # shading (traced or not); the traced method's exact hard shadows otherwise.
+        if self.soft:
+            frame, _ = trace_run.soft_frame(self.renderer, frame, self.scene_time,
+                                            SOFT_SETTINGS)
+        elif self._traced:
+            frame, _ = trace_run.traced_frame(self.renderer, frame, self.scene_time)
         if frame.maps_per_fragment is not None:
             self._mpf = frame.maps_per_fragment
         fps = (len(self._frame_times) / sum(self._frame_times)
@@ -272,13 +310,15 @@ class Walkaround:
         if self.overlay is not None:
             with timer.measure("overlay", wall=True):
                 changes = self.overlay.draw(figures, self.renderer, self.paused, size,
-                                            render_scale=self.render_scale)
+                                            render_scale=self.render_scale, soft=self.soft)
                 self.canvas.use()
                 self.overlay.render()
             if changes.paused is not None:
                 self.paused = changes.paused
             if changes.render_scale is not None:
                 self.render_scale = changes.render_scale
+            if changes.soft is not None:
+                self.set_soft(changes.soft)
             changes.apply(self.renderer)
         if self.canvas is not screen:
             with timer.measure("present", wall=True):
@@ -296,6 +336,10 @@ class Walkaround:
         glfw.swap_buffers(self.window)
         return True
 
+    @property
+    def _traced(self) -> bool:
+        return self.renderer.settings.method == trace_run.TRACED_METHOD
+
     def _stats_entry(self, frame, figures: Figures) -> dict:
         ms = {name: round(value, 4) for name, value in figures.ms.items()}
         mpf = frame.maps_per_fragment
@@ -303,7 +347,7 @@ class Walkaround:
                 "maps_rendered": frame.maps_rendered, "maps_cached": frame.maps_cached,
                 "maps_total": frame.maps_total, "triangles_to_maps": frame.triangles_to_maps,
                 "maps_per_fragment": None if mpf is None else round(mpf, 5),
-                "method": self.renderer.settings.method}
+                "method": self.renderer.settings.method, "soft": self.soft}
 
     def read_screen(self, size: tuple[int, int]) -> np.ndarray:
         """What the window shows now, (H, W, 3) uint8 with row 0 at the top."""
@@ -354,6 +398,7 @@ class Walkaround:
                 "scene": str(self.scene.source) if self.scene.source else self.scene.name,
                 "size": list(glfw.get_framebuffer_size(self.window)),
                 "render_size": list(self.renderer.size), "method": self.renderer.settings.method,
+                "soft": self.soft,
                 "overlay": self.overlay is not None,
                 # x, y, w, h in window pixels from the top-left: where the panel was drawn last
                 "overlay_rect": list(self.overlay.rect) if self.overlay is not None else None,
@@ -391,8 +436,8 @@ def play(scene: Scene, opts: PlayOptions) -> dict:
 def summary(stats: dict) -> str:
     """One line: the frame rate and median ms per pass over the frames after the first."""
     frames = stats["frames"][1:] or stats["frames"]
-    names = [n for n in ("shadow_static", "shadow_dynamic", "shade", "total", "present",
-                         "overlay")
+    names = [n for n in ("shadow_static", "shadow_dynamic", "shade", "traced_trace",
+                         "soft_build", "soft_trace", "composite", "total", "present", "overlay")
              if any(n in f["ms"] for f in frames)]
     med = {n: float(np.median([f["ms"].get(n, 0.0) for f in frames])) for n in names}
     fps = f"{stats['fps']:.1f} fps" if stats["fps"] else "fps -"

@@ -18,9 +18,12 @@ import glfw
 
 from game.errors import GameError
 from game.scene import load_scene
+from game.shadow_methods import ShadowSettings
 from game.window import PlayOptions, Walkaround
 
 SIZE = (320, 180)
+WIDE = (1280, 720)  # room beside the overlay's panel for comparing shadows
+COARSE = 64         # texels per side of the maps in traced_and_soft
 STEP_S = 1.0 / 30.0
 NO_WINDOW = 77  # exit status: this machine cannot open a null-platform EGL window
 
@@ -74,6 +77,66 @@ def screen_matches_screenshot(scene_path: str, shots: str) -> None:
                                                - shown[1].astype(int)).max()),
             "mean": float(shown[0].mean())}
     print(json.dumps(result))
+
+
+def traced_and_soft(scene_path: str, out: str) -> None:
+    """Switch to the traced method with M, back, then soft shadows on and off several times.
+
+    Saves the frames shown (F12) as .npy files in ``out`` and prints what it saw.
+    """
+    import numpy as np
+
+    import game.window
+
+    game.window.SCREENSHOT_DIR = Path(out)
+    scene = load_scene(Path(scene_path))
+    try:
+        # Coarse maps, so that the maps' hard shadows differ visibly from the traced ones.
+        coarse = ShadowSettings(clump_resolution=COARSE, character_resolution=COARSE)
+        app = Walkaround(scene, PlayOptions(size=WIDE, time_step=0.0, platform="null",
+                                            settings=coarse))
+    except GameError as exc:
+        print(exc, file=sys.stderr)
+        sys.exit(NO_WINDOW)
+    seen: dict = {}
+
+    def shot(name: str) -> None:
+        app.step(0.0)
+        app.key("f12", True)
+        app.key("f12", False)
+        app.step(0.0)
+        np.save(Path(out) / f"{name}.npy", app.screenshot)
+        seen[name] = {"method": app.renderer.settings.method, "soft": app.soft,
+                      "render_size": list(app.renderer.size), "ms": app.last_figures.ms,
+                      "overlay_rect": list(app.overlay.rect)}
+
+    try:
+        app.paused = True
+        shot("clumped")
+        methods = []
+        for _ in range(4):
+            app.key("m", True)
+            app.key("m", False)
+            methods.append(app.renderer.settings.method)
+        seen["methods"] = methods
+        shot("traced")
+        app.key("m", True)
+        app.key("m", False)
+        seen["after_traced"] = app.renderer.settings.method
+        app.set_soft(True)
+        shot("soft")
+        counts: dict = {"on": [], "off": []}
+        for _ in range(4):
+            for state in ("off", "on"):
+                app.set_soft(state == "on")
+                app.step(0.0)
+                app.step(0.0)
+                counts[state].append(app.gl_objects())
+        seen["gl_objects"] = counts
+        seen["gl_error"] = app.ctx.error
+    finally:
+        app.close()
+    print(json.dumps(seen))
 
 
 def main(scene_path: str) -> None:
@@ -139,7 +202,9 @@ def main(scene_path: str) -> None:
 
 
 if __name__ == "__main__":
-    if len(sys.argv) > 2:
+    if len(sys.argv) > 3 and sys.argv[3] == "traced-soft":
+        traced_and_soft(sys.argv[1], sys.argv[2])
+    elif len(sys.argv) > 2:
         screen_matches_screenshot(sys.argv[1], sys.argv[2])
     else:
         main(sys.argv[1])

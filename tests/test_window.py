@@ -253,6 +253,80 @@ def test_play_bad_arguments(args, fragment):
     assert len(lines) == 1 and fragment in lines[0], result.stderr
 
 
+@pytest.fixture(scope="module")
+def traced_soft(tmp_path_factory):
+    """The window switched to ``traced`` with M, then soft shadows toggled
+    (tests/_window_driver.py traced_and_soft): what it printed and the folder of its frames."""
+    out = tmp_path_factory.mktemp("traced_soft")
+    result = subprocess.run([sys.executable, str(DRIVER), str(TINY), str(out), "traced-soft"],
+                            capture_output=True, text=True, timeout=300, env=_env(), cwd=ROOT)
+    if result.returncode == NO_WINDOW:
+        pytest.skip(f"no null-platform EGL window here: {result.stderr.strip()}")
+    assert result.returncode == 0, result.stderr
+    return json.loads(result.stdout.strip().splitlines()[-1]), out
+
+
+def _outside_panel(seen: dict, shape) -> np.ndarray:
+    x, y, w, h = seen["overlay_rect"]
+    outside = np.ones(shape[:2], bool)
+    outside[y:y + h, x:x + w] = False
+    assert outside.sum() > 0.2 * outside.size
+    return outside
+
+
+def test_m_cycles_to_traced_and_its_shadows_match_a_headless_traced_capture(traced_soft,
+                                                                           tmp_path):
+    seen, out = traced_soft
+    assert seen["methods"] == ["single", "static-dynamic", "csm", "traced"]
+    assert seen["after_traced"] == "clumped"      # the cycle wraps
+    traced = seen["traced"]
+    assert traced["method"] == "traced" and traced["render_size"] == [1280, 720]
+    assert traced["ms"]["traced_trace"] > 0 and traced["ms"]["composite"] > 0
+    window = np.load(out / "traced.npy")
+    outside = _outside_panel(traced, window.shape)
+    result = run_game("capture", TINY, "--method", "traced", "--time", "0", "--size",
+                      "1280x720", "--out", tmp_path)
+    assert result.returncode == 0, result.stderr
+    captured = _read_png(tmp_path / "frame_0000.png").astype(int)
+    diff = np.abs(window.astype(int) - captured).max(axis=2)
+    assert (diff[outside] <= 1).mean() > 0.999, diff[outside].max()
+    # ... and not the maps' shadows: the driver's coarse maps shadow other pixels.
+    maps = np.load(out / "clumped.npy").astype(int)
+    assert (np.abs(window.astype(int) - maps).max(axis=2)[outside] > 8).sum() > 40
+
+
+def test_soft_shadows_change_the_image_and_show_their_trace_time(traced_soft):
+    seen, out = traced_soft
+    soft, hard = seen["soft"], seen["clumped"]
+    assert soft["soft"] and not hard["soft"]
+    assert soft["ms"]["soft_trace"] > 0 and soft["ms"]["composite"] > 0
+    assert soft["ms"]["total"] >= soft["ms"]["soft_trace"]
+    assert "soft_trace" not in hard["ms"]
+    # Traced at a reduced resolution: a quarter of the window per side, scaled up.
+    assert soft["render_size"] == [320, 180] and hard["render_size"] == [1280, 720]
+    a, b = np.load(out / "soft.npy").astype(int), np.load(out / "clumped.npy").astype(int)
+    outside = _outside_panel(hard, a.shape)
+    assert (np.abs(a - b).max(axis=2)[outside] > 8).mean() > 0.05
+    assert 20 < a[outside].mean() < 235   # a scene, not a blank frame
+
+
+def test_toggling_soft_shadows_keeps_the_gl_object_count(traced_soft):
+    seen, _ = traced_soft
+    counts = seen["gl_objects"]
+    assert len(set(counts["on"])) == 1 and len(set(counts["off"])) == 1, counts
+    assert seen["gl_error"] == "GL_NO_ERROR"
+
+
+def test_play_soft_needs_a_linear_light(tmp_path):
+    scene = tmp_path / "no_linear.toml"
+    scene.write_text("\n".join(line for line in TINY.read_text().splitlines()
+                               if not line.startswith(("[linear_light]", "a =", "b ="))))
+    result = run_game("play", scene, "--platform", "null", "--frames", "1", "--soft")
+    assert result.returncode == 1
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "linear_light" in lines[0], result.stderr
+
+
 def _read_png(path: Path) -> np.ndarray:
     """Decode the PNGs game/outputs.py writes (8-bit RGB, filter 0 on every row)."""
     data = path.read_bytes()
@@ -342,3 +416,16 @@ def test_cache_debug_view_colours_re_rendered_and_cached_maps(ctx):
     red1, green1 = shares(second)
     assert green0 == 0 and red0 > 0.01
     assert green1 > 0.01 and red1 > 0
+
+
+def test_capture_takes_the_cache_debug_view(tmp_path):
+    result = run_game("capture", TINY, "--frames", "2", "--size", "160x90", "--debug-view",
+                      "cache", "--out", tmp_path)
+    assert result.returncode == 0, result.stderr
+    first = _read_png(tmp_path / "frame_0000.png").astype(int)
+    second = _read_png(tmp_path / "frame_0001.png").astype(int)
+
+    def green(rgb):  # pixels whose map came from the cache
+        return (rgb[..., 1] > rgb[..., 0] + 40).mean()
+
+    assert green(first) == 0 and green(second) > 0.01
