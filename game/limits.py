@@ -5,8 +5,8 @@ than the uniform block of map records holds) and depth arrays over the memory bu
 with a warning, never crash and never drop a shadow. The degradations, in order:
 
 1. a resolution above GL_MAX_TEXTURE_SIZE is clamped to it;
-2. a depth array over the budget gets coarser layers (the resolution halves until the fewest
-   layers the method needs fit);
+2. a clumped depth array over the budget gets coarser layers (the resolution halves until the
+   fewest layers it needs fit); the baselines keep the resolution asked for;
 3. the clumped method then shares layers (game/shadow_methods.py): fewer, larger clumps, and when
    even the characters outnumber the free layers, several characters share one map.
 
@@ -62,7 +62,7 @@ def fit_settings(settings, limits: GLLimits, n_characters: int):
     """
     notes: list[str] = []
     changes: dict[str, int] = {}
-    # The resolution each method's array uses, and the fewest layers it can work with.
+    # The resolution each method's array uses, and the fewest layers clumped can work with.
     if settings.method in ("single", "static-dynamic"):
         used = ("single_resolution",)
         needed = 1 if settings.method == "single" else 2
@@ -79,6 +79,11 @@ def fit_settings(settings, limits: GLLimits, n_characters: int):
             changes[name] = limits.max_texture_size
             notes.append(f"{name.replace('_', '-')} {value} is above this GL's "
                          f"GL_MAX_TEXTURE_SIZE; clamped to {limits.max_texture_size}")
+    if settings.method != "clumped":
+        # The memory budget is the clumped method's (it sets its number of clumps); a baseline
+        # gets the resolution it was asked for, within the GL's limit, so that a comparison at
+        # a given resolution is made at that resolution.
+        return (dataclasses.replace(settings, **changes) if changes else settings), notes
     budget = settings.budget_mib * 2**20
     name = used[0]
     res = changes.get(name, getattr(settings, name))

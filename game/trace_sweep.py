@@ -21,6 +21,7 @@ import numpy as np
 
 from . import context, dumps, outputs
 from . import soft_reference as sr
+from .errors import GameError
 from .renderer import Renderer, View
 from .scene import default_scene_path, load_scene
 from .tracer import COUNTERS, RAY_OFFSET_DISTANCE, RAY_OFFSET_SCENE, TraceSettings
@@ -168,6 +169,49 @@ def write_chart(path: Path, rows: list[dict], header: dict) -> None:
     plt.close(fig)
 
 
+COLOURS = {"brute": "#1f77b4", "grid": "#ff7f0e", "tri-cache": "#2ca02c",
+           "voxel-cache": "#d62728", "analytic": "#9467bd"}
+
+
+def write_counter_chart(path: Path, rows: list[dict], header: dict) -> None:
+    """The counters per shaded point against N, one line per method: where each method's work
+    goes (ray-triangle tests; triangle-versus-light-triangle tests, the price of the cull)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib import pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4.2), sharex=True)
+    for ax, key, label in ((axes[0], "ray_triangle_tests", "ray-triangle tests per point"),
+                           (axes[1], "triangle_triangle_tests",
+                            "triangle-triangle tests per point")):
+        for method in METHODS:
+            pts = sorted((r["samples"], r[key]) for r in rows
+                         if r["method"] == method and r["samples"] > 0)
+            if pts and any(v > 0 for _, v in pts):
+                n, v = zip(*pts, strict=True)
+                # tri-cache and voxel-cache make the same ray tests: draw one hollow and wider.
+                hollow = method == "tri-cache"
+                ax.plot(n, [max(x, 1e-2) for x in v], "o--" if hollow else "o-",
+                        color=COLOURS[method], label=method, markersize=9 if hollow else 5,
+                        markerfacecolor="none" if hollow else COLOURS[method])
+        grid_one = [r[key] for r in rows if r["method"] == "grid" and r["samples"] == 1]
+        if key == "ray_triangle_tests" and grid_one:
+            ax.axhline(grid_one[0], color="k", ls=":", lw=1,
+                       label="one point-light ray (grid, N=1)")
+        ax.set_xscale("log", base=2)
+        ax.set_yscale("log")
+        ax.set_xlabel("samples N along the segment")
+        ax.set_ylabel(label)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.suptitle(f"{Path(header['scene']).name}, {header['size'][0]}x{header['size'][1]}, "
+                 f"{header['renderer']}", fontsize=9)
+    fig.tight_layout()
+    outputs.write_figure(path, fig)
+    plt.close(fig)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m game.trace_sweep", description=__doc__)
     parser.add_argument("scene", nargs="?", help="scene file (default: the built-in scene)")
@@ -181,11 +225,25 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--vc-pool", type=int, default=None)
     parser.add_argument("--name", default="soft_sweep", help="file name stem")
     args = parser.parse_args(argv)
-    w, h = (int(x) for x in args.size.lower().split("x"))
-    scene = load_scene(Path(args.scene) if args.scene else default_scene_path())
+    try:
+        w, h = (int(x) for x in args.size.lower().split("x"))
+        samples = [int(x) for x in args.samples.split(",")]
+        unknown = set(args.methods.split(",")) - set(METHODS)
+        if w < 1 or h < 1 or min(samples) < 1 or unknown:
+            raise ValueError
+    except ValueError:
+        print(f"error: --size WxH, --samples N,N,... (each at least 1) and --methods from "
+              f"{','.join(METHODS)}; got {args.size!r}, {args.samples!r}, {args.methods!r}",
+              file=sys.stderr)
+        return 2
+    try:
+        scene = load_scene(Path(args.scene) if args.scene else default_scene_path())
+    except GameError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
     ctx = context.create_headless()
     try:
-        rows, header = sweep(ctx, scene, (w, h), [int(x) for x in args.samples.split(",")],
+        rows, header = sweep(ctx, scene, (w, h), samples,
                              args.methods.split(","),
                              {k: v for k, v in (("cells_per_triangle", args.cells_per_triangle),
                                                 ("vc_slots", args.vc_slots),
@@ -196,7 +254,8 @@ def main(argv: list[str] | None = None) -> int:
     write_csv(args.out / f"{args.name}.csv", rows)
     outputs.write_json(args.out / f"{args.name}.json", {**header, "rows": rows})
     write_chart(args.out / f"{args.name}.png", rows, header)
-    print(f"wrote {args.out}/{args.name}.csv, .json and .png", file=sys.stderr)
+    write_counter_chart(args.out / f"{args.name}_counters.png", rows, header)
+    print(f"wrote {args.out}/{args.name}.csv, .json, .png and _counters.png", file=sys.stderr)
     return 0
 
 

@@ -105,7 +105,6 @@ def test_capture_soft_changes_the_image_and_dumps_soft(tmp_path):
 
 
 def test_sweep_writes_csv_json_and_chart(tmp_path):
-    pytest.importorskip("matplotlib")  # a [dev] extra: the chart needs it
     result = subprocess.run(
         [sys.executable, "-m", "game.trace_sweep", str(TINY), "--size", "48x27", "--samples",
          "1,4", "--methods", "grid,voxel-cache", "--out", str(tmp_path), "--name", "s"],
@@ -119,4 +118,14 @@ def test_sweep_writes_csv_json_and_chart(tmp_path):
         assert r["embree_ms"] > 0 and r["trace_ms"] > 0 and r["truncated"] == 0
     assert rows[3]["rmse_analytic"] < rows[1]["rmse_analytic"]
     assert (tmp_path / "s.csv").read_text().startswith("method,samples,")
-    assert (tmp_path / "s.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    for chart in ("s.png", "s_counters.png"):
+        assert (tmp_path / chart).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_sweep_refuses_bad_values_in_one_line():
+    for args, code in ((["--size", "abc"], 2), (["--samples", "0,4"], 2),
+                       (["--methods", "grid,nope"], 2), (["missing.toml"], 1)):
+        result = subprocess.run([sys.executable, "-m", "game.trace_sweep", *args], cwd=ROOT,
+                                capture_output=True, text=True, timeout=60)
+        assert result.returncode == code, (args, result.stderr)
+        assert len(result.stderr.strip().splitlines()) == 1 and "Traceback" not in result.stderr
