@@ -18,8 +18,6 @@ from .errors import GameError
 
 CAPTURE_METHODS = ("clumped", "single", "static-dynamic", "csm", "traced")
 TRACE_METHODS = ("brute", "grid", "tri-cache", "voxel-cache", "analytic")
-NOT_YET = {
-}
 MAX_SIZE = 16384
 DEFAULT_OUT = Path("captures")
 
@@ -180,8 +178,6 @@ def _add_play_parser(sub) -> None:
 def cmd_play(args) -> int:
     from . import window
 
-    if args.method in NOT_YET:
-        raise ArgumentError(f"--method {args.method}: not available yet: {NOT_YET[args.method]}")
     for flag, path in (("--screenshot", args.screenshot), ("--stats", args.stats)):
         if path is not None and (path.is_dir() or not path.parent.is_dir()):
             raise ArgumentError(f"{flag} {path}: not a file in an existing folder")
@@ -395,8 +391,6 @@ def _soft_settings(args, scene):
 def cmd_capture(args) -> int:
     from . import capture, context
 
-    if args.method in NOT_YET:
-        raise ArgumentError(f"--method {args.method}: not available yet: {NOT_YET[args.method]}")
     _check_out(args.out)
     if args.stats is not None and args.stats.is_dir():
         raise ArgumentError(f"--stats {args.stats}: is a folder")
