@@ -532,8 +532,11 @@ class Renderer:
         shaders = sum(int(GL.glGetProgramiv(o.glo, GL.GL_ATTACHED_SHADERS))
                       for o in self._owned if isinstance(o, moderngl.Program))
         array = 0 if self._array is None else 1 + len(self._array._fbo_ids)
-        return {"renderer": len(self._owned) + target + shaders, "depth_array": array,
-                "timer_queries": len(self.timer._queries)}
+        counts = {"renderer": len(self._owned) + target + shaders, "depth_array": array,
+                  "timer_queries": len(self.timer._queries)}
+        if self._tracer is not None:
+            counts["tracer"] = self._tracer.gl_objects
+        return counts
 
     # -- run-time scene changes through the Python API (issue 6, cache invalidation) -------------
     # Each change re-packs the geometry into the same GL buffers (no new GL objects) and tells
@@ -593,6 +596,10 @@ class Renderer:
                              (self.character_maps_ssbo, bytes(4 * n))):
             buffer.orphan(max(len(data), 4))
             buffer.write(data)
+        if self._tracer is not None:
+            # The tracer's grid holds the old triangles: the next trace builds it anew.
+            self._tracer.release()
+            self._tracer = None
 
     def _statics_changed(self, names: set[str]) -> list[int]:
         self._repack()

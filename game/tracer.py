@@ -132,8 +132,14 @@ class SoftTracer:
 
     @property
     def gl_objects(self) -> int:
-        """GL objects this tracer holds now (buffers, programs, timer queries)."""
-        return len(self._buffers()) + len(self._programs) + len(self.timer._queries)
+        """GL objects this tracer holds now: buffers, programs, their shader objects (moderngl
+        keeps them attached until the program is released) and timer queries."""
+        from OpenGL import GL
+
+        shaders = sum(int(GL.glGetProgramiv(p.glo, GL.GL_ATTACHED_SHADERS))
+                      for p in self._programs.values())
+        return (len(self._buffers()) + len(self._programs) + shaders
+                + len(self.timer._queries))
 
     def release(self) -> None:
         for obj in [*self._programs.values(), *self._buffers()]:

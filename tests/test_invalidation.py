@@ -8,13 +8,15 @@ misclassified pixels; the counters only say that no more was re-rendered than ne
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 import trimesh
-from shadow_check import MAX_ERROR, render_and_check
+from shadow_check import MAX_ERROR, frame_error, render_and_check
 
-from game import shadow_methods, transforms
-from game.renderer import Renderer
+from game import shadow_methods, trace_run, transforms
+from game.renderer import Renderer, View
 from game.scene import Body, Character, Light, default_scene_path, load_scene
 
 pytest.importorskip("embreex", reason="the Embree reference needs embreex (pip install .[test])")
@@ -162,3 +164,26 @@ def test_layers_are_reused_by_new_clumps(ctx):
         good(r, min_shadowed=50)  # a box and the characters are all that is left
     finally:
         r.release()
+
+
+def test_the_tracer_sees_run_time_edits(ctx):
+    # The traced method's grid holds the scene's triangles: after an edit it must be rebuilt,
+    # or the new static casts no traced shadow while Embree (on the new geometry) sees one.
+    r = Renderer(ctx, load_scene(default_scene_path()), SIZE, gbuffer=True)
+    try:
+        r.set_settings(dataclasses.replace(r.settings, method="traced"))
+        view = View.from_camera(r.scene.camera, SIZE)
+
+        def traced():
+            frame = r.render(T, view)
+            frame, _ = trace_run.traced_frame(r, frame, T)
+            return frame_error(r, frame, T)
+
+        before = traced()
+        target = np.asarray(r.scene.camera.target, float)
+        r.add_static(box_body("static_new", target + [0.0, 3.0, 0.0], (6.0, 0.3, 6.0)))
+        after = traced()
+    finally:
+        r.release()
+    assert after["shadowed"] > before["shadowed"] + 100  # the slab's shadow is in view
+    assert after["error"] <= MAX_ERROR, after
