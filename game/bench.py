@@ -495,7 +495,7 @@ def _cell(value):
     return "" if value is None else value
 
 
-def _selected(key: str, patterns: Iterable[str] | None) -> bool:
+def selected(key: str, patterns: Iterable[str] | None) -> bool:
     from fnmatch import fnmatch
 
     return patterns is None or any(fnmatch(key, p) for p in patterns)
@@ -504,7 +504,7 @@ def _selected(key: str, patterns: Iterable[str] | None) -> bool:
 def plan_runs(opts: BenchOptions, max_texture: int) -> list[tuple[BenchScene, RunSpec]]:
     runs = []
     for bscene in bench_scenes(opts.quick):
-        if not _selected(bscene.key, opts.scenes):
+        if not selected(bscene.key, opts.scenes):
             continue
         for spec in method_grid(bscene, opts.quick, max_texture):
             if opts.methods is None or spec.method in opts.methods:

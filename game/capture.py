@@ -80,7 +80,10 @@ def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
             **context.describe(ctx), "clock": renderer.timer.clock,
             "scene": str(scene.source) if scene.source else scene.name,
             "method": opts.settings.method, "size": list(opts.size),
-            "settings": dataclasses.asdict(opts.settings),
+            # What ran: the settings after the GL limits and the budget (see ``notes``), and
+            # what was asked for.
+            "settings": dataclasses.asdict(renderer.settings),
+            "settings_asked": dataclasses.asdict(opts.settings),
             "shadow_memory_mib": round(renderer.shadow_memory_bytes / 2**20, 3),
             "static_triangles": renderer.geom.triangle_count(
                 range(renderer.geom.first_static, renderer.geom.first_character)),

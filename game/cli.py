@@ -308,6 +308,12 @@ def cmd_bench(args) -> int:
         if m not in shadow_methods.METHODS:
             raise ArgumentError(f"--methods: unknown method {m!r}; valid: "
                                 f"{', '.join(shadow_methods.METHODS)}")
+    if args.scenes:
+        keys = [s.key for s in bench.bench_scenes(quick)]
+        for pattern in args.scenes.split(","):
+            if not any(bench.selected(k, [pattern]) for k in keys):
+                raise ArgumentError(f"--scenes: {pattern!r} matches no scene; valid: "
+                                    f"{', '.join(keys)}")
     opts = bench.BenchOptions(
         out=args.out, quick=quick, size=args.size, repeat=args.repeat,
         scenes=args.scenes.split(",") if args.scenes else None, methods=methods,
@@ -391,6 +397,10 @@ def _soft_settings(args, scene):
 def cmd_capture(args) -> int:
     from . import capture, context
 
+    if args.debug_view != "none" and (args.method == "traced" or args.soft):
+        raise ArgumentError(f"--debug-view {args.debug_view}: shows the shadow maps, and "
+                            f"{'--soft' if args.soft else '--method traced'} frames are shaded "
+                            "by the tracer instead")
     _check_out(args.out)
     if args.stats is not None and args.stats.is_dir():
         raise ArgumentError(f"--stats {args.stats}: is a folder")

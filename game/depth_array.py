@@ -21,6 +21,7 @@ class DepthArray:
 
     def __init__(self, ctx, resolution: int, layers: int):
         from OpenGL import GL
+        from OpenGL.error import GLError
 
         self._gl = GL
         self.ctx = ctx
@@ -36,9 +37,15 @@ class DepthArray:
                             f"({max_layers})")
         self.texture = int(GL.glGenTextures(1))
         GL.glBindTexture(GL.GL_TEXTURE_2D_ARRAY, self.texture)
-        GL.glTexStorage3D(GL.GL_TEXTURE_2D_ARRAY, 1, GL.GL_DEPTH_COMPONENT32F,
-                          self.resolution, self.resolution, self.layers)
-        if GL.glGetError() != GL.GL_NO_ERROR:
+        # PyOpenGL raises on a GL error by itself; without its error checking, glGetError says.
+        try:
+            GL.glTexStorage3D(GL.GL_TEXTURE_2D_ARRAY, 1, GL.GL_DEPTH_COMPONENT32F,
+                              self.resolution, self.resolution, self.layers)
+            refused = GL.glGetError() != GL.GL_NO_ERROR
+        except GLError:
+            refused = True
+        if refused:
+            GL.glBindTexture(GL.GL_TEXTURE_2D_ARRAY, 0)
             GL.glDeleteTextures(1, [self.texture])
             raise GameError(f"the driver refused a {self.resolution}x{self.resolution}x"
                             f"{self.layers} depth array (out of memory?)")

@@ -95,6 +95,12 @@ def fit_settings(settings, limits: GLLimits, n_characters: int):
         notes.append(f"{name.replace('_', '-')} {start} needs {needed} x "
                      f"{layer_bytes(start) / 2**20:g} MiB, over the {settings.budget_mib:g} MiB "
                      f"shadow budget; using {res}")
+    # A character's map is a corner of one layer of the array.
+    character = changes.get("character_resolution", settings.character_resolution)
+    if character > res:
+        changes["character_resolution"] = res
+        notes.append(f"character-resolution {character} is above the array's layers "
+                     f"({res} texels); using {res}")
     if not changes:
         return settings, notes
     return dataclasses.replace(settings, **changes), notes

@@ -58,6 +58,11 @@ SETTING_CHOICES = {"method": lambda: METHODS,
                    "grid": lambda: ("auto", "on", "off")}
 MAX_INT_EDIT = 1 << 16           # drag limits of whole-number and real settings
 MAX_FLOAT_EDIT = 1e6
+# Settings whose valid range is narrower than those limits (the command line's bounds): a drag
+# cannot leave them, so the planner never sees a value it refuses.
+EDIT_RANGES = {"texels_per_metre": (0.01, 4096.0), "cascade_lambda": (0.0, 1.0),
+               "max_slope": (0.0, 1000.0), "budget_mib": (1.0, 65536.0), "cascades": (1, 16),
+               "clump_count": (1, 1024)}
 MIN_RENDER_SCALE = 0.25
 TABS = ("view", "shadows", "maps")  # the tabs of controls under the figures
 LAYER_VIEW_PIXELS = 200            # on-screen side of the layer viewer
@@ -423,10 +428,12 @@ class Overlay:
                 return
         shown = self._pending.get(name, value)
         if isinstance(value, int):
-            changed, number = imgui.drag_int(label, int(shown), 0.2, 1, MAX_INT_EDIT)
+            lo, hi = EDIT_RANGES.get(name, (1, MAX_INT_EDIT))
+            changed, number = imgui.drag_int(label, int(shown), 0.2, int(lo), int(hi))
         else:
-            changed, number = imgui.drag_float(label, float(shown), 0.05, 0.0, MAX_FLOAT_EDIT,
-                                               "%.2f")
+            lo, hi = EDIT_RANGES.get(name, (0.0, MAX_FLOAT_EDIT))
+            changed, number = imgui.drag_float(label, float(shown), 0.05, lo, hi, "%.2f")
+            number = min(max(number, lo), hi)  # typed-in values are not clamped by imgui
         if changed and name in SHADING_ONLY:
             new[name] = number
         elif changed:

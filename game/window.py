@@ -319,7 +319,12 @@ class Walkaround:
                 self.render_scale = changes.render_scale
             if changes.soft is not None:
                 self.set_soft(changes.soft)
-            changes.apply(self.renderer)
+            try:
+                changes.apply(self.renderer)
+            except (GameError, ValueError) as exc:  # a setting the planner refuses: undo it
+                if self._good_settings is not None:
+                    self.renderer.set_settings(self._good_settings)
+                self.overlay.message = str(exc)
         if self.canvas is not screen:
             with timer.measure("present", wall=True):
                 self.ctx.copy_framebuffer(screen, self.canvas)

@@ -131,3 +131,24 @@ def test_a_warning_is_one_line(tmp_path):
     assert result.returncode == 0, result.stderr
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("warning: ") and "zero-area" in lines[0]
+
+
+@pytest.mark.parametrize("args", [
+    ["bench", "--scenes", "nope"],
+    ["capture", "--method", "traced", "--debug-view", "map"],
+    ["capture", "--soft", "--debug-view", "cache"],
+])
+def test_refused_combinations_get_one_line(args, tmp_path):
+    result = run(*args, cwd=tmp_path)
+    assert result.returncode == 2
+    assert len(result.stderr.strip().splitlines()) == 1 and "Traceback" not in result.stderr
+
+
+def test_a_depth_array_the_driver_refuses_gets_one_line(tmp_path):
+    # 1,000 cascades of 16384² depth texels: 1 TiB, which no driver hands out.
+    result = run("capture", str(TINY), "--method", "csm", "--cascades", "1000",
+                 "--cascade-resolution", "16384", "--size", "32x18", "--out", str(tmp_path),
+                 cwd=tmp_path)
+    assert result.returncode == 1
+    assert result.stderr.strip().splitlines() == [
+        "error: the driver refused a 16384x16384x1000 depth array (out of memory?)"]
