@@ -232,10 +232,8 @@ class Walkaround:
         self.soft = on
 
     def gl_objects(self) -> int:
-        """Live GL objects of the renderer and its tracer (toggling must not grow them)."""
-        tracer = self.renderer.soft_tracer
-        return (sum(self.renderer.gl_objects().values())
-                + (tracer.gl_objects if tracer is not None else 0))
+        """Live GL objects of the renderer, its tracer included (toggling must not grow them)."""
+        return sum(self.renderer.gl_objects().values())
 
     # -- frames -------------------------------------------------------------------------------
     def framebuffer_size(self) -> tuple[int, int] | None:
