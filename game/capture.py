@@ -54,9 +54,8 @@ def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
     opts.out.mkdir(parents=True, exist_ok=True)
     from . import trace_run
 
-    traced = opts.settings.method == trace_run.TRACED_METHOD
     renderer = Renderer(ctx, scene, opts.size, opts.settings,
-                        gbuffer=opts.dump or traced or opts.soft is not None, clock=opts.clock)
+                        gbuffer=opts.dump or opts.soft is not None, clock=opts.clock)
     renderer.debug_view = opts.debug_view
     hud = _overlay() if opts.overlay else None
     view = View.from_camera(scene.camera, opts.size)
@@ -65,8 +64,6 @@ def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
         for k in range(opts.frames):
             t = opts.time + k / opts.fps
             frame = renderer.render(t, view)
-            if traced:
-                frame, _ = trace_run.traced_frame(renderer, frame, t)
             if opts.soft is not None:
                 frame, _ = trace_run.soft_frame(renderer, frame, t, opts.soft)
             stem = opts.out / f"frame_{k:04d}"

@@ -27,7 +27,7 @@ from imgui_bundle import imgui, implot
 from . import shadow_methods
 from .layer_view import LayerViewer
 from .renderer import DEBUG_VIEWS, Frame, Renderer
-from .trace_run import TRACED_METHOD
+from .traced_shadows import TRACED_METHOD
 
 GLSL_VERSION = "#version 430"
 HISTORY_FRAMES = 300               # frames in the rolling graph

@@ -20,6 +20,7 @@ from .gpu_blocks import FRAME_DTYPE, LIGHT_KINDS, MAP_DTYPE
 from .limits import GLLimits, fit_settings
 from .scene import Body, Camera, Character, Scene
 from .timing import PassTimer
+from .traced_shadows import TRACED_METHOD, TRACED_SETTINGS, hard_light
 from .tracer import SoftTracer, TraceResult, TraceSettings
 
 SKY = (0.58, 0.68, 0.80)
@@ -92,7 +93,10 @@ class Renderer:
         self.scene = scene
         self.size = (int(size[0]), int(size[1]))
         self.settings = settings or shadow_methods.ShadowSettings()
-        self.gbuffer = gbuffer
+        # The G-buffer is kept when the caller asks (dumps, soft shadows) and while the traced
+        # method needs it for its rays.
+        self._gbuffer_asked = gbuffer
+        self.gbuffer = gbuffer or self.settings.method == TRACED_METHOD
         self.debug_view = "none"
         self.timer = PassTimer(ctx, clock)
         self.last_plan: shadow_methods.ShadowPlan | None = None  # for the overlay's map list
@@ -133,7 +137,7 @@ class Renderer:
         # The shading pass, with and without G-buffer outputs: each made on first use and kept,
         # so that switching the G-buffer (set_gbuffer) makes no new objects after the first.
         self._shading: dict[bool, tuple] = {}
-        self.shade_prog, self.shade_vao = self._shading_pass(gbuffer)
+        self.shade_prog, self.shade_vao = self._shading_pass(self.gbuffer)
 
         self.frame_ubo = self._own(ctx.buffer(reserve=FRAME_DTYPE.itemsize))
         self.maps_ubo = self._own(ctx.buffer(reserve=MAP_DTYPE.itemsize * self.max_maps))
@@ -180,8 +184,13 @@ class Renderer:
         return self._shading[gbuffer]
 
     def set_gbuffer(self, on: bool) -> None:
-        """Add or drop the G-buffer that the tracer reads (the window turns it on for soft
-        shadows and the traced method only: it costs fill on llvmpipe)."""
+        """Ask for the G-buffer that the tracer reads, or drop it (the window asks for it for
+        soft shadows only: it costs fill on llvmpipe). The traced method keeps it regardless."""
+        self._gbuffer_asked = on
+        self._update_gbuffer()
+
+    def _update_gbuffer(self) -> None:
+        on = self._gbuffer_asked or self.settings.method == TRACED_METHOD
         if on == self.gbuffer:
             return
         self.ctx.detect_framebuffer(0).use()
@@ -225,6 +234,7 @@ class Renderer:
     def set_settings(self, settings: shadow_methods.ShadowSettings) -> None:
         """Switch method or parameters; every map is planned (and cached) anew."""
         self.method = self._create_method(settings)
+        self._update_gbuffer()
 
     def set_light(self, light) -> None:
         """Move the hard light: clump maps are re-rendered on the next frame."""
@@ -400,15 +410,16 @@ class Renderer:
         ms = dict(timer.ms)
         rendered = len(plan.render_static) + len(plan.render_dynamic)
         if not read:
-            return Frame(image=None, covered=None, maps_sampled=None, ms=ms,
-                         maps_rendered=rendered, maps_cached=len(plan.maps) - rendered,
-                         maps_total=len(plan.maps), triangles_to_maps=triangles)
+            frame = Frame(image=None, covered=None, maps_sampled=None, ms=ms,
+                          maps_rendered=rendered, maps_cached=len(plan.maps) - rendered,
+                          maps_total=len(plan.maps), triangles_to_maps=triangles)
+            return self._traced(t, frame)
         with timer.measure("readback", wall=True):
             rgba = np.frombuffer(self.target.read(components=4, attachment=0), np.uint8)
             rgba = rgba.reshape(self.size[1], self.size[0], 4)[::-1]
             gbuffer = self._read_gbuffer(rgba) if self.gbuffer else None
         ms = dict(timer.ms)
-        return Frame(
+        return self._traced(t, Frame(
             image=np.ascontiguousarray(rgba[..., :3]),
             covered=rgba[..., 3] > 0,
             maps_sampled=np.maximum(rgba[..., 3].astype(np.int32) - 1, 0),
@@ -416,7 +427,27 @@ class Renderer:
             maps_total=len(plan.maps), triangles_to_maps=triangles, gbuffer=gbuffer,
             gl_objects=self.gl_objects(),
             texels_to_maps=sum(plan.maps[i].viewport ** 2
-                               for i in (*plan.render_static, *plan.render_dynamic)))
+                               for i in (*plan.render_static, *plan.render_dynamic))))
+
+    def _traced(self, t: float, frame: Frame) -> Frame:
+        """The traced method: exact hard shadows from the tracer replace the frame's shading
+        (its planner drew no maps); other methods' frames pass through."""
+        if self.settings.method != TRACED_METHOD:
+            return frame
+        result = self.trace(t, TRACED_SETTINGS, hard_light(self.scene.light))
+        frame.image = self.shade_soft(result, hard=True)
+        if frame.gbuffer is not None:
+            frame.gbuffer["lit"] = result.visibility
+        self.add_trace_ms(frame, result, "traced")
+        return frame
+
+    def add_trace_ms(self, frame: Frame, result: TraceResult, prefix: str) -> None:
+        """The tracer's passes and the composite into the frame's times; ``total`` grows by
+        both."""
+        frame.ms.update({f"{prefix}_{k}": v for k, v in result.ms.items()})
+        composite = self.timer.ms.get("composite", 0.0)
+        frame.ms["total"] = frame.ms.get("total", 0.0) + result.ms["total"] + composite
+        frame.ms["composite"] = composite
 
     def _read_gbuffer(self, rgba: np.ndarray) -> dict[str, np.ndarray]:
         h, w = self.size[1], self.size[0]

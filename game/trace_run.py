@@ -12,16 +12,11 @@ from pathlib import Path
 
 import numpy as np
 
-from . import context, dumps, gpu_blocks, outputs
+from . import context, dumps, outputs
 from .errors import GameError
 from .renderer import Frame, Renderer, View
-from .scene import Light, Scene
+from .scene import Scene
 from .tracer import COUNTERS, TraceResult, TraceSettings
-
-# The hard-light capture method that the tracer provides (CONTRACT.md section 2).
-TRACED_METHOD = "traced"
-# Exact hard shadows: one ray per point through the grid (N = 1 toward a point is exact).
-TRACED_SETTINGS = TraceSettings(method="grid", samples=1)
 
 
 @dataclass
@@ -37,35 +32,6 @@ class TraceOptions:
     settings: TraceSettings = field(default_factory=TraceSettings)
 
 
-def hard_light(light: Light) -> tuple[int, np.ndarray, np.ndarray]:
-    """The tracer's light tuple for the scene's hard light (spot: its cone is shading, not
-    visibility, as in the Embree reference)."""
-    if light.kind == "directional":
-        d = -np.asarray(light.direction, np.float64)
-        d = d / np.linalg.norm(d)
-        return gpu_blocks.TRACE_LIGHT_DIRECTIONAL, d, d
-    p = np.asarray(light.position, np.float64)
-    return gpu_blocks.TRACE_LIGHT_POINT, p, p
-
-
-def traced_frame(renderer: Renderer, frame: Frame, t: float) -> tuple[Frame, TraceResult]:
-    """Replace a frame's hard shadows by exact traced ones (capture ``--method traced``)."""
-    result = renderer.trace(t, TRACED_SETTINGS, hard_light(renderer.scene.light))
-    frame.image = renderer.shade_soft(result, hard=True)
-    if frame.gbuffer is not None:
-        frame.gbuffer["lit"] = result.visibility
-    _add_ms(frame, renderer, result, "traced")
-    return frame, result
-
-
-def _add_ms(frame: Frame, renderer: Renderer, result: TraceResult, prefix: str) -> None:
-    """The tracer's passes and the composite into the frame's times; ``total`` grows by both."""
-    frame.ms.update({f"{prefix}_{k}": v for k, v in result.ms.items()})
-    composite = renderer.timer.ms.get("composite", 0.0)
-    frame.ms["total"] = frame.ms.get("total", 0.0) + result.ms["total"] + composite
-    frame.ms["composite"] = composite
-
-
 def soft_frame(renderer: Renderer, frame: Frame, t: float,
                settings: TraceSettings) -> tuple[Frame, TraceResult]:
     """Trace the linear light over a rendered frame and shade the frame through it."""
@@ -76,7 +42,7 @@ def soft_frame(renderer: Renderer, frame: Frame, t: float,
     frame.image = renderer.shade_soft(result)
     if frame.gbuffer is not None:
         frame.gbuffer["soft"] = result.visibility
-    _add_ms(frame, renderer, result, "soft")
+    renderer.add_trace_ms(frame, result, "soft")
     frame.ms["gbuffer"] = before
     return frame, result
 

@@ -260,7 +260,7 @@ class Walkaround:
         if size is None or self.quit:
             return False
         self.controller.update(dt)
-        self.renderer.set_gbuffer(self.soft or self._traced)
+        self.renderer.set_gbuffer(self.soft)
         self.renderer.resize(self.render_size(size))
         read = self.frames % MPF_EVERY_FRAMES == 0
         try:
@@ -270,16 +270,14 @@ class Walkaround:
                 raise
             self.renderer.set_settings(self._good_settings)
             self.overlay.message = str(exc)
-            self.renderer.set_gbuffer(self.soft or self._traced)
+            self.renderer.set_gbuffer(self.soft)
             frame = self.renderer.render(self.scene_time, self.view(size), read=read)
         self._good_settings = self.renderer.settings
         # Soft shadows light the frame by the linear light, so they replace the hard method's
-        # shading (traced or not); the traced method's exact hard shadows otherwise.
+        # shading (the traced method's exact hard shadows come with the frame itself).
         if self.soft:
             frame, _ = trace_run.soft_frame(self.renderer, frame, self.scene_time,
                                             SOFT_SETTINGS)
-        elif self._traced:
-            frame, _ = trace_run.traced_frame(self.renderer, frame, self.scene_time)
         if frame.maps_per_fragment is not None:
             self._mpf = frame.maps_per_fragment
         fps = (len(self._frame_times) / sum(self._frame_times)
@@ -338,10 +336,6 @@ class Walkaround:
             self._save_screenshot(size, self.opts.screenshot if last else None)
         glfw.swap_buffers(self.window)
         return True
-
-    @property
-    def _traced(self) -> bool:
-        return self.renderer.settings.method == trace_run.TRACED_METHOD
 
     def _stats_entry(self, frame, figures: Figures) -> dict:
         ms = {name: round(value, 4) for name, value in figures.ms.items()}
