@@ -7,14 +7,24 @@ limits at run time and need the image checked, not only a counter.
 from __future__ import annotations
 
 import io
+from pathlib import Path
 
 import numpy as np
 import trimesh
 
 from game import dumps, reference
 from game.renderer import Frame, Renderer, View
+from game.scene import default_scene_path
 
 MAX_ERROR = 0.05  # the foundation's bound (tests/test_accuracy.py)
+# The scenes the accuracy bound is asserted on, for every method (test_accuracy, test_baselines).
+SCENES = Path(__file__).parent / "scenes"
+ACCURACY_SCENES = {
+    "default": default_scene_path(),
+    "spot": SCENES / "spot.toml",
+    "point": SCENES / "point.toml",
+    "low_sun": SCENES / "low_sun.toml",
+}
 
 
 def occluders(scene, t: float) -> trimesh.Trimesh:

@@ -9,19 +9,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from shadow_check import ACCURACY_SCENES
 
 from game import capture, outputs, reference, shadow_methods
 from game.scene import default_scene_path, load_scene
 
 pytest.importorskip("embreex", reason="the Embree reference needs embreex (pip install .[test])")
 
-SCENES = Path(__file__).parent / "scenes"
-ACCURACY_SCENES = {
-    "default": default_scene_path(),
-    "spot": SCENES / "spot.toml",
-    "point": SCENES / "point.toml",
-    "low_sun": SCENES / "low_sun.toml",
-}
 SIZE = (320, 180)
 MAX_ERROR = 0.05
 MIN_SHADOWED = 200  # a scene must really have shadows in view for the ratio to mean anything

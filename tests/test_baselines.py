@@ -1,21 +1,14 @@
 """The engine baselines (game/baselines.py): accuracy against Embree, caching, cascade fitting."""
 
-from pathlib import Path
 
 import numpy as np
 import pytest
+from shadow_check import ACCURACY_SCENES
 
 from game import baselines, capture, shadow_methods, transforms
 from game.renderer import View
 from game.scene import Camera, default_scene_path, load_scene
 
-SCENES = Path(__file__).parent / "scenes"
-ACCURACY_SCENES = {
-    "default": default_scene_path(),
-    "spot": SCENES / "spot.toml",
-    "point": SCENES / "point.toml",
-    "low_sun": SCENES / "low_sun.toml",
-}
 # Measured at 320x180, two frames (docs/results.md): static-dynamic at most 1.1%, csm at most
 # 2.3% (its cascades are coarser than clumped's maps near the camera); the bar leaves room for
 # llvmpipe versions, and a broken method (a missing caster, a wrong cascade) scores far above it.
@@ -26,7 +19,7 @@ MAX_ERROR = {"static-dynamic": 0.05, "csm": 0.06}
 @pytest.mark.parametrize("name", list(ACCURACY_SCENES))
 def test_baseline_matches_the_ray_traced_reference(ctx, method, name, tmp_path):
     pytest.importorskip("embreex")
-    from tests.test_accuracy import MIN_SHADOWED, capture_errors
+    from test_accuracy import MIN_SHADOWED, capture_errors
 
     scene = load_scene(ACCURACY_SCENES[name])
     errors = capture_errors(ctx, scene, shadow_methods.ShadowSettings(method=method), tmp_path)
@@ -38,7 +31,7 @@ def test_baseline_matches_the_ray_traced_reference(ctx, method, name, tmp_path):
 
 def test_coarse_cascades_score_worse_than_fine_ones(ctx, tmp_path):
     pytest.importorskip("embreex")
-    from tests.test_accuracy import capture_errors
+    from test_accuracy import capture_errors
 
     scene = load_scene(default_scene_path())
     coarse = capture_errors(ctx, scene, shadow_methods.ShadowSettings(
