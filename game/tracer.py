@@ -309,15 +309,14 @@ class SoftTracer:
                 timer.ms.pop("trace", None)
                 with timer.measure("trace"):
                     self._dispatch_all(prog, size, mode, a, b, settings, chunk)
-                truncated = np.frombuffer(self.results_ssbo.read(), TRACE_RESULT_DTYPE)[
-                    "truncated"]
-                if not truncated.any() or chunk == 1:
+                results = np.frombuffer(self.results_ssbo.read(), TRACE_RESULT_DTYPE)
+                if not results["truncated"].any() or chunk == 1:
                     break
                 discarded += timer.ms["trace"]
                 chunk = (chunk + 1) // 2
             # Later frames start from the split that worked (frames change little).
             self._chunks[key] = chunk
-        raw = np.frombuffer(self.results_ssbo.read(), TRACE_RESULT_DTYPE).reshape(h, w)[::-1]
+        raw = results.reshape(h, w)[::-1]  # the last attempt's read, used for everything
         vis = raw["visibility"].astype(np.float32)
         vis = np.where(vis < 0.0, np.nan, vis).astype(np.float32)
         ms = dict(timer.ms)
