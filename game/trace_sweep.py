@@ -41,7 +41,8 @@ def _rmse(a: np.ndarray, b: np.ndarray) -> float:
 
 
 def sweep(ctx, scene, size: tuple[int, int], samples=SAMPLES, methods=METHODS,
-          extra: dict | None = None, log=print) -> tuple[list[dict], dict]:
+          extra: dict | None = None, log=print,
+          brute_max: int = BRUTE_MAX_SAMPLES) -> tuple[list[dict], dict]:
     """Run the sweep; returns the rows and a header of what was run where.
 
     ``extra`` holds TraceSettings fields to vary (cells_per_triangle, vc_slots, vc_pool).
@@ -86,7 +87,7 @@ def sweep(ctx, scene, size: tuple[int, int], samples=SAMPLES, methods=METHODS,
                 times.append(occluder.seconds * 1e3)
             embree_ms[n] = (float(np.median(times)), occluder.rays)
             for method in methods:
-                if method == "brute" and n > BRUTE_MAX_SAMPLES:
+                if method == "brute" and n > brute_max:
                     continue
                 result, ms = timed(TraceSettings(method=method, samples=n, **extra))
                 row = _row(method, n, result, ms, truth, reference, covered)
@@ -224,6 +225,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--vc-slots", type=int, default=None)
     parser.add_argument("--vc-pool", type=int, default=None)
     parser.add_argument("--name", default="soft_sweep", help="file name stem")
+    parser.add_argument("--brute-max", type=int, default=BRUTE_MAX_SAMPLES,
+                        help="largest N for brute force (its time grows with N x triangles)")
     args = parser.parse_args(argv)
     try:
         w, h = (int(x) for x in args.size.lower().split("x"))
@@ -247,7 +250,8 @@ def main(argv: list[str] | None = None) -> int:
                              args.methods.split(","),
                              {k: v for k, v in (("cells_per_triangle", args.cells_per_triangle),
                                                 ("vc_slots", args.vc_slots),
-                                                ("vc_pool", args.vc_pool)) if v is not None})
+                                                ("vc_pool", args.vc_pool)) if v is not None},
+                             brute_max=args.brute_max)
     finally:
         ctx.release()
     args.out.mkdir(parents=True, exist_ok=True)
