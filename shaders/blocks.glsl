@@ -21,6 +21,8 @@ layout(std140, binding = FRAME_BINDING) uniform Frame {   // keep in sync with g
     vec4 u_grid_rect;
     ivec4 u_counts;     // maps, grid mode, grid size, debug view
     ivec4 u_options;    // pcf, first character object, objects, floors (objects below are floors)
+    // Grid mode, debug view, pcf and the light's kind are filled in too, but the shading
+    // program takes them as #defines instead (see shadow.glsl).
 };
 
 layout(std140, binding = MAPS_BINDING) uniform ShadowMaps {

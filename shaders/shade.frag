@@ -46,9 +46,9 @@ void main() {
 
     vec3 l = to_light(v_world);
     float cone = 1.0;
-    if (u_light_dir.w > 0.5 && u_light_dir.w < 1.5) {
-        cone = smoothstep(u_light_pos.w, u_light_pos.w + 0.02, dot(-l, u_light_dir.xyz));
-    }
+#if LIGHT_KIND == LIGHT_SPOT
+    cone = smoothstep(u_light_pos.w, u_light_pos.w + 0.02, dot(-l, u_light_dir.xyz));
+#endif
     bool floor_object = v_object < u_options.w;
     vec3 base = floor_object ? vec3(0.62, 0.64, 0.58) : palette(v_object);
     vec3 colour = base * (AMBIENT + (1.0 - AMBIENT) * max(dot(n, l), 0.0) * vis * cone);
@@ -58,16 +58,16 @@ void main() {
     colour = base * (AMBIENT + (1.0 - AMBIENT) * max(dot(n, ls), 0.0) * soft
                      * (u_soft_hard ? cone : 1.0));
 #endif
-    if (u_counts.w == DEBUG_MAP) {
-        colour = (used < 0 ? vec3(0.5) : palette(used + 7)) * (0.55 + 0.45 * vis);
-    } else if (u_counts.w == DEBUG_MAP_COUNT) {
-        colour = heat(float(sampled) / 4.0);
-    } else if (u_counts.w == DEBUG_CACHE) {
-        // The map that decided the pixel: red re-rendered this frame, green from the cache.
-        vec3 state = u_maps[max(used, 0)].depth.z > 0.5 ? vec3(0.9, 0.3, 0.25)
-                                                        : vec3(0.3, 0.8, 0.35);
-        colour = (used < 0 ? vec3(0.5) : state) * (0.55 + 0.45 * vis);
-    }
+    // The debug view, like the shadow lookup's switches, is a #define (DEBUG_VIEW).
+#if DEBUG_VIEW == DEBUG_MAP
+    colour = (used < 0 ? vec3(0.5) : palette(used + 7)) * (0.55 + 0.45 * vis);
+#elif DEBUG_VIEW == DEBUG_MAP_COUNT
+    colour = heat(float(sampled) / 4.0);
+#elif DEBUG_VIEW == DEBUG_CACHE
+    // The map that decided the pixel: red re-rendered this frame, green from the cache.
+    vec3 state = u_maps[max(used, 0)].depth.z > 0.5 ? vec3(0.9, 0.3, 0.25) : vec3(0.3, 0.8, 0.35);
+    colour = (used < 0 ? vec3(0.5) : state) * (0.55 + 0.45 * vis);
+#endif
     out_color = vec4(colour, float(1 + sampled) / 255.0);
 #if GBUFFER
     out_position = vec4(v_world, float(v_object));

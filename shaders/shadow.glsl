@@ -2,6 +2,11 @@
 // A fragment samples only the maps that can shadow it: those whose rectangle holds it and whose
 // caster lies nearer the light. With many maps, a light-space grid lists the candidates per cell
 // so the per-fragment cost stays flat (game/map_grid.py builds it). Visibility is the minimum.
+//
+// What is fixed for a whole frame arrives as #defines, and the renderer picks the program made
+// for it (Renderer._shading_program): LIGHT_KIND (LIGHT_DIRECTIONAL, LIGHT_SPOT, LIGHT_POINT),
+// PCF (0 or 1) and GRID (GRID_NONE, GRID_ORTHO, GRID_OCTAHEDRAL). Branching on uniforms instead
+// cost 2.5 times as much on llvmpipe, which runs both sides of a branch under a lane mask.
 
 uniform sampler2DArrayShadow u_shadow_maps;
 
@@ -14,15 +19,19 @@ bool decided(int i, int sampled_before, int sampled) {
 }
 
 vec3 to_light(vec3 p) {
-    return u_light_dir.w < 0.5 ? -u_light_dir.xyz : normalize(u_light_pos.xyz - p);
+#if LIGHT_KIND == LIGHT_DIRECTIONAL
+    return -u_light_dir.xyz;
+#else
+    return normalize(u_light_pos.xyz - p);
+#endif
 }
 
 // Depth compare (or 3x3 PCF) in map i at uv (already scaled into the map's share of its layer).
 float lookup(int i, vec2 uv, float depth) {
     float layer = u_maps[i].params.x;
-    if (u_options.x == 0) {
-        return texture(u_shadow_maps, vec4(uv, layer, depth));
-    }
+#if !PCF
+    return texture(u_shadow_maps, vec4(uv, layer, depth));
+#else
     vec2 step = 1.0 / vec2(textureSize(u_shadow_maps, 0).xy);
     vec2 lo = vec2(0.0), hi = vec2(u_maps[i].params.w);
     float sum = 0.0;
@@ -32,6 +41,7 @@ float lookup(int i, vec2 uv, float depth) {
         }
     }
     return sum / 9.0;
+#endif
 }
 
 // Bias in texel units, times the texel's world size at p: a normal offset that grows towards
@@ -96,9 +106,11 @@ struct Receiver {
 
 void consider(int i, Receiver r, inout float vis, inout int sampled, inout int used) {
     bool read;
-    float v = u_light_dir.w < 0.5
-        ? sample_ortho(i, r.lp, r.ln, r.sin_t, r.tan_t, read)
-        : sample_perspective(i, r.p, r.n, r.l, r.sin_t, r.tan_t, read);
+#if LIGHT_KIND == LIGHT_DIRECTIONAL
+    float v = sample_ortho(i, r.lp, r.ln, r.sin_t, r.tan_t, read);
+#else
+    float v = sample_perspective(i, r.p, r.n, r.l, r.sin_t, r.tan_t, read);
+#endif
     if (read) {
         sampled += 1;
         if (used < 0 || v < vis) {
@@ -126,17 +138,21 @@ float shadow_visibility(vec3 p, vec3 n, out int sampled, out int used) {
     r.lp = (u_light_rot * vec4(p, 1.0)).xyz;
     r.ln = mat3(u_light_rot) * n;
     float vis = 1.0;
-    if (u_counts.y == GRID_NONE) {
-        for (int i = 0; i < u_counts.x && vis > 0.0; ++i) {
-            int before = sampled;
-            consider(i, r, vis, sampled, used);
-            if (decided(i, before, sampled)) {
-                break;
-            }
+#if GRID == GRID_NONE
+    for (int i = 0; i < u_counts.x && vis > 0.0; ++i) {
+        int before = sampled;
+        consider(i, r, vis, sampled, used);
+        if (decided(i, before, sampled)) {
+            break;
         }
-        return vis;
     }
-    vec2 g = u_counts.y == GRID_ORTHO ? r.lp.xy : octahedral(normalize(p - u_light_pos.xyz));
+    return vis;
+#else
+#if GRID == GRID_ORTHO
+    vec2 g = r.lp.xy;
+#else
+    vec2 g = octahedral(normalize(p - u_light_pos.xyz));
+#endif
     vec2 f = (g - u_grid_rect.xy) / (u_grid_rect.zw - u_grid_rect.xy);
     if (any(lessThan(f, vec2(0.0))) || any(greaterThan(f, vec2(1.0)))) {
         return vis;
@@ -152,4 +168,5 @@ float shadow_visibility(vec3 p, vec3 n, out int sampled, out int used) {
         }
     }
     return vis;
+#endif
 }

@@ -259,3 +259,28 @@ def test_pcf_softens_only_the_shadow_edges(ctx, tiny):
     partial = seen & (soft > 0.0) & (soft < 1.0)
     assert partial.sum() > 10
     assert np.mean(hard[seen] == soft[seen]) > 0.95
+
+
+def test_one_renderer_switches_its_shading_program_with_the_settings(ctx, tiny):
+    """The shading program is compiled per variant (PCF, grid, debug view, light kind): one
+    renderer switched between them draws what a fresh renderer draws with each, and makes no
+    new GL objects the second time round."""
+    coarse = shadow_methods.ShadowSettings(clump_resolution=24)
+    variants = [(coarse, "none"), (dataclasses.replace(coarse, pcf=True), "none"),
+                (coarse, "map"), (dataclasses.replace(coarse, grid="off"), "map-count"),
+                (dataclasses.replace(coarse, pcf=True), "cache")]
+    expected = [render(ctx, tiny, s, debug=d)[0].image for s, d in variants]
+    assert len({e.tobytes() for e in expected}) == len(variants)  # each variant differs
+    r = Renderer(ctx, tiny, SIZE, coarse, gbuffer=True)
+    view = View.from_camera(tiny.camera, SIZE)
+    try:
+        counts = []
+        for _ in range(2):
+            for (settings, debug), want in zip(variants, expected, strict=True):
+                r.set_settings(settings)
+                r.debug_view = debug
+                assert np.array_equal(r.render(0.0, view).image, want), (settings, debug)
+            counts.append(r.gl_objects())
+        assert counts[0] == counts[1]
+    finally:
+        r.release()
