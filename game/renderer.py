@@ -29,6 +29,7 @@ DEBUG_VIEWS = {"none": gpu_blocks.DEBUG_NONE, "map": gpu_blocks.DEBUG_MAP,
 SHADOW_UNIT = 0  # texture unit of the depth array
 SOFT_UNIT = 4    # texture unit of the soft visibility (game/tracer.py uses 1-3)
 LAYERED_EXTENSION = "GL_ARB_shader_viewport_layer_array"
+CLEAR_EXTENSION = "GL_ARB_clear_texture"  # DepthArray.clear
 
 
 @dataclass
@@ -112,15 +113,13 @@ class Renderer:
         self.depth_prog = self._own(ctx.program(
             vertex_shader=glsl.build("depth.vert", _defines(ctx)),
             fragment_shader=glsl.build("depth.frag")))
-        # All character maps in one layered draw where the vertex shader may pick the layer;
-        # otherwise one framebuffer switch per map (the seed: map generation parallelises).
-        self.layered = LAYERED_EXTENSION in ctx.extensions
+        # All character maps in one layered draw where the vertex shader may pick the layer
+        # (their corners cleared first with glClearTexSubImage); otherwise one framebuffer
+        # switch per map (the seed: map generation parallelises).
+        self.layered = {LAYERED_EXTENSION, CLEAR_EXTENSION} <= set(ctx.extensions)
         if self.layered:
             self.layered_prog = self._own(ctx.program(
                 vertex_shader=glsl.build("depth_layered.vert", _defines(ctx)),
-                fragment_shader=glsl.build("depth.frag")))
-            self.clear_prog = self._own(ctx.program(
-                vertex_shader=glsl.build("depth_clear.vert", _defines(ctx)),
                 fragment_shader=glsl.build("depth.frag")))
 
         vertices = np.empty(len(self.geom.positions), dtype=[("p", "<f4", 3), ("o", "<i4")])
@@ -134,7 +133,6 @@ class Renderer:
         if self.layered:
             self.layered_vao = self._own(ctx.vertex_array(self.layered_prog, content, self.ibo,
                                                           4))
-            self.clear_vao = self._own(ctx.vertex_array(self.clear_prog, []))
         # The shading programs, one per variant (see _shading_program): each made on first use
         # and kept, so that switching back and forth makes no new objects after the first.
         self._shading: dict[tuple, tuple] = {}
@@ -344,17 +342,15 @@ class Renderer:
         return triangles
 
     def _draw_characters_layered(self, plan, indices: list[int], array: DepthArray) -> int:
-        """Clear and render every character map in two draws into the layered framebuffer."""
+        """Clear every character map's corner, then render them all into the layered
+        framebuffer."""
         if not indices:
             return 0
-        ctx = self.ctx
+        for i in indices:
+            array.clear(plan.maps[i].layer, plan.maps[i].viewport)
         fbo = array.layered
         fbo.use()
         fbo.viewport = (0, 0, array.resolution, array.resolution)
-        ctx.depth_func = "1"  # the clear quads overwrite whatever the corner held
-        self.clear_vao.render(moderngl.TRIANGLE_STRIP, vertices=4,
-                              instances=self.geom.n_characters)
-        ctx.depth_func = "<"
         characters = [o for i in indices for o in plan.maps[i].objects]
         for first, count in self.layout.ranges(characters):
             self.layered_vao.render(moderngl.TRIANGLES, vertices=count, first=first)
