@@ -35,6 +35,7 @@ from . import (
     context,
     dumps,
     floors,
+    interrupts,
     outputs,
     reference,
     shadow_methods,
@@ -537,6 +538,7 @@ def run(opts: BenchOptions, ctx=None) -> dict:
         timings: dict = {}
         try:
             for bscene, spec in todo:
+                interrupts.check()
                 bar.set_description(f"{bscene.key} {spec.method}")
                 if loaded is None or loaded[0] != bscene.key:
                     loaded = (bscene.key, _load(bscene, opts.out / "scenes"))

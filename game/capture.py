@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import context, dumps, floors, frame_log, outputs, resources, shadow_methods
+from . import context, dumps, floors, frame_log, interrupts, outputs, resources, shadow_methods
 from .renderer import Frame, Renderer, View
 from .scene import Scene
 
@@ -62,6 +62,7 @@ def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
     frames = frame_log.FrameLog()  # on disk: a long run's memory stays flat (issue 6)
     try:
         for k in range(opts.frames):
+            interrupts.check()
             t = opts.time + k / opts.fps
             frame = renderer.render(t, view)
             if opts.soft is not None:

@@ -13,7 +13,7 @@ import sys
 import warnings
 from pathlib import Path
 
-from . import shadow_methods
+from . import interrupts, shadow_methods
 from .errors import GameError
 
 CAPTURE_METHODS = ("clumped", "single", "static-dynamic", "csm", "traced")
@@ -483,6 +483,7 @@ def _one_line_warning(message, category, filename, lineno, file=None, line=None)
 
 def main(argv: list[str] | None = None) -> int:
     warnings.showwarning = _one_line_warning
+    interrupts.install()
     parser = build_parser()
     try:
         args = parser.parse_args(argv)

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import context, dumps, outputs
+from . import context, dumps, interrupts, outputs
 from .errors import GameError
 from .renderer import Frame, Renderer, View
 from .scene import Scene
@@ -75,6 +75,7 @@ def run(ctx, scene: Scene, opts: TraceOptions) -> dict:
     frames = []
     try:
         for k in range(opts.frames):
+            interrupts.check()
             t = opts.time + k / opts.fps
             frame = renderer.render(t, view)
             frame, result = soft_frame(renderer, frame, t, opts.settings)

@@ -36,7 +36,7 @@ import imgui_bundle  # noqa: F401 - before glfw, so pyGLFW loads the GLFW 3.5 bu
 import glfw
 import numpy as np
 
-from . import context, outputs, shadow_methods, trace_run
+from . import context, interrupts, outputs, shadow_methods, trace_run
 from .errors import GameError
 from .overlay import METHODS, Figures, Overlay
 from .present import Presenter
@@ -371,6 +371,7 @@ class Walkaround:
         start = last = time.perf_counter()
         first_frame_end = None
         while not self.quit:
+            interrupts.check()
             if self.opts.frames is not None and self.frames >= self.opts.frames:
                 break
             if script is not None:
