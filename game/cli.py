@@ -500,6 +500,9 @@ def main(argv: list[str] | None = None) -> int:
         print("interrupted", file=sys.stderr)
         return 130
     except Exception as exc:  # noqa: BLE001 - the one place that turns bugs into one line too
+        if interrupts.pending():  # Ctrl-C that a library turned into another exception
+            print("interrupted", file=sys.stderr)
+            return 130
         if os.environ.get("SHADOWGAME_DEBUG"):
             raise
         first = str(exc).splitlines()[0] if str(exc) else ""

@@ -17,6 +17,8 @@ from typing import BinaryIO
 
 import numpy as np
 
+from . import interrupts
+
 
 def _umask() -> int:
     mask = os.umask(0)
@@ -33,16 +35,18 @@ def atomic_file(path: str | Path):
     """Open a temp file beside ``path`` for binary writing; rename it over ``path`` on success."""
     path = Path(path)
     # The temp name is chosen before the file exists, so an interrupt that lands anywhere after
-    # this line (even inside the open) still finds the name to remove.
+    # this line (even inside the open) still finds the name to remove. Ctrl-C itself waits for
+    # the rename (game/interrupts.py); this covers other exceptions, and signals not deferred.
     tmp = path.parent / f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp"
     try:
-        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
-        with os.fdopen(fd, "wb") as f:
-            yield f
-            f.flush()
-            os.fsync(f.fileno())
-        os.chmod(tmp, FILE_MODE)
-        os.replace(tmp, path)
+        with interrupts.deferred():
+            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+            with os.fdopen(fd, "wb") as f:
+                yield f
+                f.flush()
+                os.fsync(f.fileno())
+            os.chmod(tmp, FILE_MODE)
+            os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
