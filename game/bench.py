@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from . import (
+    charts,
     context,
     dumps,
     floors,
@@ -42,6 +43,7 @@ from . import (
     stability,
     transforms,
 )
+from .charts import row_number
 from .errors import GameError
 from .renderer import Renderer, View
 from .scene import Scene, default_scene_path, parse_scene
@@ -518,7 +520,6 @@ def run(opts: BenchOptions, ctx=None) -> dict:
 
     ``ctx``: a GL context to use (and leave open); by default one is made and released here.
     """
-    from . import charts
 
     opts.out.mkdir(parents=True, exist_ok=True)
     (opts.out / "scenes").mkdir(exist_ok=True)
@@ -586,13 +587,6 @@ def _progress(total: int, enabled: bool):
 
 
 # -- acceptance figures -----------------------------------------------------------------------
-def _num(row: dict, key: str) -> float:
-    try:
-        return float(row.get(key, ""))
-    except (TypeError, ValueError):
-        return float("nan")
-
-
 def is_default(row: dict) -> bool:
     """The row's parameters are the method's defaults."""
     return row["run"].split("|")[2] == "defaults"
@@ -606,28 +600,29 @@ def compare(rows: list[dict], scene: str, baseline: str) -> dict | None:
     to clumped's error is taken and ``clumped_error_lower`` is False.
     """
     ok = [r for r in rows if r["scene"] == scene and r.get("status") == "ok"
-          and not math.isnan(_num(r, "error"))]
+          and not math.isnan(row_number(r, "error"))]
     mine = [r for r in ok if r["method"] == "clumped" and is_default(r)]
     theirs = [r for r in ok if r["method"] == baseline]
     if not mine or not theirs:
         return None
     m = mine[0]
-    e, t = _num(m, "error"), _num(m, "total_ms_median")
-    t_min = _num(m, "total_ms_min")
-    worse = [r for r in theirs if _num(r, "error") >= e]
+    e, t = row_number(m, "error"), row_number(m, "total_ms_median")
+    t_min = row_number(m, "total_ms_min")
+    worse = [r for r in theirs if row_number(r, "error") >= e]
     if worse:
         # Among the baseline runs no more accurate than clumped, the most accurate (then the
         # cheapest): the fairest match, not the cheapest coarse map.
-        pick = min(worse, key=lambda r: (_num(r, "error"), _num(r, "total_ms_median")))
+        pick = min(worse, key=lambda r: (row_number(r, "error"), row_number(r, "total_ms_median")))
     else:
-        pick = min(theirs, key=lambda r: _num(r, "error") - e)
+        pick = min(theirs, key=lambda r: row_number(r, "error") - e)
     return {"scene": scene, "baseline": pick["run"], "clumped_run": m["run"],
             "clumped_ms": t, "clumped_error": e,
-            "baseline_ms": _num(pick, "total_ms_median"), "baseline_error": _num(pick, "error"),
-            "speedup": _num(pick, "total_ms_median") / t if t > 0 else float("nan"),
+            "baseline_ms": row_number(pick, "total_ms_median"),
+            "baseline_error": row_number(pick, "error"),
+            "speedup": row_number(pick, "total_ms_median") / t if t > 0 else float("nan"),
             # The same ratio from each run's least-disturbed frame (robust to other jobs' load).
-            "clumped_ms_min": t_min, "baseline_ms_min": _num(pick, "total_ms_min"),
-            "speedup_min": _num(pick, "total_ms_min") / t_min if t_min > 0 else float("nan"),
+            "clumped_ms_min": t_min, "baseline_ms_min": row_number(pick, "total_ms_min"),
+            "speedup_min": row_number(pick, "total_ms_min") / t_min if t_min > 0 else float("nan"),
             "clumped_error_lower": bool(worse)}
 
 
@@ -648,14 +643,14 @@ def acceptance(rows: list[dict]) -> dict:
             if c is not None:  # against the baseline at its defaults (what engines ship)
                 out.setdefault("default_comparisons", []).append(c)
         ok = [r for r in rows if r["scene"] == scene and r.get("status") == "ok"
-              and not math.isnan(_num(r, "error"))]
+              and not math.isnan(row_number(r, "error"))]
         mine = [r for r in ok if r["method"] == "clumped" and is_default(r)]
         if mine:
             # On the front against the baselines: no baseline run both faster and more accurate.
-            t, e = _num(mine[0], "total_ms_median"), _num(mine[0], "error")
+            t, e = row_number(mine[0], "total_ms_median"), row_number(mine[0], "error")
             beaten_by = [r["run"] for r in ok if r["method"] != "clumped"
-                         and _num(r, "total_ms_median") <= t and _num(r, "error") <= e
-                         and (_num(r, "total_ms_median") < t or _num(r, "error") < e)]
+                         and row_number(r, "total_ms_median") <= t and row_number(r, "error") <= e
+                         and (row_number(r, "total_ms_median") < t or row_number(r, "error") < e)]
             out.setdefault("clumped_default_on_front", {})[scene] = not beaten_by
             if beaten_by:
                 out.setdefault("clumped_default_beaten_by", {})[scene] = beaten_by

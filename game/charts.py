@@ -31,7 +31,8 @@ def pareto_front(points: list[tuple[float, float]]) -> list[int]:
     return front
 
 
-def _num(row: dict, key: str) -> float:
+def row_number(row: dict, key: str) -> float:
+    """A CSV row's number under ``key``; NaN where it is empty or not a number."""
     try:
         return float(row.get(key, ""))
     except (TypeError, ValueError):
@@ -84,13 +85,14 @@ def _save(plt, fig, folder: Path, stem: str, renderer: str) -> list[Path]:
 def pareto(plt, rows: list[dict], scene: str, folder: Path, renderer: str) -> list[Path]:
 
     pts = [r for r in rows if r["scene"] == scene and _ok(r)
-           and math.isfinite(_num(r, "error")) and math.isfinite(_num(r, "total_ms_median"))]
+           and math.isfinite(row_number(r, "error"))
+           and math.isfinite(row_number(r, "total_ms_median"))]
     if not pts:
         return []
     fig, ax = plt.subplots(figsize=(7, 4.6))
     for r in pts:
         m = r["method"]
-        x, y = _num(r, "total_ms_median"), 100 * _num(r, "error")
+        x, y = row_number(r, "total_ms_median"), 100 * row_number(r, "error")
         ax.scatter(x, y, color=COLOURS.get(m, "k"), marker=MARKERS.get(m, "x"),
                    s=70 if _default(r) else 28, edgecolors="k" if _default(r) else "none",
                    zorder=3)
@@ -100,10 +102,10 @@ def pareto(plt, rows: list[dict], scene: str, folder: Path, renderer: str) -> li
                         .replace("single_resolution", ""), (x, y), fontsize=6,
                         xytext=(4, 3), textcoords="offset points")
     front = sorted((pts[i] for i in pareto_front(
-        [(_num(r, "total_ms_median"), _num(r, "error")) for r in pts])),
-        key=lambda r: _num(r, "total_ms_median"))
-    ax.step([_num(r, "total_ms_median") for r in front],
-            [100 * _num(r, "error") for r in front], where="post", color="#444444",
+        [(row_number(r, "total_ms_median"), row_number(r, "error")) for r in pts])),
+        key=lambda r: row_number(r, "total_ms_median"))
+    ax.step([row_number(r, "total_ms_median") for r in front],
+            [100 * row_number(r, "error") for r in front], where="post", color="#444444",
             linewidth=1, linestyle="--", label="Pareto front", zorder=2)
     for m, c in COLOURS.items():
         ax.scatter([], [], color=c, marker=MARKERS[m], label=m)
@@ -121,7 +123,7 @@ def scaling(plt, rows: list[dict], axis: str, folder: Path, renderer: str) -> li
     """Total ms of methods at defaults against static triangles or characters."""
     if axis == "triangles":
         picked = [r for r in rows if r["group"] == "town" and _ok(r) and _default(r)
-                  and _num(r, "characters") == 16]
+                  and row_number(r, "characters") == 16]
         key, label = "static_triangles", "static triangles (towns, 16 walkers)"
     else:
         picked = [r for r in rows if r["group"] == "town" and _ok(r) and _default(r)
@@ -133,7 +135,7 @@ def scaling(plt, rows: list[dict], axis: str, folder: Path, renderer: str) -> li
     groups: dict[tuple[str, str], list] = defaultdict(list)
     for r in picked:
         town = r["scene"].split("_")[1] if axis == "characters" else ""
-        groups[(r["method"], town)].append((_num(r, key), _num(r, "total_ms_median")))
+        groups[(r["method"], town)].append((row_number(r, key), row_number(r, "total_ms_median")))
     for (m, town), pts in sorted(groups.items()):
         pts.sort()
         ax.plot([p[0] for p in pts], [p[1] for p in pts], marker=MARKERS.get(m, "x"),
@@ -153,7 +155,7 @@ def scaling(plt, rows: list[dict], axis: str, folder: Path, renderer: str) -> li
 def per_scene_bars(plt, rows: list[dict], column: str, ylabel: str, stem: str, folder: Path,
                    renderer: str) -> list[Path]:
     picked = [r for r in rows if _ok(r) and _default(r) and r["group"] in ("main", "town")
-              and math.isfinite(_num(r, column))]
+              and math.isfinite(row_number(r, column))]
     if not picked:
         return []
     scenes = sorted({r["scene"] for r in picked}, key=lambda s: (s != "default", s))
@@ -166,7 +168,7 @@ def per_scene_bars(plt, rows: list[dict], column: str, ylabel: str, stem: str, f
             for r in picked:
                 if r["scene"] == s and r["method"] == m:
                     xs.append(i + (j - (len(methods) - 1) / 2) * width)
-                    ys.append(_num(r, column))
+                    ys.append(row_number(r, column))
         ax.bar(xs, ys, width=width, color=COLOURS[m], label=m)
     ax.set_xticks(range(len(scenes)), scenes, rotation=20, fontsize=7)
     ax.set_ylabel(ylabel)
@@ -181,18 +183,20 @@ def stability_chart(plt, rows: list[dict], factor: str, folder: Path, renderer: 
     if not picked:
         return []
     fig, ax = plt.subplots(figsize=(6.5, 4.0))
-    values = sorted({_num(r, "value") for r in picked})
+    values = sorted({row_number(r, "value") for r in picked})
     numeric = factor in ("elevation", "scale")
     pos = {v: (v if numeric else i) for i, v in enumerate(values)}
-    top = max([100 * _num(r, "error") for r in picked if math.isfinite(_num(r, "error"))] + [1])
+    top = max([100 * row_number(r, "error") for r in picked
+               if math.isfinite(row_number(r, "error"))] + [1])
     for m in COLOURS:
-        mine = sorted((r for r in picked if r["method"] == m), key=lambda r: _num(r, "value"))
-        good = [r for r in mine if _ok(r) and math.isfinite(_num(r, "error"))]
-        ax.plot([pos[_num(r, "value")] for r in good], [100 * _num(r, "error") for r in good],
+        mine = sorted((r for r in picked if r["method"] == m), key=lambda r: row_number(r, "value"))
+        good = [r for r in mine if _ok(r) and math.isfinite(row_number(r, "error"))]
+        ax.plot([pos[row_number(r, "value")] for r in good],
+                [100 * row_number(r, "error") for r in good],
                 marker=MARKERS[m], color=COLOURS[m], label=m)
         bad = [r for r in mine if not _ok(r)]
         if bad:
-            ax.scatter([pos[_num(r, "value")] for r in bad], [1.1 * top] * len(bad),
+            ax.scatter([pos[row_number(r, "value")] for r in bad], [1.1 * top] * len(bad),
                        marker="x", color=COLOURS[m], s=80, label=f"{m} failed")
     if factor == "scale":
         ax.set_xscale("log")
