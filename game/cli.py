@@ -197,6 +197,18 @@ def cmd_play(args) -> int:
     return 0
 
 
+def _add_frame_options(parser, dump_help: str) -> None:
+    """Which frames to render and where they go: the same for capture and trace."""
+    parser.add_argument("--frames", type=_positive_int, default=1)
+    parser.add_argument("--size", type=_size, default=(960, 540), metavar="WxH")
+    parser.add_argument("--time", type=_finite, default=0.0,
+                        help="scene time of the first frame")
+    parser.add_argument("--fps", type=_positive, default=30.0, help="frames per scene second")
+    parser.add_argument("--out", type=Path, default=DEFAULT_OUT, metavar="DIR")
+    parser.add_argument("--dump", action="store_true", help=dump_help)
+    parser.add_argument("--stats", type=Path, metavar="FILE", help="write per-frame stats JSON")
+
+
 # -- trace (soft shadows of the linear light, issue 4) --------------------------------------
 def _add_trace_parser(sub) -> None:
     from .tracer import TraceSettings
@@ -207,13 +219,7 @@ def _add_trace_parser(sub) -> None:
     trace.add_argument("--method", choices=TRACE_METHODS, default="voxel-cache")
     trace.add_argument("--samples", type=_positive_int, default=d.samples, metavar="N",
                        help="stratified samples along the segment per shaded point")
-    trace.add_argument("--size", type=_size, default=(960, 540), metavar="WxH")
-    trace.add_argument("--time", type=_finite, default=0.0, help="scene time of the first frame")
-    trace.add_argument("--frames", type=_positive_int, default=1)
-    trace.add_argument("--fps", type=_positive, default=30.0, help="frames per scene second")
-    trace.add_argument("--out", type=Path, default=DEFAULT_OUT, metavar="DIR")
-    trace.add_argument("--dump", action="store_true", help="write npz (with soft) + glb")
-    trace.add_argument("--stats", type=Path, metavar="FILE", help="write per-frame stats JSON")
+    _add_frame_options(trace, dump_help="write npz (with soft) + glb")
     trace.add_argument("--clock", choices=("auto", "cpu-finish", "gpu-query"), default="auto")
     g = trace.add_argument_group("tracer parameters")
     g.add_argument("--cells-per-triangle", type=_positive, default=d.cells_per_triangle,
@@ -347,13 +353,7 @@ def build_parser() -> argparse.ArgumentParser:
     cap = sub.add_parser("capture", help="render frames headless through EGL")
     cap.add_argument("scene", nargs="?", help="scene file (default: the built-in scene)")
     cap.add_argument("--method", choices=CAPTURE_METHODS, default="clumped")
-    cap.add_argument("--frames", type=_positive_int, default=1)
-    cap.add_argument("--size", type=_size, default=(960, 540), metavar="WxH")
-    cap.add_argument("--time", type=_finite, default=0.0, help="scene time of the first frame")
-    cap.add_argument("--fps", type=_positive, default=30.0, help="frames per scene second")
-    cap.add_argument("--out", type=Path, default=DEFAULT_OUT, metavar="DIR")
-    cap.add_argument("--dump", action="store_true", help="write npz + glb beside each frame")
-    cap.add_argument("--stats", type=Path, metavar="FILE", help="write per-frame stats JSON")
+    _add_frame_options(cap, dump_help="write npz + glb beside each frame")
     cap.add_argument("--overlay", action="store_true", help="draw the timing overlay")
     cap.add_argument("--soft", action="store_true",
                      help="light the frames by the linear light, with traced soft shadows "
