@@ -26,8 +26,7 @@ from .shadow_fit import (
     MARGIN_TEXELS,
     MapFit,
     deciding_points,
-    fit_directional,
-    fit_perspective,
+    fit_to_light,
 )
 from .shadow_plan import (
     KIND_ALL,
@@ -37,15 +36,6 @@ from .shadow_plan import (
     ShadowPlan,
     ShadowSettings,
 )
-
-
-def _fit(points: np.ndarray, light: Light, light_rot: np.ndarray | None, resolution: int
-         ) -> MapFit | None:
-    if not len(points):
-        return None
-    if light.kind == "directional":
-        return fit_directional(points, light_rot, resolution)
-    return fit_perspective(points, light.position, resolution)
 
 
 class StaticDynamicShadows:
@@ -74,9 +64,8 @@ class StaticDynamicShadows:
         self.light = light
         self._light_rot = (transforms.light_rotation(light.direction)
                            if light.kind == "directional" else None)
-        points = (np.concatenate(self.geom.static_points) if self.geom.static_points
-                  else np.zeros((0, 3)))
-        fit = _fit(points, light, self._light_rot, self.resolution)
+        fit = fit_to_light(self.geom.all_static_points(), light, self._light_rot,
+                           self.resolution)
         objects = [self.geom.static_object(i) for i in range(self.geom.n_statics)]
         self._static = (None if fit is None else
                         MapRecord("statics", KIND_CLUMP, fit, 0, self.resolution, objects))
@@ -99,7 +88,7 @@ class StaticDynamicShadows:
             points = np.concatenate([
                 transforms.transform_points(models[i], self.geom.character_points[i])
                 for i in range(n)])
-            fit = _fit(points, self.light, self._light_rot, self.resolution)
+            fit = fit_to_light(points, self.light, self._light_rot, self.resolution)
             if fit is not None:
                 render_dynamic.append(len(maps))
                 # KIND_ALL, not KIND_CHARACTER: one map holds many characters.
@@ -204,8 +193,7 @@ class CascadedShadows:
             if note not in self.notes:
                 self.notes.append(note)
             self._light_rot = None
-            points = np.concatenate(g.static_points) if g.static_points else np.zeros((0, 3))
-            self._static_points = deciding_points(points, None)
+            self._static_points = deciding_points(g.all_static_points(), None)
             return
         self._light_rot = transforms.light_rotation(light.direction)
         # Light-space boxes of the statics, once per light: per-cascade culling is then a
@@ -235,7 +223,7 @@ class CascadedShadows:
         character_objects = [g.character_object(i) for i in range(g.n_characters)]
         if self.light.kind != "directional":
             points = np.concatenate([self._static_points, *character_points])
-            fit = _fit(points, self.light, None, res)
+            fit = fit_to_light(points, self.light, None, res)
             objects = [g.static_object(i) for i in range(g.n_statics)] + character_objects
             if fit is None:
                 return ShadowPlan(resolution=res, maps=[])

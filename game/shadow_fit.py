@@ -192,6 +192,17 @@ def fit_cube_faces(points: np.ndarray, eye: np.ndarray, resolution: int) -> list
     return fits
 
 
+def fit_to_light(points: np.ndarray, light, light_rot: np.ndarray | None,
+                 resolution: int) -> MapFit | None:
+    """A map over ``points`` for a scene light: orthographic in ``light_rot`` for a directional
+    light, perspective from its position otherwise. None when there are no points."""
+    if not len(points):
+        return None
+    if light.kind == "directional":
+        return fit_directional(points, light_rot, resolution)
+    return fit_perspective(points, light.position, resolution)
+
+
 def deciding_points(points: np.ndarray, light_rot: np.ndarray | None) -> np.ndarray:
     """The points of a static caster that can decide its fit, computed once per light.
 

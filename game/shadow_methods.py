@@ -23,6 +23,7 @@ from .shadow_fit import (
     fit_cube_faces,
     fit_directional,
     fit_perspective,
+    fit_to_light,
     holds_in_one_frustum,
     outside_cone,
 )
@@ -404,11 +405,9 @@ class SingleShadows:
     def set_light(self, light: Light) -> None:
         """Keep only the statics' extreme points for this light; refitting is then cheap."""
         self.light = light
-        points = (np.concatenate(self.geom.static_points) if self.geom.static_points
-                  else np.zeros((0, 3)))
         self._light_rot = (transforms.light_rotation(light.direction)
                            if light.kind == "directional" else None)
-        self._static_points = deciding_points(points, self._light_rot)
+        self._static_points = deciding_points(self.geom.all_static_points(), self._light_rot)
 
     def invalidate_statics(self) -> None:
         self.set_light(self.light)
@@ -434,15 +433,10 @@ class SingleShadows:
         objects = ([self.geom.static_object(i) for i in range(self.geom.n_statics)]
                    + [self.geom.character_object(i) for i in range(self.geom.n_characters)])
         maps, render = [], []
-        if len(points):
-            light = self.light
-            if light.kind == "directional":
-                fit = fit_directional(points, self._light_rot, res)
-            else:
-                fit = fit_perspective(points, light.position, res)
-            if fit is not None:
-                maps.append(MapRecord("single", KIND_ALL, fit, 0, res, objects))
-                render = [0]
+        fit = fit_to_light(points, self.light, self._light_rot, res)
+        if fit is not None:
+            maps.append(MapRecord("single", KIND_ALL, fit, 0, res, objects))
+            render = [0]
         return ShadowPlan(resolution=res, maps=maps, render_dynamic=render)
 
 
