@@ -53,7 +53,7 @@ FPS = 30.0                  # scene seconds per timing frame: 1 / FPS
 ORBIT_DEG = 1.0             # camera yaw per timing frame about the scene camera's target
 FLICKER_DEG = 0.25          # camera yaw per flicker frame (time frozen)
 ERROR_SPACING_S = 0.75      # scene seconds between error frames (characters move between them)
-PASSES = ("shadow_static", "shadow_dynamic", "shade", "total")
+PASSES = ("shadow_static", "shadow_dynamic", "cull", "shade", "total")
 PARAM_KEYS = ("clumping", "clump_count", "texels_per_metre", "clump_resolution",
               "character_resolution", "single_resolution", "cascades", "cascade_lambda",
               "cascade_resolution")
@@ -70,8 +70,8 @@ COLUMNS = (
     + [f"{p}_ms_{stat}" for p in PASSES for stat in ("median", "p95", "min")]
     + ["repeats", "total_ms_spread"]
     + ["maps_total", "maps_rendered", "triangles_to_maps", "texels_to_maps",
-       "shadow_memory_mib", "maps_per_fragment", "static_maps", "footprint_overlap",
-       "static_texels_per_metre", "error", "misclassified", "shadowed",
+       "camera_triangles", "shadow_memory_mib", "maps_per_fragment", "static_maps",
+       "footprint_overlap", "static_texels_per_metre", "error", "misclassified", "shadowed",
        "error_frames", "flicker", "flicker_raw", "flicker_reference", "nan_pixels", "notes",
        "status", "seconds"]
 )
@@ -403,7 +403,7 @@ def measure_timing(ctx, scene: Scene, spec: RunSpec, opts: BenchOptions) -> dict
             # The least-disturbed frame: on a shared machine other jobs only ever add time.
             out[f"{p}_ms_min"] = min(ms) if ms else float("nan")
         for name in ("maps_total", "maps_rendered", "triangles_to_maps", "texels_to_maps",
-                     "maps_per_fragment"):
+                     "camera_triangles", "maps_per_fragment"):
             out[name] = float(np.mean([getattr(f, name) for f in timed]))
         out["shadow_memory_mib"] = renderer.shadow_memory_bytes / 2**20
         out["notes"] = "; ".join(renderer.method.notes + floors.floor_warnings(scene))

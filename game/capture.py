@@ -30,6 +30,7 @@ class CaptureOptions:
     overlay: bool = False      # draw the timing overlay (game/overlay.py) into the frames
     settings: shadow_methods.ShadowSettings = field(default_factory=shadow_methods.ShadowSettings)
     soft: object | None = None  # a tracer.TraceSettings: composite the linear light's shadows
+    cull: bool = True          # camera pass: only triangles that can cover a pixel centre
 
 
 def frame_stats(index: int, t: float, frame: Frame) -> dict:
@@ -38,6 +39,7 @@ def frame_stats(index: int, t: float, frame: Frame) -> dict:
     return {"frame": index, "time": t, "ms": ms, **ms,
             "maps_rendered": frame.maps_rendered, "maps_cached": frame.maps_cached,
             "maps_total": frame.maps_total, "triangles_to_maps": frame.triangles_to_maps,
+            "camera_triangles": frame.camera_triangles,
             "maps_per_fragment": round(frame.maps_per_fragment, 5),
             **_resource_stats(frame)}
 
@@ -55,7 +57,8 @@ def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
     from . import trace_run
 
     renderer = Renderer(ctx, scene, opts.size, opts.settings,
-                        gbuffer=opts.dump or opts.soft is not None, clock=opts.clock)
+                        gbuffer=opts.dump or opts.soft is not None, clock=opts.clock,
+                        cull=opts.cull)
     renderer.debug_view = opts.debug_view
     hud = _overlay() if opts.overlay else None
     view = View.from_camera(scene.camera, opts.size)
@@ -107,7 +110,7 @@ def _overlay():
 
 def summary(stats: dict) -> str:
     """One line: medians over the frames after the first."""
-    keys = ("shadow_static", "shadow_dynamic", "shade", "total")
+    keys = ("shadow_static", "shadow_dynamic", "cull", "shade", "total")
     ms = np.array([[f["ms"].get(k, 0.0) for k in keys] for f in stats["frames"]])
     ms = ms[1:] if len(ms) > 1 else ms
     med = dict(zip(keys, np.median(ms, axis=0).tolist(), strict=True))

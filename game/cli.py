@@ -167,6 +167,7 @@ def _add_play_parser(sub) -> None:
                       help="render the scene at S times the window's size per side, then "
                            "scale it up (0.25..1; llvmpipe is fill-bound)")
     play.add_argument("--no-overlay", action="store_true", help="hide the timing overlay")
+    _add_cull_option(play)
     play.add_argument("--soft", action="store_true",
                       help="start with soft shadows of the scene's [linear_light], traced at a "
                            "quarter of the window's size per side (overlay checkbox)")
@@ -190,11 +191,18 @@ def cmd_play(args) -> int:
         size=args.size, frames=args.frames, screenshot=args.screenshot, stats=args.stats,
         time_step=None if args.fps is None else 1.0 / args.fps, overlay=not args.no_overlay,
         clock=args.clock, platform=args.platform, settings=_settings(args),
-        debug_view=args.debug_view, render_scale=args.render_scale, soft=args.soft)
+        debug_view=args.debug_view, render_scale=args.render_scale, soft=args.soft,
+        cull=not args.no_cull)
     stats = window.play(scene, opts)
     if args.frames is not None:
         print(f"played {len(stats['frames'])} frame(s): {window.summary(stats)}")
     return 0
+
+
+def _add_cull_option(parser) -> None:
+    parser.add_argument("--no-cull", action="store_true",
+                        help="draw every triangle in the camera pass, not only those that can "
+                             "cover a pixel centre (same pixels, slower; game/triangle_cull.py)")
 
 
 def _add_frame_options(parser, dump_help: str) -> None:
@@ -355,6 +363,7 @@ def build_parser() -> argparse.ArgumentParser:
     cap.add_argument("--method", choices=CAPTURE_METHODS, default="clumped")
     _add_frame_options(cap, dump_help="write npz + glb beside each frame")
     cap.add_argument("--overlay", action="store_true", help="draw the timing overlay")
+    _add_cull_option(cap)
     cap.add_argument("--soft", action="store_true",
                      help="light the frames by the linear light, with traced soft shadows "
                           "(voxel-cache, 32 samples; see python -m game trace)")
@@ -410,7 +419,8 @@ def cmd_capture(args) -> int:
         opts = capture.CaptureOptions(
             out=args.out, frames=args.frames, size=args.size, time=args.time, fps=args.fps,
             dump=args.dump, stats=args.stats, debug_view=args.debug_view, clock=args.clock,
-            overlay=args.overlay, settings=_settings(args), soft=_soft_settings(args, scene))
+            overlay=args.overlay, settings=_settings(args), soft=_soft_settings(args, scene),
+            cull=not args.no_cull)
         stats = capture.run(ctx, scene, opts)
     finally:
         ctx.release()

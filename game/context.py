@@ -85,3 +85,15 @@ def is_software(ctx) -> bool:
     """True on Mesa's CPU rasterisers, whose GPU timer queries read wrong values."""
     renderer = ctx.info["GL_RENDERER"].lower()
     return any(name in renderer for name in ("llvmpipe", "softpipe", "swrast", "lavapipe"))
+
+
+def unbind_program() -> None:
+    """Leave no program current, after compute dispatches.
+
+    On Mesa 22.3 the first program drawn with after a dispatch otherwise outlives its
+    glDeleteProgram, with its shaders (tests/test_render.py counts the GL names a released
+    renderer leaves behind).
+    """
+    from OpenGL import GL
+
+    GL.glUseProgram(0)

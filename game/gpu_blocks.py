@@ -96,3 +96,12 @@ TRACE_BINDINGS = {
     "TRI_STATE_BINDING": 9,
     "RESULTS_BINDING": 10,
 }
+
+# The camera pass's triangle culling (game/triangle_cull.py, shaders/cull.comp).
+CULL_BINDINGS = {
+    "CULL_CORNERS_BINDING": 11,
+    "CULL_INDICES_BINDING": 12,
+    "CULL_CHUNKS_BINDING": 13,
+    "CULL_OUTPUT_BINDING": 14,
+    "CULL_COMMANDS_BINDING": 15,
+}

@@ -41,7 +41,7 @@ LABELLED_ITEM_WIDTH = 170          # pixels for a control, the rest of the row f
 # Passes in display order; any other pass a renderer times follows them. The tracer's passes
 # (game/trace_run.py) are prefixed ``traced_`` (the traced method) or ``soft_`` (soft shadows);
 # ``composite`` shades the frame again through the traced visibility.
-PASS_ORDER = ("shadow_static", "shadow_dynamic", "shade", "traced_build", "traced_trace",
+PASS_ORDER = ("shadow_static", "shadow_dynamic", "cull", "shade", "traced_build", "traced_trace",
               "soft_build", "soft_trace", "composite")
 HIDDEN_PASSES = ("readback", "gbuffer")
 # The tracer's sub-totals and parts: counted in the passes above and in "total".

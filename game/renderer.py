@@ -22,6 +22,7 @@ from .scene import Body, Camera, Character, Scene
 from .timing import PassTimer
 from .traced_shadows import TRACED_METHOD, TRACED_SETTINGS, hard_light
 from .tracer import SoftTracer, TraceResult, TraceSettings
+from .triangle_cull import TriangleCuller
 
 SKY = (0.58, 0.68, 0.80)
 DEBUG_VIEWS = {"none": gpu_blocks.DEBUG_NONE, "map": gpu_blocks.DEBUG_MAP,
@@ -63,6 +64,7 @@ class Frame:
     gbuffer: dict[str, np.ndarray] | None = None  # position, normal, object, lit
     gl_objects: dict[str, int] | None = None  # live GL objects by owner, after the frame
     texels_to_maps: int = 0    # depth texels cleared and rendered into maps this frame
+    camera_triangles: int = 0  # triangles the camera pass drew (after culling)
 
     @property
     def maps_per_fragment(self) -> float | None:
@@ -90,7 +92,7 @@ class Renderer:
 
     def __init__(self, ctx, scene: Scene, size: tuple[int, int],
                  settings: shadow_methods.ShadowSettings | None = None, gbuffer: bool = False,
-                 clock: str = "auto", limits: GLLimits | None = None):
+                 clock: str = "auto", limits: GLLimits | None = None, cull: bool = True):
         self.ctx = ctx
         self.scene = scene
         self.size = (int(size[0]), int(size[1]))
@@ -128,6 +130,14 @@ class Renderer:
         self.vbo = self._own(ctx.buffer(vertices.tobytes()))
         self.layout = geometry.layout(self.geom)
         self.ibo = self._own(ctx.buffer(self.layout.indices.tobytes()))
+        # The camera pass draws only the triangles that can cover a pixel centre (see
+        # game/triangle_cull.py); ``cull = False`` draws them all, with the same pixels.
+        self.cull = cull
+        self._culled = False  # whether the last frame's camera pass was culled
+        self.culler: TriangleCuller | None = None
+        if TriangleCuller.fits(len(self.layout.indices)):
+            self.culler = TriangleCuller(ctx, _defines(ctx), self.ibo)
+            self.culler.set_layout(self.geom, self.layout)
         content = [(self.vbo, "3f 1i", "in_position", "in_object")]
         self.depth_vao = self._own(ctx.vertex_array(self.depth_prog, content, self.ibo, 4))
         if self.layered:
@@ -171,9 +181,10 @@ class Renderer:
             obj.release()
 
     def _shading_program(self, grid_mode: int, soft: bool = False) -> tuple:
-        """The shading pass's (program, vertex array), compiled for what a frame fixes: the
+        """The shading pass's (program, vertex arrays), compiled for what a frame fixes: the
         G-buffer outputs, the soft composite, the light's kind, PCF, the map grid's mode and
-        the debug view.
+        the debug view. The vertex arrays draw every triangle, and the culled ones (``None``
+        without a culler).
 
         One program that branched on uniforms for these cost 2.5 times as much on llvmpipe
         (17.0 ms against 6.9 ms for the default scene at 960x540, medians of 199 frames),
@@ -192,8 +203,10 @@ class Renderer:
                 vertex_shader=glsl.build("shade.vert", _defines(ctx)),
                 fragment_shader=glsl.build("shade.frag", defines)))
             content = [(self.vbo, "3f 1i", "in_position", "in_object")]
-            vao = self._own(ctx.vertex_array(prog, content, self.ibo, 4))
-            self._shading[key] = (prog, vao)
+            vaos = (self._own(ctx.vertex_array(prog, content, self.ibo, 4)),
+                    None if self.culler is None else
+                    self._own(ctx.vertex_array(prog, content, self.culler.output, 4)))
+            self._shading[key] = (prog, vaos)
         return self._shading[key]
 
     def set_gbuffer(self, on: bool) -> None:
@@ -240,6 +253,9 @@ class Renderer:
         for obj in reversed(self._owned):
             obj.release()
         self._owned = []
+        if self.culler is not None:
+            self.culler.release()
+            self.culler = None
         self.timer.release()
 
     # -- settings -----------------------------------------------------------------------------
@@ -315,9 +331,13 @@ class Renderer:
             self.grid_ssbo.orphan(data.nbytes)
         self.grid_ssbo.write(data.tobytes())
 
-    def _draw_scene(self, vao) -> None:
+    def _draw_scene(self, vaos: tuple) -> None:
         """Draw every object from the camera: closed volumes with back faces culled, then the
-        open meshes."""
+        open meshes; only the triangles the culling pass kept when it ran for this frame."""
+        vao, culled = vaos
+        if self._culled:
+            self.culler.draw(culled)
+            return
         closed, total = self.layout.n_closed, len(self.layout.indices)
         if closed:
             self.ctx.enable(moderngl.CULL_FACE)
@@ -373,6 +393,8 @@ class Renderer:
             if plan.static_order is not None and plan.static_order is not self._static_order:
                 self.layout = geometry.layout(self.geom, plan.static_order)
                 self.ibo.write(self.layout.indices.tobytes())
+                if self.culler is not None:
+                    self.culler.set_layout(self.geom, self.layout)
                 self._static_order = plan.static_order
             if len(models):
                 self.models_ssbo.write(transforms.gl_bytes(models))
@@ -415,14 +437,18 @@ class Renderer:
                 else:
                     triangles += self._draw_maps(plan, dynamic, array)
 
+            self._culled = self.cull and self.culler is not None
+            if self._culled:
+                with timer.measure("cull"):
+                    self.culler.run(self.size)
             with timer.measure("shade"):
                 self.target.use()
                 self.target.viewport = (0, 0, *self.size)
                 self.target.clear(*SKY, 0.0)
                 array.bind(SHADOW_UNIT)
-                prog, vao = self._shading_program(grid.mode)
+                prog, vaos = self._shading_program(grid.mode)
                 prog["u_shadow_maps"].value = SHADOW_UNIT
-                self._draw_scene(vao)
+                self._draw_scene(vaos)
         ms = dict(timer.ms)
         rendered = len(plan.render_static) + len(plan.render_dynamic)
         if not read:
@@ -441,9 +467,13 @@ class Renderer:
             maps_sampled=np.maximum(rgba[..., 3].astype(np.int32) - 1, 0),
             ms=ms, maps_rendered=rendered, maps_cached=len(plan.maps) - rendered,
             maps_total=len(plan.maps), triangles_to_maps=triangles, gbuffer=gbuffer,
-            gl_objects=self.gl_objects(),
+            gl_objects=self.gl_objects(), camera_triangles=self._camera_triangles(),
             texels_to_maps=sum(plan.maps[i].viewport ** 2
                                for i in (*plan.render_static, *plan.render_dynamic))))
+
+    def _camera_triangles(self) -> int:
+        """Triangles the last camera pass drew: what the culling kept, or all of them."""
+        return self.culler.kept() if self._culled else len(self.layout.indices) // 3
 
     def _traced(self, t: float, frame: Frame) -> Frame:
         """The traced method: exact hard shadows from the tracer replace the frame's shading
@@ -522,14 +552,14 @@ class Renderer:
             self.target.clear(*SKY, 0.0)
             self._array.bind(SHADOW_UNIT)
             tex.use(SOFT_UNIT)
-            prog, vao = self._shading_program(self._grid_mode, soft=True)
+            prog, vaos = self._shading_program(self._grid_mode, soft=True)
             prog["u_shadow_maps"].value = SHADOW_UNIT
             prog["u_soft"].value = SOFT_UNIT
             prog["u_soft_hard"].value = hard
             if not hard:
                 middle = (segment.a + segment.b) / 2
                 prog["u_soft_light"].value = tuple(float(x) for x in middle)
-            self._draw_scene(vao)
+            self._draw_scene(vaos)
         rgba = np.frombuffer(self.target.read(components=4, attachment=0), np.uint8)
         return np.ascontiguousarray(rgba.reshape(self.size[1], self.size[0], 4)[::-1, :, :3])
 
@@ -568,6 +598,8 @@ class Renderer:
                   "timer_queries": len(self.timer._queries)}
         if self._tracer is not None:
             counts["tracer"] = self._tracer.gl_objects
+        if self.culler is not None:
+            counts["culler"] = self.culler.gl_objects
         return counts
 
     # -- run-time scene changes through the Python API (issue 6, cache invalidation) -------------
@@ -628,6 +660,11 @@ class Renderer:
                              (self.character_maps_ssbo, bytes(4 * n))):
             buffer.orphan(max(len(data), 4))
             buffer.write(data)
+        if self.culler is not None and not TriangleCuller.fits(len(self.layout.indices)):
+            self.culler.release()
+            self.culler = None  # the shading vertex arrays keep its (released) buffer unused
+        if self.culler is not None:
+            self.culler.set_layout(self.geom, self.layout)
         if self._tracer is not None:
             # The tracer's grid holds the old triangles: the next trace builds it anew.
             self._tracer.release()

@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import glsl, gpu_blocks
+from . import context, glsl, gpu_blocks
 from .geometry import PackedGeometry
 from .gpu_blocks import TRACE_DTYPE, TRACE_RESULT_DTYPE
 from .scene import Scene
@@ -253,6 +253,7 @@ class SoftTracer:
             prog.run((w + LOCAL_SIZE - 1) // LOCAL_SIZE, (h + LOCAL_SIZE - 1) // LOCAL_SIZE)
             # The next dispatch adds to these results: make the writes visible to it.
             self.ctx.memory_barrier()
+        context.unbind_program()
 
     def trace(self, textures, size: tuple[int, int], models: np.ndarray,
               settings: TraceSettings, light: tuple[int, np.ndarray, np.ndarray]) -> TraceResult:

@@ -108,6 +108,7 @@ class PlayOptions:
     debug_view: str = "none"
     render_scale: float = 1.0            # scene pixels per window pixel, per side
     soft: bool = False                   # trace the linear light's soft shadows
+    cull: bool = True                    # camera pass: only triangles that can show
     platform: str = "auto"               # "null": no display (tests)
     settings: shadow_methods.ShadowSettings = dataclasses.field(
         default_factory=shadow_methods.ShadowSettings)
@@ -149,7 +150,7 @@ class Walkaround:
         self.controller = CameraController(scene.camera)
         try:
             self.renderer = Renderer(self.ctx, scene, self.framebuffer_size() or opts.size,
-                                     opts.settings, clock=opts.clock)
+                                     opts.settings, clock=opts.clock, cull=opts.cull)
         except BaseException:
             self.ctx.release()
             glfw.destroy_window(self.window)

@@ -190,9 +190,18 @@ def live_names(start, end):
 
 
 def test_release_returns_every_gl_object(ctx, tiny):
+    from game.tracer import TraceSettings
+
     before = next_gl_names()
     render(ctx, tiny, frames=2)
     render(ctx, tiny, shadow_methods.ShadowSettings(method="single"), frames=1)
+    # Compute dispatches (the camera pass's culling, the soft tracer), then the soft composite.
+    r = Renderer(ctx, tiny, SIZE, gbuffer=True)
+    try:
+        r.render(0.0, View.from_camera(tiny.camera, SIZE))
+        r.shade_soft(r.trace(0.0, TraceSettings(samples=4)))
+    finally:
+        r.release()
     after = next_gl_names()
     assert after["Texture"] > before["Texture"]  # the renderers did make objects
     assert all(not names for names in live_names(before, after).values())
