@@ -202,7 +202,8 @@ def cmd_play(args) -> int:
 def _add_cull_option(parser) -> None:
     parser.add_argument("--no-cull", action="store_true",
                         help="draw every triangle in the camera pass, not only those that can "
-                             "cover a pixel centre (same pixels, slower; game/triangle_cull.py)")
+                             "cover a pixel centre (same pixels; slower where triangles are "
+                             "small on screen; game/triangle_cull.py)")
 
 
 def _add_frame_options(parser, dump_help: str) -> None:

@@ -1,9 +1,10 @@
 """The one owner of GL objects: buffers, programs, the depth array, the frame target.
 
 Data flows one way through a frame: scene state -> shadow plan (game/shadow_methods.py) ->
-shadow passes into the depth texture array -> block uploads -> the shading pass -> pixels and
-G-buffer. Passes are methods here because they only draw with objects this class owns; every
-object is created here and released by :meth:`Renderer.release`.
+shadow passes into the depth texture array -> block uploads -> the camera pass's triangle
+culling (game/triangle_cull.py) -> the shading pass -> pixels and G-buffer. Passes are methods
+here because they only draw with objects this class owns; every object is created here or by a
+helper this class owns (the culler, the soft tracer) and released by :meth:`Renderer.release`.
 """
 
 from __future__ import annotations
@@ -662,7 +663,7 @@ class Renderer:
             buffer.write(data)
         if self.culler is not None and not TriangleCuller.fits(len(self.layout.indices)):
             self.culler.release()
-            self.culler = None  # the shading vertex arrays keep its (released) buffer unused
+            self.culler = None  # the cached shading programs' culled vertex arrays go unused
         if self.culler is not None:
             self.culler.set_layout(self.geom, self.layout)
         if self._tracer is not None:

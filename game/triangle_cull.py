@@ -10,8 +10,8 @@ The technique is the one GPU-driven renderers use (G. Wihlidal, "Optimizing the 
 Pipeline with Compute", GDC 2016): per triangle, frustum, back-face (closed volumes only) and
 small-primitive tests, then an order-preserving compaction into an index buffer drawn with
 ``glMultiDrawElementsIndirect``. Every test keeps the doubtful cases (see shaders/cull.comp), so
-the frame is the same, pixel for pixel, as drawing every triangle; tests/test_render.py checks
-that. Keeping the order keeps which of two equally deep triangles wins.
+the frame is the same, pixel for pixel, as drawing every triangle; tests/test_triangle_cull.py
+checks that. Keeping the order keeps which of two equally deep triangles wins.
 
 :class:`TriangleCuller` owns its programs and buffers and releases them in
 :meth:`TriangleCuller.release`; its owner, the renderer, releases it.

@@ -435,7 +435,7 @@ def play(scene: Scene, opts: PlayOptions) -> dict:
 def summary(stats: dict) -> str:
     """One line: the frame rate and median ms per pass over the frames after the first."""
     frames = stats["frames"][1:] or stats["frames"]
-    names = [n for n in ("shadow_static", "shadow_dynamic", "shade", "traced_trace",
+    names = [n for n in ("shadow_static", "shadow_dynamic", "cull", "shade", "traced_trace",
                          "soft_build", "soft_trace", "composite", "total", "present", "overlay")
              if any(n in f["ms"] for f in frames)]
     med = {n: float(np.median([f["ms"].get(n, 0.0) for f in frames])) for n in names}
