@@ -92,10 +92,6 @@ class TriangleCuller:
                       for p in self.programs)
         return len(self.programs) + shaders + 4 * bool(self.programs)
 
-    @property
-    def memory_bytes(self) -> int:
-        return self.corners.size + self.chunks.size + self.output.size + self.commands.size
-
     def run(self, viewport: tuple[int, int]) -> None:
         """Cull for the view in the bound Frame block (its view-projection); the result stays
         on the GPU, in :attr:`output` and the draw commands."""
