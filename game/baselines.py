@@ -27,6 +27,7 @@ from .shadow_fit import (
     MapFit,
     deciding_points,
     fit_to_light,
+    light_rotation_of,
 )
 from .shadow_plan import (
     KIND_ALL,
@@ -62,8 +63,7 @@ class StaticDynamicShadows:
     def set_light(self, light: Light) -> None:
         """A new light refits (and re-renders) the static map."""
         self.light = light
-        self._light_rot = (transforms.light_rotation(light.direction)
-                           if light.kind == "directional" else None)
+        self._light_rot = light_rotation_of(light)
         fit = fit_to_light(self.geom.all_static_points(), light, self._light_rot,
                            self.resolution)
         objects = [self.geom.static_object(i) for i in range(self.geom.n_statics)]

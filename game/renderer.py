@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
-from . import geometry, glsl, gpu_blocks, map_grid, shadow_methods, transforms
+from . import geometry, glsl, gpu_blocks, map_grid, resources, shadow_methods, transforms
 from .depth_array import DepthArray
 from .gpu_blocks import FRAME_DTYPE, LIGHT_KINDS, MAP_DTYPE
 from .limits import GLLimits, fit_settings
@@ -218,21 +218,20 @@ class Renderer:
 
     def _update_gbuffer(self) -> None:
         on = self._gbuffer_asked or self.settings.method == TRACED_METHOD
-        if on == self.gbuffer:
-            return
-        self.ctx.detect_framebuffer(0).use()
-        self._release_target()
-        self.gbuffer = on
-        self._make_target()
+        if on != self.gbuffer:
+            self._remake_target(self.size, on)
 
     def resize(self, size: tuple[int, int]) -> None:
         """Re-create the frame target at ``size`` (the window's framebuffer changed)."""
         size = (int(size[0]), int(size[1]))
-        if size == self.size:
-            return
+        if size != self.size:
+            self._remake_target(size, self.gbuffer)
+
+    def _remake_target(self, size: tuple[int, int], gbuffer: bool) -> None:
+        """Release the frame target and make it anew at ``size``, with or without G-buffer."""
         self.ctx.detect_framebuffer(0).use()
         self._release_target()
-        self.size = size
+        self.size, self.gbuffer = size, gbuffer
         self._make_target()
 
     def release(self) -> None:
@@ -588,12 +587,9 @@ class Renderer:
 
     def gl_objects(self) -> dict[str, int]:
         """Live GL objects by owner: what this renderer and the objects it owns hold."""
-        from OpenGL import GL
-
         target = 3 + len(self.gbuffer_tex)  # framebuffer, colour texture, depth renderbuffer
-        # moderngl keeps a program's shader objects attached until the program is released.
-        shaders = sum(int(GL.glGetProgramiv(o.glo, GL.GL_ATTACHED_SHADERS))
-                      for o in self._owned if isinstance(o, moderngl.Program))
+        shaders = resources.attached_shaders(o for o in self._owned
+                                             if isinstance(o, moderngl.Program))
         array = 0 if self._array is None else 1 + len(self._array._fbo_ids)
         counts = {"renderer": len(self._owned) + target + shaders, "depth_array": array,
                   "timer_queries": len(self.timer._queries)}

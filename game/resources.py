@@ -33,6 +33,14 @@ def peak_rss_bytes() -> int:
         return 0
 
 
+def attached_shaders(programs) -> int:
+    """Shader objects attached to these moderngl programs: moderngl keeps them attached (and
+    alive) until the program is released, so an owner counts them with its programs."""
+    from OpenGL import GL
+
+    return sum(int(GL.glGetProgramiv(p.glo, GL.GL_ATTACHED_SHADERS)) for p in programs)
+
+
 def live_gl_names(highest: int = 2048) -> dict[str, int]:
     """How many names of each GL object kind in 1..``highest`` are alive in the current context.
 

@@ -192,6 +192,12 @@ def fit_cube_faces(points: np.ndarray, eye: np.ndarray, resolution: int) -> list
     return fits
 
 
+def light_rotation_of(light) -> np.ndarray | None:
+    """The world-to-light rotation (3, 3) of a directional light; None for spot and point
+    lights, whose maps are perspective."""
+    return transforms.light_rotation(light.direction) if light.kind == "directional" else None
+
+
 def fit_to_light(points: np.ndarray, light, light_rot: np.ndarray | None,
                  resolution: int) -> MapFit | None:
     """A map over ``points`` for a scene light: orthographic in ``light_rot`` for a directional

@@ -25,6 +25,7 @@ from .shadow_fit import (
     fit_perspective,
     fit_to_light,
     holds_in_one_frustum,
+    light_rotation_of,
     outside_cone,
 )
 
@@ -171,8 +172,7 @@ class ClumpedShadows:
     def set_light(self, light: Light) -> None:
         """A new light invalidates every clump map (and light-space clumps themselves)."""
         self.light = light
-        self._light_rot = (transforms.light_rotation(light.direction)
-                           if light.kind == "directional" else None)
+        self._light_rot = light_rotation_of(light)
         self._build_static()
 
     def invalidate_statics(self) -> None:
@@ -405,8 +405,7 @@ class SingleShadows:
     def set_light(self, light: Light) -> None:
         """Keep only the statics' extreme points for this light; refitting is then cheap."""
         self.light = light
-        self._light_rot = (transforms.light_rotation(light.direction)
-                           if light.kind == "directional" else None)
+        self._light_rot = light_rotation_of(light)
         self._static_points = deciding_points(self.geom.all_static_points(), self._light_rot)
 
     def invalidate_statics(self) -> None:

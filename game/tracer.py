@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import context, glsl, gpu_blocks
+from . import context, glsl, gpu_blocks, resources
 from .geometry import PackedGeometry
 from .gpu_blocks import TRACE_DTYPE, TRACE_RESULT_DTYPE
 from .scene import Scene
@@ -134,12 +134,8 @@ class SoftTracer:
     def gl_objects(self) -> int:
         """GL objects this tracer holds now: buffers, programs, their shader objects (moderngl
         keeps them attached until the program is released) and timer queries."""
-        from OpenGL import GL
-
-        shaders = sum(int(GL.glGetProgramiv(p.glo, GL.GL_ATTACHED_SHADERS))
-                      for p in self._programs.values())
-        return (len(self._buffers()) + len(self._programs) + shaders
-                + len(self.timer._queries))
+        return (len(self._buffers()) + len(self._programs)
+                + resources.attached_shaders(self._programs.values()) + len(self.timer._queries))
 
     def release(self) -> None:
         for obj in [*self._programs.values(), *self._buffers()]:

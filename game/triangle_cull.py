@@ -22,7 +22,7 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from . import context, glsl, gpu_blocks
+from . import context, glsl, gpu_blocks, resources
 from .geometry import IndexLayout, PackedGeometry
 
 CHUNK = 32                # triangles per mask word; keep in sync with shaders/cull.comp
@@ -50,9 +50,7 @@ class TriangleCuller:
         self.chunks = ctx.buffer(reserve=8)
         self.output = ctx.buffer(reserve=12)
         self.commands = ctx.buffer(reserve=2 * COMMAND_BYTES)
-        self.counts = (0, 0, 0, 0)
-        self.keep = (0, 0, 0, 0)
-        self.groups = 0
+        self.groups = 0  # workgroups of the mask and write stages
 
     @staticmethod
     def fits(n_indices: int) -> bool:
@@ -66,17 +64,19 @@ class TriangleCuller:
         if not self.fits(n_indices):
             raise ValueError(f"{n_indices // 3} triangles are too many to cull in one dispatch")
         closed, total = layout.n_closed // 3, n_indices // 3
-        self.counts = (closed, total, _chunks(closed), _chunks(closed) + _chunks(total - closed))
-        self.groups = (self.counts[3] + LOCAL_SIZE - 1) // LOCAL_SIZE
+        counts = (closed, total, _chunks(closed), _chunks(closed) + _chunks(total - closed))
+        self.groups = (counts[3] + LOCAL_SIZE - 1) // LOCAL_SIZE
         # The characters end each of the two groups (geometry.layout): at most two ranges.
         characters = layout.ranges(geom.character_object(i) for i in range(geom.n_characters))
         if len(characters) > 2:
             raise ValueError("the characters' triangles are not at the ends of the index buffer")
         keep = [x // 3 for first, count in characters for x in (first, first + count)]
-        self.keep = tuple(keep + [0] * (4 - len(keep)))
+        self.programs[0]["u_cull_keep"].value = tuple(keep + [0] * (4 - len(keep)))
+        for prog in self.programs:
+            prog["u_cull_counts"].value = counts
         corners = geom.positions[layout.indices].astype(np.float32).tobytes()
         for buf, data_size in ((self.corners, len(corners)),
-                               (self.chunks, 8 * self.counts[3]),
+                               (self.chunks, 8 * counts[3]),
                                (self.output, 4 * n_indices)):
             size = max(data_size, 12)
             if buf.size != size:
@@ -86,11 +86,8 @@ class TriangleCuller:
     @property
     def gl_objects(self) -> int:
         """GL objects held: the programs, their attached shader objects, the buffers."""
-        from OpenGL import GL
-
-        shaders = sum(int(GL.glGetProgramiv(p.glo, GL.GL_ATTACHED_SHADERS))
-                      for p in self.programs)
-        return len(self.programs) + shaders + 4 * bool(self.programs)
+        return (len(self.programs) + resources.attached_shaders(self.programs)
+                + 4 * bool(self.programs))
 
     def run(self, viewport: tuple[int, int]) -> None:
         """Cull for the view in the bound Frame block (its view-projection); the result stays
@@ -102,12 +99,8 @@ class TriangleCuller:
                           (self.output, "CULL_OUTPUT_BINDING"),
                           (self.commands, "CULL_COMMANDS_BINDING")):
             buf.bind_to_storage_buffer(bindings[name])
+        self.programs[0]["u_cull_viewport"].value = (float(viewport[0]), float(viewport[1]))
         for prog, groups in zip(self.programs, (self.groups, 1, self.groups), strict=True):
-            prog["u_cull_counts"].value = self.counts
-            for name, value in (("u_cull_keep", self.keep),
-                                ("u_cull_viewport", (float(viewport[0]), float(viewport[1])))):
-                if prog.get(name, None) is not None:
-                    prog[name].value = value
             if groups:
                 prog.run(groups)
             # The next stage reads what this one wrote; the draw reads indices and commands.
