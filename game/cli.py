@@ -13,8 +13,9 @@ import sys
 import warnings
 from pathlib import Path
 
-from . import interrupts, shadow_methods
-from .errors import GameError
+from game.app import interrupts
+from game.errors import GameError
+from game.shadows.methods import clumped as shadow_methods
 
 CAPTURE_METHODS = ("clumped", "single", "static-dynamic", "csm", "traced")
 TRACE_METHODS = ("brute", "grid", "tri-cache", "voxel-cache", "analytic")
@@ -177,7 +178,7 @@ def _add_play_parser(sub) -> None:
 
 
 def cmd_play(args) -> int:
-    from . import window
+    from game.app.window import walkaround as window
 
     for flag, path in (("--screenshot", args.screenshot), ("--stats", args.stats)):
         if path is not None and (path.is_dir() or not path.parent.is_dir()):
@@ -220,7 +221,7 @@ def _add_frame_options(parser, dump_help: str) -> None:
 
 # -- trace (soft shadows of the linear light, issue 4) --------------------------------------
 def _add_trace_parser(sub) -> None:
-    from .tracer import TraceSettings
+    from game.soft.tracer import TraceSettings
 
     d = TraceSettings()
     trace = sub.add_parser("trace", help="soft shadows of the linear light (compute pass)")
@@ -242,7 +243,7 @@ def _add_trace_parser(sub) -> None:
 
 
 def _trace_settings(args):
-    from .tracer import TraceSettings
+    from game.soft.tracer import TraceSettings
 
     if args.vc_slots & (args.vc_slots - 1):
         raise ArgumentError(f"--vc-slots {args.vc_slots}: must be a power of two")
@@ -252,7 +253,8 @@ def _trace_settings(args):
 
 
 def cmd_trace(args) -> int:
-    from . import context, trace_run
+    from game.app import trace as trace_run
+    from game.gpu import context
 
     _check_out(args.out)
     if args.stats is not None and args.stats.is_dir():
@@ -306,7 +308,7 @@ def _add_bench_parser(sub) -> None:
 
 
 def cmd_bench(args) -> int:
-    from . import bench
+    from game.bench import runner as bench
 
     _check_out(args.out)
     quick = args.quick
@@ -383,7 +385,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _load(scene_arg: str | None):
-    from .scene import default_scene_path, load_scene
+    from game.scene.loader import default_scene_path, load_scene
 
     return load_scene(Path(scene_arg) if scene_arg else default_scene_path())
 
@@ -397,7 +399,7 @@ def _soft_settings(args, scene):
     """capture --soft: the tracer's defaults; a scene without a linear light is an error."""
     if not args.soft:
         return None
-    from .tracer import TraceSettings
+    from game.soft.tracer import TraceSettings
 
     if scene.linear_light is None:
         raise GameError(f"--soft: {args.scene or 'the built-in scene'} has no [linear_light]")
@@ -405,7 +407,8 @@ def _soft_settings(args, scene):
 
 
 def cmd_capture(args) -> int:
-    from . import capture, context
+    from game.app import capture
+    from game.gpu import context
 
     if args.debug_view != "none" and (args.method == "traced" or args.soft):
         raise ArgumentError(f"--debug-view {args.debug_view}: shows the shadow maps, and "
@@ -433,7 +436,8 @@ def cmd_capture(args) -> int:
 
 def cmd_verify(args) -> int:
     """Compare every dumped frame's ``lit`` with Embree shadow rays (game/reference.py)."""
-    from . import outputs, reference
+    from game.app import outputs
+    from game.reference import hard as reference
 
     frames = sorted(args.dumps.glob("frame_*.npz")) if args.dumps.is_dir() else []
     if not frames:
@@ -462,8 +466,10 @@ def cmd_verify(args) -> int:
 
 def cmd_default() -> int:
     """``python -m game``: the walkaround; with no display, one headless frame and a line."""
-    from . import capture, context, window
-    from .scene import default_scene_path
+    from game.app import capture
+    from game.app.window import walkaround as window
+    from game.gpu import context
+    from game.scene.loader import default_scene_path
 
     scene = _load(None)
     if window.display_available():

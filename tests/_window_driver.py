@@ -16,10 +16,10 @@ import imgui_bundle  # noqa: F401 - before glfw
 # isort: split
 import glfw
 
+from game.app.window.walkaround import PlayOptions, Walkaround
 from game.errors import GameError
-from game.scene import load_scene
-from game.shadow_methods import ShadowSettings
-from game.window import PlayOptions, Walkaround
+from game.scene.loader import load_scene
+from game.shadows.methods.clumped import ShadowSettings
 
 SIZE = (320, 180)
 WIDE = (1280, 720)  # room beside the overlay's panel for comparing shadows
@@ -33,12 +33,11 @@ def screen_matches_screenshot(scene_path: str, shots: str) -> None:
 
     Reads the window's framebuffer (which moderngl cannot) with PyOpenGL just before each swap.
     """
+    import game.app.window.walkaround
     import numpy as np
     from OpenGL import GL
 
-    import game.window
-
-    game.window.SCREENSHOT_DIR = Path(shots)
+    game.app.window.walkaround.SCREENSHOT_DIR = Path(shots)
     scene = load_scene(Path(scene_path))
     result = {}
     for scale in (1.0, 0.5):
@@ -84,11 +83,10 @@ def traced_and_soft(scene_path: str, out: str) -> None:
 
     Saves the frames shown (F12) as .npy files in ``out`` and prints what it saw.
     """
+    import game.app.window.walkaround
     import numpy as np
 
-    import game.window
-
-    game.window.SCREENSHOT_DIR = Path(out)
+    game.app.window.walkaround.SCREENSHOT_DIR = Path(out)
     scene = load_scene(Path(scene_path))
     try:
         # Coarse maps, so that the maps' hard shadows differ visibly from the traced ones.

@@ -13,8 +13,8 @@ SCENES = Path(__file__).resolve().parent / "scenes"
 @pytest.fixture(scope="session")
 def gl_session():
     """A headless EGL context for the whole run; skips GL tests cleanly where EGL is missing."""
-    from game import context
     from game.errors import GameError
+    from game.gpu import context
 
     try:
         ctx = context.create_headless()

@@ -12,9 +12,10 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from game import dumps, reference
-from game.renderer import Frame, Renderer, View
-from game.scene import default_scene_path
+from game.app import dumps
+from game.reference import hard as reference
+from game.render.renderer import Frame, Renderer, View
+from game.scene.loader import default_scene_path
 
 MAX_ERROR = 0.05  # the foundation's bound (tests/test_accuracy.py)
 # The scenes the accuracy bound is asserted on, for every method (test_accuracy, test_baselines).

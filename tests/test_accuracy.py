@@ -11,8 +11,10 @@ import numpy as np
 import pytest
 from shadow_check import ACCURACY_SCENES
 
-from game import capture, outputs, reference, shadow_methods
-from game.scene import default_scene_path, load_scene
+from game.app import capture, outputs
+from game.reference import hard as reference
+from game.scene.loader import default_scene_path, load_scene
+from game.shadows.methods import clumped as shadow_methods
 
 pytest.importorskip("embreex", reason="the Embree reference needs embreex (pip install .[test])")
 

@@ -5,9 +5,12 @@ import numpy as np
 import pytest
 from shadow_check import ACCURACY_SCENES
 
-from game import baselines, capture, shadow_methods, transforms
-from game.renderer import View
-from game.scene import Camera, default_scene_path, load_scene
+from game import transforms
+from game.app import capture
+from game.render.renderer import View
+from game.scene.loader import Camera, default_scene_path, load_scene
+from game.shadows.methods import baselines
+from game.shadows.methods import clumped as shadow_methods
 
 # Measured at 320x180, two frames (docs/results.md): static-dynamic at most 1.1%, csm at most
 # 2.3% (its cascades are coarser than clumped's maps near the camera); the bar leaves room for
@@ -125,7 +128,7 @@ def test_cli_runs_the_baselines_with_their_flags(tmp_path):
 
 
 def test_capture_warns_about_a_raised_floor(tmp_path):
-    from game import stability
+    from game.bench import stability
 
     case = {c.name: c for c in stability.cases()}["raised_floor"]
     scene = tmp_path / "raised.toml"

@@ -6,7 +6,9 @@ import sys
 import numpy as np
 import pytest
 
-from game import baselines, bench, charts
+from game.bench import charts
+from game.bench import runner as bench
+from game.shadows.methods import baselines
 
 pytest.importorskip("matplotlib", reason="bench charts need matplotlib (pip install .[bench])")
 pytest.importorskip("tqdm", reason="bench needs tqdm (pip install .[bench])")

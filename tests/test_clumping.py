@@ -5,7 +5,7 @@ import itertools
 import numpy as np
 import pytest
 
-from game.clumping import (
+from game.shadows.clumping import (
     STRATEGIES,
     Clump,
     directional_footprint,

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from game.errors import SceneError
-from game.generate import TownParams, generate_town, town_params
-from game.scene import load_scene
+from game.scene.generate import TownParams, generate_town, town_params
+from game.scene.loader import load_scene
 
 ASSETS = Path(__file__).parent.parent / "assets"
 

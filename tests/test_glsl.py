@@ -2,8 +2,8 @@
 
 import pytest
 
-from game import glsl
-from game.glsl import ShaderSourceError, preprocess
+from game.gpu import glsl
+from game.gpu.glsl import ShaderSourceError, preprocess
 
 
 def files(mapping):

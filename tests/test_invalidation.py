@@ -15,9 +15,10 @@ import pytest
 import trimesh
 from shadow_check import MAX_ERROR, frame_error, render_and_check
 
-from game import shadow_methods, transforms
-from game.renderer import Renderer, View
-from game.scene import Body, Character, Light, default_scene_path, load_scene
+from game import transforms
+from game.render.renderer import Renderer, View
+from game.scene.loader import Body, Character, Light, default_scene_path, load_scene
+from game.shadows.methods import clumped as shadow_methods
 
 pytest.importorskip("embreex", reason="the Embree reference needs embreex (pip install .[test])")
 

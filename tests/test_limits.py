@@ -10,11 +10,13 @@ import moderngl
 import pytest
 from shadow_check import MAX_ERROR, render_and_check
 
-from game import cli, context, shadow_methods
+from game import cli
 from game.errors import GameError
-from game.limits import GLLimits, fit_settings
-from game.renderer import Renderer
-from game.scene import parse_scene
+from game.gpu import context
+from game.gpu.limits import GLLimits, fit_settings
+from game.render.renderer import Renderer
+from game.scene.loader import parse_scene
+from game.shadows.methods import clumped as shadow_methods
 
 ROOT = Path(__file__).resolve().parent.parent
 TINY_PATH = ROOT / "tests" / "scenes" / "tiny.toml"

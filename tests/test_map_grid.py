@@ -2,9 +2,10 @@
 
 import numpy as np
 
-from game import map_grid, transforms
-from game.gpu_blocks import GRID_NONE, GRID_OCTAHEDRAL, GRID_ORTHO
-from game.shadow_fit import fit_directional, fit_perspective
+from game import transforms
+from game.gpu.blocks import GRID_NONE, GRID_OCTAHEDRAL, GRID_ORTHO
+from game.shadows import map_grid
+from game.shadows.fit import fit_directional, fit_perspective
 
 
 def cell_of(coord, grid):

@@ -5,7 +5,7 @@ import zlib
 import numpy as np
 import pytest
 
-from game import outputs
+from game.app import outputs
 
 
 def decode_png(data: bytes) -> np.ndarray:

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from game.reference import (
+from game.reference.hard import (
     NON_CASTER_PREFIXES,
     Light,
     hard_visibility,

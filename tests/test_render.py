@@ -6,9 +6,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from game import shadow_methods
-from game.renderer import Renderer, View
-from game.scene import Light, load_scene, parse_scene
+from game.render.renderer import Renderer, View
+from game.scene.loader import Light, load_scene, parse_scene
+from game.shadows.methods import clumped as shadow_methods
 
 SCENES = Path(__file__).parent / "scenes"
 
@@ -190,7 +190,7 @@ def live_names(start, end):
 
 
 def test_release_returns_every_gl_object(ctx, tiny):
-    from game.tracer import TraceSettings
+    from game.soft.tracer import TraceSettings
 
     before = next_gl_names()
     render(ctx, tiny, frames=2)

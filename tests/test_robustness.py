@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 from shadow_check import MAX_ERROR, render_and_check
 
-from game import shadow_methods
-from game.renderer import Renderer
-from game.scene import Body, Character, Light, default_scene_path, load_scene, parse_scene
+from game.render.renderer import Renderer
+from game.scene.loader import Body, Character, Light, default_scene_path, load_scene, parse_scene
+from game.shadows.methods import clumped as shadow_methods
 
 pytest.importorskip("embreex", reason="the Embree reference needs embreex (pip install .[test])")
 

@@ -21,7 +21,7 @@ import pytest
 import trimesh
 from test_outputs import decode_png
 
-from game import frame_log, outputs
+from game.app import frame_log, outputs
 
 ROOT = Path(__file__).resolve().parent.parent
 TINY = ROOT / "tests" / "scenes" / "tiny.toml"
@@ -124,7 +124,7 @@ def test_every_writer_goes_through_outputs():
 
 PRELUDE = """
 import os, signal, sys
-from game import interrupts
+from game.app import interrupts
 signal.signal(signal.SIGINT, signal.default_int_handler)  # as in a foreground run
 interrupts.install()
 def ctrl_c():

@@ -13,14 +13,14 @@ import pytest
 import trimesh
 
 from game.errors import SceneError
-from game.scene import (
+from game.scene.loader import (
     Character,
     Scene,
     default_scene_path,
     load_scene,
     parse_scene,
 )
-from game.shapes import transform_mesh
+from game.scene.shapes import transform_mesh
 from game.transforms import euler_xyz
 
 HEAD = """\

@@ -16,9 +16,9 @@ from pathlib import Path
 
 import pytest
 
-from game import resources
-from game.renderer import Renderer, View
-from game.scene import load_scene
+from game.gpu import resources
+from game.render.renderer import Renderer, View
+from game.scene.loader import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 TINY = ROOT / "tests" / "scenes" / "tiny.toml"

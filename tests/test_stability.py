@@ -9,9 +9,13 @@ import numpy as np
 import pytest
 import shadow_check
 
-from game import dumps, floors, reference, shadow_methods, stability
-from game.renderer import Renderer, View
-from game.scene import parse_scene
+from game.app import dumps
+from game.bench import stability
+from game.reference import hard as reference
+from game.render.renderer import Renderer, View
+from game.scene import floors
+from game.scene.loader import parse_scene
+from game.shadows.methods import clumped as shadow_methods
 
 SIZE = (320, 180)
 MAX_ERROR = 0.05

@@ -5,12 +5,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from game import dumps, geometry, reference
-from game import soft_reference as sr
-from game.gpu_blocks import TRACE_LIGHT_POINT, TRACE_LIGHT_SEGMENT
-from game.renderer import Renderer, View
-from game.scene import load_scene, parse_scene
-from game.tracer import RAY_OFFSET_DISTANCE, RAY_OFFSET_SCENE, SoftTracer, TraceSettings
+from game.app import dumps
+from game.gpu.blocks import TRACE_LIGHT_POINT, TRACE_LIGHT_SEGMENT
+from game.reference import hard as reference
+from game.reference import soft as sr
+from game.render.renderer import Renderer, View
+from game.scene import geometry
+from game.scene.loader import load_scene, parse_scene
+from game.soft.tracer import RAY_OFFSET_DISTANCE, RAY_OFFSET_SCENE, SoftTracer, TraceSettings
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENES = Path(__file__).parent / "scenes"

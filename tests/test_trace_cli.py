@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from game import reference
-from game.scene import load_scene
+from game.reference import hard as reference
+from game.scene.loader import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 TINY = ROOT / "tests" / "scenes" / "tiny.toml"
@@ -106,7 +106,7 @@ def test_capture_soft_changes_the_image_and_dumps_soft(tmp_path):
 
 def test_sweep_writes_csv_json_and_chart(tmp_path):
     result = subprocess.run(
-        [sys.executable, "-m", "game.trace_sweep", str(TINY), "--size", "48x27", "--samples",
+        [sys.executable, "-m", "game.bench.soft_sweep", str(TINY), "--size", "48x27", "--samples",
          "1,4", "--methods", "grid,voxel-cache", "--out", str(tmp_path), "--name", "s"],
         cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stderr
@@ -125,7 +125,7 @@ def test_sweep_writes_csv_json_and_chart(tmp_path):
 def test_sweep_refuses_bad_values_in_one_line():
     for args, code in ((["--size", "abc"], 2), (["--samples", "0,4"], 2),
                        (["--methods", "grid,nope"], 2), (["missing.toml"], 1)):
-        result = subprocess.run([sys.executable, "-m", "game.trace_sweep", *args], cwd=ROOT,
+        result = subprocess.run([sys.executable, "-m", "game.bench.soft_sweep", *args], cwd=ROOT,
                                 capture_output=True, text=True, timeout=60)
         assert result.returncode == code, (args, result.stderr)
         assert len(result.stderr.strip().splitlines()) == 1 and "Traceback" not in result.stderr

@@ -5,8 +5,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from game import geometry, trace_grid
-from game.scene import load_scene
+from game.scene import geometry
+from game.scene.loader import load_scene
+from game.soft import grid as trace_grid
 
 SCENES = Path(__file__).parent / "scenes"
 

@@ -8,8 +8,8 @@ import pytest
 import trimesh
 
 from game import transforms
-from game.renderer import Renderer, View
-from game.scene import Body, load_scene, parse_scene
+from game.render.renderer import Renderer, View
+from game.scene.loader import Body, load_scene, parse_scene
 
 SCENES = Path(__file__).parent / "scenes"
 SIZE = (160, 90)

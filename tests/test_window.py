@@ -18,8 +18,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from game import camera_control, transforms
-from game.scene import Camera
+from game import transforms
+from game.app.window import camera_control
+from game.scene.loader import Camera
 
 ROOT = Path(__file__).resolve().parent.parent
 TINY = ROOT / "tests" / "scenes" / "tiny.toml"
@@ -109,7 +110,7 @@ def test_command_keys():
 
 
 def test_sun_angles_round_trip():
-    from game.overlay import sun_angles, sun_direction
+    from game.app.window.overlay import sun_angles, sun_direction
 
     d = np.array([-0.4, -1.0, -0.3])
     d /= np.linalg.norm(d)
@@ -349,9 +350,9 @@ def _read_png(path: Path) -> np.ndarray:
 
 # -- the overlay headless, in the session context ----------------------------------------------
 def test_layer_viewer_shows_a_rendered_map_and_the_cache_state(ctx):
-    from game import overlay
-    from game.renderer import Renderer, View
-    from game.scene import load_scene
+    from game.app.window import overlay
+    from game.render.renderer import Renderer, View
+    from game.scene.loader import load_scene
 
     scene = load_scene(TINY)
     size = (480, 320)
@@ -391,8 +392,8 @@ def test_render_scale_renders_smaller_and_shows_the_window_size(tmp_path):
 
 
 def test_cache_debug_view_colours_re_rendered_and_cached_maps(ctx):
-    from game.renderer import Renderer, View
-    from game.scene import load_scene
+    from game.render.renderer import Renderer, View
+    from game.scene.loader import load_scene
 
     scene = load_scene(TINY)
     size = (160, 90)

@@ -1,0 +1,123 @@
+"""Headless frame capture (``python -m game capture``): frames, dumps and stats per CONTRACT.md.
+
+Scene -> Renderer -> Frame -> files. Frame k is rendered at scene time ``time + k / fps``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from game.app import dumps, frame_log, interrupts, outputs
+from game.gpu import context, resources
+from game.render.renderer import Frame, Renderer, View
+from game.scene import floors
+from game.scene.loader import Scene
+from game.shadows.methods import clumped as shadow_methods
+
+
+@dataclass
+class CaptureOptions:
+    out: Path
+    frames: int = 1
+    size: tuple[int, int] = (960, 540)
+    time: float = 0.0
+    fps: float = 30.0
+    dump: bool = False
+    stats: Path | None = None
+    debug_view: str = "none"
+    clock: str = "auto"
+    overlay: bool = False      # draw the timing overlay (game/overlay.py) into the frames
+    settings: shadow_methods.ShadowSettings = field(default_factory=shadow_methods.ShadowSettings)
+    soft: object | None = None  # a tracer.TraceSettings: composite the linear light's shadows
+    cull: bool = True          # camera pass: only triangles that can cover a pixel centre
+
+
+def frame_stats(index: int, t: float, frame: Frame) -> dict:
+    """One frame's entry of the stats file (CONTRACT.md section 4)."""
+    ms = {name: round(value, 4) for name, value in frame.ms.items()}
+    return {"frame": index, "time": t, "ms": ms, **ms,
+            "maps_rendered": frame.maps_rendered, "maps_cached": frame.maps_cached,
+            "maps_total": frame.maps_total, "triangles_to_maps": frame.triangles_to_maps,
+            "camera_triangles": frame.camera_triangles,
+            "maps_per_fragment": round(frame.maps_per_fragment, 5),
+            **_resource_stats(frame)}
+
+
+def _resource_stats(frame: Frame) -> dict:
+    """Live GL objects (by owner) and the process's resident memory: flat over long runs."""
+    owners = frame.gl_objects or {}
+    return {"gl_objects": sum(owners.values()), "gl_objects_by_owner": owners,
+            "rss_mib": round(resources.rss_bytes() / 2**20, 2)}
+
+
+def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
+    """Render ``opts.frames`` frames and write them; returns the stats document."""
+    opts.out.mkdir(parents=True, exist_ok=True)
+    from game.app import trace as trace_run
+
+    renderer = Renderer(ctx, scene, opts.size, opts.settings,
+                        gbuffer=opts.dump or opts.soft is not None, clock=opts.clock,
+                        cull=opts.cull)
+    renderer.debug_view = opts.debug_view
+    hud = _overlay() if opts.overlay else None
+    view = View.from_camera(scene.camera, opts.size)
+    frames = frame_log.FrameLog()  # on disk: a long run's memory stays flat (issue 6)
+    try:
+        for k in range(opts.frames):
+            interrupts.check()
+            t = opts.time + k / opts.fps
+            frame = renderer.render(t, view)
+            if opts.soft is not None:
+                frame, _ = trace_run.soft_frame(renderer, frame, t, opts.soft)
+            stem = opts.out / f"frame_{k:04d}"
+            if hud is not None:
+                frame.image = hud.draw_over_frame(renderer, frame, 1.0 / opts.fps)
+            outputs.write_png(stem.with_suffix(".png"), frame.image)
+            if opts.dump:
+                dumps.write_dump(stem, scene, view, opts.size, t, frame)
+            frames.append(frame_stats(k, t, frame))
+        stats = {
+            **context.describe(ctx), "clock": renderer.timer.clock,
+            "scene": str(scene.source) if scene.source else scene.name,
+            "method": opts.settings.method, "size": list(opts.size),
+            # What ran: the settings after the GL limits and the budget (see ``notes``), and
+            # what was asked for.
+            "settings": dataclasses.asdict(renderer.settings),
+            "settings_asked": dataclasses.asdict(opts.settings),
+            "shadow_memory_mib": round(renderer.shadow_memory_bytes / 2**20, 3),
+            "static_triangles": renderer.geom.triangle_count(
+                range(renderer.geom.first_static, renderer.geom.first_character)),
+            "characters": renderer.geom.n_characters,
+            "notes": list(renderer.method.notes) + floors.floor_warnings(scene),
+            "frames": frames,
+        }
+    finally:
+        if hud is not None:
+            hud.release()
+        renderer.release()
+    if opts.stats is not None:
+        frames.write_json(opts.stats, stats)
+    return stats
+
+
+def _overlay():
+    """The timing overlay, imported only when asked for (it loads imgui)."""
+    from game.app.window.overlay import Overlay
+
+    return Overlay()
+
+
+def summary(stats: dict) -> str:
+    """One line: medians over the frames after the first."""
+    keys = ("shadow_static", "shadow_dynamic", "cull", "shade", "total")
+    ms = np.array([[f["ms"].get(k, 0.0) for k in keys] for f in stats["frames"]])
+    ms = ms[1:] if len(ms) > 1 else ms
+    med = dict(zip(keys, np.median(ms, axis=0).tolist(), strict=True))
+    return (f"{len(stats['frames'])} frames, median ms: "
+            + ", ".join(f"{k} {v:.2f}" for k, v in med.items())
+            + f" ({stats['clock']} on {stats['renderer']})")
+

@@ -1,0 +1,43 @@
+"""The dumps (CONTRACT.md section 3): a frame's G-buffer as npz and its geometry as glb.
+
+Written by capture, trace and the bench alike; read back by game/reference.py.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+from game.app import outputs
+from game.render.renderer import Frame, View
+from game.scene.loader import Scene
+
+
+def frame_geometry(scene: Scene, t: float) -> trimesh.Scene:
+    """All geometry at time ``t`` in world space, one node per object named as in the dumps."""
+    out = trimesh.Scene()
+    for body in scene.floors + scene.statics:
+        out.add_geometry(body.mesh, node_name=body.name, geom_name=body.name)
+    for character in scene.characters:
+        mesh = character.mesh.copy()
+        mesh.apply_transform(character.model_matrix(t))
+        out.add_geometry(mesh, node_name=character.name, geom_name=character.name)
+    return out
+
+
+def write_dump(stem: Path, scene: Scene, view: View, size: tuple[int, int], t: float,
+               frame: Frame) -> None:
+    g = frame.gbuffer
+    arrays = {
+        "position": g["position"], "normal": g["normal"], "object": g["object"],
+        "names": np.array(scene.object_names()), "lit": g["lit"],
+        "view": view.view.astype(np.float64), "proj": view.proj.astype(np.float64),
+        "size": np.array(size, dtype=np.int64), "time": np.float64(t),
+    }
+    if "soft" in g:  # the linear light's traced visibility (game/trace_run.py)
+        arrays["soft"] = g["soft"]
+    outputs.write_npz(stem.with_suffix(".npz"), arrays)
+    glb = frame_geometry(scene, t).export(file_type="glb")
+    outputs.write_bytes(stem.with_suffix(".glb"), glb)

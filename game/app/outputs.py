@@ -1,0 +1,96 @@
+"""Every file the program writes goes through here: to a temp file, then renamed into place.
+
+An interrupted run therefore never leaves a truncated frame, dump or stats file behind.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import secrets
+import struct
+import zlib
+from collections.abc import Callable
+from contextlib import contextmanager
+from pathlib import Path
+from typing import BinaryIO
+
+import numpy as np
+
+from game.app import interrupts
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+# Temp files are made readable by the owner only; outputs get the usual permissions.
+FILE_MODE = 0o666 & ~_umask()
+
+
+@contextmanager
+def atomic_file(path: str | Path):
+    """Open a temp file beside ``path`` for binary writing; rename it over ``path`` on success."""
+    path = Path(path)
+    # The temp name is chosen before the file exists, so an interrupt that lands anywhere after
+    # this line (even inside the open) still finds the name to remove. Ctrl-C itself waits for
+    # the rename (game/interrupts.py); this covers other exceptions, and signals not deferred.
+    tmp = path.parent / f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp"
+    try:
+        with interrupts.deferred():
+            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+            with os.fdopen(fd, "wb") as f:
+                yield f
+                f.flush()
+                os.fsync(f.fileno())
+            os.chmod(tmp, FILE_MODE)
+            os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def write_bytes(path: str | Path, data: bytes) -> None:
+    with atomic_file(path) as f:
+        f.write(data)
+
+
+def write_with(path: str | Path, writer: Callable[[BinaryIO], None]) -> None:
+    with atomic_file(path) as f:
+        writer(f)
+
+
+def write_figure(path: str | Path, figure, fmt: str = "png", dpi: int = 110) -> None:
+    """A matplotlib figure, saved through the same temp-and-rename as every other file."""
+    with atomic_file(path) as f:
+        figure.savefig(f, format=fmt, dpi=dpi)
+
+
+def png_bytes(image: np.ndarray) -> bytes:
+    """Encode an (H, W, 3) or (H, W, 4) uint8 image as PNG (row 0 at the top)."""
+    image = np.ascontiguousarray(image, dtype=np.uint8)
+    h, w, channels = image.shape
+    colour_type = {3: 2, 4: 6}[channels]
+    raw = np.concatenate([np.zeros((h, 1), np.uint8), image.reshape(h, w * channels)], axis=1)
+
+    def chunk(kind: bytes, body: bytes) -> bytes:
+        return (struct.pack(">I", len(body)) + kind + body
+                + struct.pack(">I", zlib.crc32(kind + body) & 0xFFFFFFFF))
+
+    header = struct.pack(">IIBBBBB", w, h, 8, colour_type, 0, 0, 0)
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header)
+            + chunk(b"IDAT", zlib.compress(raw.tobytes(), 6)) + chunk(b"IEND", b""))
+
+
+def write_png(path: str | Path, image: np.ndarray) -> None:
+    write_bytes(path, png_bytes(image))
+
+
+def write_npz(path: str | Path, arrays: dict[str, np.ndarray]) -> None:
+    write_with(path, lambda f: np.savez_compressed(f, **arrays))
+
+
+def write_json(path: str | Path, data: dict) -> None:
+    write_bytes(path, (json.dumps(data, indent=1) + "\n").encode())

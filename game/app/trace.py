@@ -1,0 +1,121 @@
+"""Headless soft-shadow runs (``python -m game trace``) and the tracer's part in captures.
+
+Scene -> Renderer (G-buffer) -> SoftTracer (visibility) -> the shading pass lit through it ->
+files: ``frame_kkkk.png`` (the soft-shadowed image), with ``--dump`` the arrays of CONTRACT.md
+section 3 plus ``soft``, with ``--stats`` the JSON of section 4 plus the tracer's counters.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from game.app import dumps, interrupts, outputs
+from game.errors import GameError
+from game.gpu import context
+from game.render.renderer import Frame, Renderer, View
+from game.scene.loader import Scene
+from game.soft.tracer import COUNTERS, TraceResult, TraceSettings
+
+
+@dataclass
+class TraceOptions:
+    out: Path
+    frames: int = 1
+    size: tuple[int, int] = (960, 540)
+    time: float = 0.0
+    fps: float = 30.0
+    dump: bool = False
+    stats: Path | None = None
+    clock: str = "auto"
+    settings: TraceSettings = field(default_factory=TraceSettings)
+
+
+def soft_frame(renderer: Renderer, frame: Frame, t: float,
+               settings: TraceSettings) -> tuple[Frame, TraceResult]:
+    """Trace the linear light over a rendered frame and shade the frame through it."""
+    if renderer.scene.linear_light is None:
+        raise GameError("the scene has no [linear_light] to trace")
+    result = renderer.trace(t, settings)
+    before = frame.ms.get("total", 0.0)
+    frame.image = renderer.shade_soft(result)
+    if frame.gbuffer is not None:
+        frame.gbuffer["soft"] = result.visibility
+    renderer.add_trace_ms(frame, result, "soft")
+    frame.ms["gbuffer"] = before
+    return frame, result
+
+
+def frame_stats(index: int, t: float, frame: Frame, result: TraceResult) -> dict:
+    """One frame of the trace stats: the pass times, the G-buffer render, the mean counters."""
+    ms = {k: round(v, 4) for k, v in result.ms.items()}
+    ms["gbuffer"] = round(frame.ms.get("gbuffer", 0.0), 4)
+    ms["composite"] = round(frame.ms.get("composite", 0.0), 4)
+    means = {k: round(v, 4) for k, v in result.means().items()}
+    covered = result.covered
+    return {"frame": index, "time": t, "ms": ms, **ms,
+            "maps_rendered": frame.maps_rendered, "triangles_to_maps": frame.triangles_to_maps,
+            "shaded_points": int(covered.sum()),
+            # llvmpipe's loop budget: samples per dispatch used, points still cut short (0).
+            "samples_per_dispatch": result.samples_per_dispatch,
+            "truncated_points": result.truncated,
+            "mean_visibility": round(float(np.nanmean(result.visibility)), 6)
+            if covered.any() else None,
+            **means}
+
+
+def run(ctx, scene: Scene, opts: TraceOptions) -> dict:
+    """Trace ``opts.frames`` frames and write them; returns the stats document."""
+    if scene.linear_light is None:
+        raise GameError("the scene has no [linear_light] to trace")
+    opts.out.mkdir(parents=True, exist_ok=True)
+    renderer = Renderer(ctx, scene, opts.size, gbuffer=True, clock=opts.clock)
+    view = View.from_camera(scene.camera, opts.size)
+    frames = []
+    try:
+        for k in range(opts.frames):
+            interrupts.check()
+            t = opts.time + k / opts.fps
+            frame = renderer.render(t, view)
+            frame, result = soft_frame(renderer, frame, t, opts.settings)
+            stem = opts.out / f"frame_{k:04d}"
+            outputs.write_png(stem.with_suffix(".png"), frame.image)
+            if opts.dump:
+                dumps.write_dump(stem, scene, view, opts.size, t, frame)
+            frames.append(frame_stats(k, t, frame, result))
+        tracer = renderer.soft_tracer
+        spec = tracer.grid.spec
+        counts = tracer.grid.static.counts()
+        stats = {
+            **context.describe(ctx), "clock": tracer.timer.clock,
+            "scene": str(scene.source) if scene.source else scene.name,
+            "method": opts.settings.method, "samples": opts.settings.samples,
+            "size": list(opts.size), "settings": asdict(opts.settings),
+            "grid": {"dims": [int(x) for x in spec.dims], "cells": spec.n_cells,
+                     "cell_m": [round(float(x), 5) for x in spec.cell],
+                     "static_triangles": tracer.grid.n_static,
+                     "character_triangles": tracer.grid.n_character_tris,
+                     "static_entries": int(counts.sum()),
+                     "mean_per_nonempty_cell": round(float(counts[counts > 0].mean()), 3)
+                     if (counts > 0).any() else 0.0},
+            "memory_bytes": {**tracer.memory_bytes(),
+                             "voxel_cache_per_point": opts.settings.voxel_cache_bytes_per_point},
+            "counters": list(COUNTERS),
+            "frames": frames,
+        }
+    finally:
+        renderer.release()
+    if opts.stats is not None:
+        outputs.write_json(opts.stats, stats)
+    return stats
+
+
+def summary(stats: dict) -> str:
+    """One line: the last frame's times and counters."""
+    f = stats["frames"][-1]
+    return (f"{stats['method']} N={stats['samples']}: build {f['build']:.1f} ms, trace "
+            f"{f['trace']:.1f} ms, total {f['total']:.1f} ms; per point: ray-triangle "
+            f"{f['ray_triangle_tests']:.2f}, triangle-triangle {f['triangle_triangle_tests']:.2f},"
+            f" voxels {f['voxels_visited']:.2f} ({stats['clock']} on {stats['renderer']})")

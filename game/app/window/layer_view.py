@@ -1,0 +1,46 @@
+"""The overlay's viewer of the shadow-map texture array: one layer drawn as a grey image.
+
+The depth array samples with depth compare on (game/depth_array.py); a sampler object with
+compare off, bound over it, reads raw depths. The viewer owns its small colour target, program
+and sampler; the overlay owns the viewer and releases it.
+"""
+
+from __future__ import annotations
+
+import moderngl
+
+from game.gpu import glsl
+
+VIEW_SIZE = 256          # texels per side of the viewer's image
+MAPS_UNIT = 0
+
+
+class LayerViewer:
+    def __init__(self, ctx):
+        self.ctx = ctx
+        self.program = ctx.program(vertex_shader=glsl.build("present.vert"),
+                                   fragment_shader=glsl.build("layer_view.frag"))
+        self.vao = ctx.vertex_array(self.program, [])
+        self.sampler = ctx.sampler(filter=(moderngl.NEAREST, moderngl.NEAREST),
+                                   compare_func="", repeat_x=False, repeat_y=False)
+        self.texture = ctx.texture((VIEW_SIZE, VIEW_SIZE), 4)
+        self.target = ctx.framebuffer([self.texture])
+
+    def draw(self, array, layer: int, extent: float) -> None:
+        """Draw ``layer`` of the depth array (the used ``extent`` of it) into :attr:`texture`."""
+        ctx = self.ctx
+        self.target.use()
+        self.target.viewport = (0, 0, VIEW_SIZE, VIEW_SIZE)
+        ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE | moderngl.BLEND)
+        array.bind(MAPS_UNIT)
+        self.sampler.use(MAPS_UNIT)
+        self.program["u_maps"].value = MAPS_UNIT
+        self.program["u_layer"].value = int(layer)
+        self.program["u_extent"].value = float(extent)
+        self.vao.render(moderngl.TRIANGLES, vertices=3)
+        self.sampler.clear(MAPS_UNIT)  # the shading pass samples with compare on again
+
+    def release(self) -> None:
+        self.ctx.detect_framebuffer(0).use()
+        for obj in (self.target, self.texture, self.sampler, self.vao, self.program):
+            obj.release()

@@ -1,0 +1,72 @@
+"""The window's picture: the scene frame, scaled to the window when it was rendered smaller.
+
+Rendering the scene below the window's resolution (``play --render-scale``) is the usual answer
+to a fill-bound renderer, and Mesa llvmpipe is fill-bound: the shading pass costs about the
+number of pixels. The overlay is then drawn at the window's full resolution on top.
+
+A full-size frame, and any frame saved as a screenshot, goes through :attr:`Presenter.target`, a
+window-sized colour framebuffer that can be read back (moderngl cannot read the window's own) and
+is then blitted to the window; a smaller frame is otherwise drawn scaled straight into the window
+(game/window.py says which is cheaper when). A :class:`Presenter` owns that framebuffer and the
+scaling program; the window (game/window.py) owns the presenter and releases it.
+"""
+
+from __future__ import annotations
+
+import moderngl
+
+from game.gpu import glsl
+
+FRAME_UNIT = 0
+
+
+class Presenter:
+    """A window-sized colour target that the scene frame is copied or scaled into."""
+
+    def __init__(self, ctx):
+        self.ctx = ctx
+        self.program = ctx.program(vertex_shader=glsl.build("present.vert"),
+                                   fragment_shader=glsl.build("present.frag"))
+        self.vao = ctx.vertex_array(self.program, [])
+        self.size: tuple[int, int] | None = None
+        self.texture = None
+        self.target = None
+
+    def resize(self, size: tuple[int, int]) -> None:
+        if size == self.size:
+            return
+        self._release_target()
+        self.size = size
+        self.texture = self.ctx.texture(size, 4)
+        self.target = self.ctx.framebuffer([self.texture])
+
+    def show(self, frame_target, frame_texture) -> None:
+        """Put the renderer's frame into :attr:`target`: a copy, or a scaled draw."""
+        # A copy needs the same attachments: a target with a G-buffer is drawn instead.
+        if (tuple(frame_texture.size) == self.size
+                and len(frame_target.color_attachments) == 1):
+            self.ctx.copy_framebuffer(self.target, frame_target)
+            return
+        self.draw(frame_texture, self.target, self.size)
+
+    def draw(self, frame_texture, into, size: tuple[int, int]) -> None:
+        """Draw the frame over all of ``into`` (``size`` pixels), filtered linearly."""
+        into.use()
+        into.viewport = (0, 0, *size)
+        self.ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE | moderngl.BLEND)
+        frame_texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
+        frame_texture.use(FRAME_UNIT)
+        self.program["u_frame"].value = FRAME_UNIT
+        self.vao.render(moderngl.TRIANGLES, vertices=3)
+
+    def _release_target(self) -> None:
+        if self.target is not None:
+            self.ctx.detect_framebuffer(0).use()
+            self.target.release()
+            self.texture.release()
+        self.target = self.texture = None
+
+    def release(self) -> None:
+        self._release_target()
+        self.vao.release()
+        self.program.release()

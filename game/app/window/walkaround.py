@@ -1,0 +1,448 @@
+"""The walkaround window (``python -m game play``): glfw, the renderer's frame, the overlay.
+
+Each frame: poll input -> move the camera (game/camera_control.py) -> render the scene into the
+renderer's own target -> with the ``traced`` method or soft shadows on, trace over the frame's
+G-buffer and shade it again through the traced visibility (game/trace_run.py) -> draw the
+overlay over it -> blit to the window -> swap.
+
+Soft shadows (the scene's ``[linear_light]``, overlay checkbox or ``play --soft``) are traced at
+a reduced resolution: the whole frame renders at :data:`SOFT_RENDER_SCALE` of the window per side
+and is scaled up. The renderer keeps a G-buffer only while soft shadows or the traced method need
+it (it costs fill on llvmpipe).
+
+The scene clock runs in real time (or in fixed steps, for scripts) and stops while the
+characters are paused. A minimised window, whose framebuffer is zero-sized, renders nothing
+and waits.
+
+The GL context is the window's, wrapped once by game/context.py. It is always an EGL context
+(also on X11 and Wayland), because PyOpenGL finds its functions through EGL
+(game/context.py sets PYOPENGL_PLATFORM); GLFW's null platform gives the same window with no
+display at all, for tests.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import dataclasses
+import time
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import imgui_bundle  # noqa: F401 - before glfw, so pyGLFW loads the GLFW 3.5 bundled with it
+
+# isort: split
+import glfw
+import numpy as np
+
+from game.app import interrupts, outputs
+from game.app import trace as trace_run
+from game.app.window.overlay import METHODS, Figures, Overlay
+from game.app.window.present import Presenter
+from game.errors import GameError
+from game.gpu import context
+from game.render.renderer import Renderer, View
+from game.scene.loader import Scene
+from game.shadows.methods import clumped as shadow_methods
+from game.soft.tracer import TraceSettings
+
+TITLE = "shadowgame"
+DEFAULT_SIZE = (960, 540)
+MPF_EVERY_FRAMES = 30        # read the frame back to count maps per fragment this often
+FPS_WINDOW_FRAMES = 60       # frames in the rolling frame-rate average
+MINIMISED_WAIT_S = 0.1
+SCREENSHOT_DIR = Path("screenshots")
+GL_VERSION = (4, 3)
+# Soft shadows in the window: a quarter of the window's size per side, and the fastest sampled
+# method on llvmpipe (grid; docs/soft.md) at 8 samples per point: interactive, not converged.
+SOFT_RENDER_SCALE = 0.25
+SOFT_SETTINGS = TraceSettings(method="grid", samples=8)
+
+KEY_NAMES = {
+    glfw.KEY_W: "w", glfw.KEY_A: "a", glfw.KEY_S: "s", glfw.KEY_D: "d", glfw.KEY_Q: "q",
+    glfw.KEY_E: "e", glfw.KEY_R: "r", glfw.KEY_P: "p", glfw.KEY_M: "m", glfw.KEY_TAB: "tab",
+    glfw.KEY_ESCAPE: "escape", glfw.KEY_F12: "f12",
+    glfw.KEY_LEFT_SHIFT: "shift", glfw.KEY_RIGHT_SHIFT: "shift",
+}
+
+
+def _window_pointer(window) -> int:
+    return ctypes.cast(window, ctypes.c_void_p).value
+
+
+def init_glfw(platform: str = "auto") -> None:
+    """Start GLFW on the display (``auto``) or with no display at all (``null``).
+
+    Raises GameError with one line when no display can be opened.
+    """
+    glfw.ERROR_REPORTING = "ignore"  # failures are reported by the return values below
+    if platform == "null":
+        glfw.init_hint(glfw.PLATFORM, glfw.PLATFORM_NULL)
+    else:
+        glfw.init_hint(glfw.PLATFORM, glfw.ANY_PLATFORM)
+    if not glfw.init():
+        description = glfw.get_error()[1] or b"unknown reason"
+        raise GameError(f"cannot open a window ({description.decode(errors='replace')}); "
+                        "play --platform null runs it without a display, capture renders "
+                        "headless")
+
+
+def display_available() -> bool:
+    """True where GLFW can start on a real display (X11 or Wayland)."""
+    try:
+        init_glfw("auto")
+    except GameError:
+        return False
+    ok = glfw.get_platform() != glfw.PLATFORM_NULL
+    glfw.terminate()
+    return ok
+
+
+@dataclass
+class PlayOptions:
+    size: tuple[int, int] = DEFAULT_SIZE
+    frames: int | None = None            # quit after this many rendered frames
+    screenshot: Path | None = None       # the last frame as shown, overlay included
+    stats: Path | None = None
+    time_step: float | None = None       # scene seconds per frame; None: real time
+    overlay: bool = True
+    clock: str = "auto"
+    debug_view: str = "none"
+    render_scale: float = 1.0            # scene pixels per window pixel, per side
+    soft: bool = False                   # trace the linear light's soft shadows
+    cull: bool = True                    # camera pass: only triangles that can show
+    platform: str = "auto"               # "null": no display (tests)
+    settings: shadow_methods.ShadowSettings = dataclasses.field(
+        default_factory=shadow_methods.ShadowSettings)
+
+
+class Walkaround:
+    """One window, its context, a renderer and an overlay; :meth:`close` releases them all."""
+
+    def __init__(self, scene: Scene, opts: PlayOptions):
+        from game.app.window.camera_control import CameraController
+
+        if opts.soft and scene.linear_light is None:
+            raise GameError("soft shadows: the scene has no [linear_light]")
+        self.scene = scene
+        self.opts = opts
+        self.soft = opts.soft
+        init_glfw(opts.platform)
+        glfw.window_hint(glfw.CONTEXT_CREATION_API, glfw.EGL_CONTEXT_API)
+        glfw.window_hint(glfw.CONTEXT_VERSION_MAJOR, GL_VERSION[0])
+        glfw.window_hint(glfw.CONTEXT_VERSION_MINOR, GL_VERSION[1])
+        glfw.window_hint(glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE)
+        glfw.window_hint(glfw.OPENGL_FORWARD_COMPAT, True)
+        glfw.window_hint(glfw.RESIZABLE, True)
+        self.window = glfw.create_window(opts.size[0], opts.size[1], TITLE, None, None)
+        if not self.window:
+            description = glfw.get_error()[1] or b"unknown reason"
+            glfw.terminate()
+            raise GameError(f"cannot open a GL {GL_VERSION[0]}.{GL_VERSION[1]} core window "
+                            f"({description.decode(errors='replace')})")
+        glfw.make_context_current(self.window)
+        # Scripted runs are measured: never wait for the display's refresh.
+        glfw.swap_interval(0 if opts.frames else 1)
+        try:
+            self.ctx = context.wrap_current()
+        except GameError:
+            glfw.destroy_window(self.window)
+            glfw.terminate()
+            raise
+        self.controller = CameraController(scene.camera)
+        try:
+            self.renderer = Renderer(self.ctx, scene, self.framebuffer_size() or opts.size,
+                                     opts.settings, clock=opts.clock, cull=opts.cull)
+        except BaseException:
+            self.ctx.release()
+            glfw.destroy_window(self.window)
+            glfw.terminate()
+            raise
+        self.renderer.debug_view = opts.debug_view
+        self.render_scale = opts.render_scale
+        self.presenter = Presenter(self.ctx)
+        # Our callbacks first: the imgui backend chains to the ones installed before it.
+        glfw.set_key_callback(self.window, self._on_key)
+        glfw.set_mouse_button_callback(self.window, self._on_mouse_button)
+        glfw.set_cursor_pos_callback(self.window, self._on_cursor)
+        glfw.set_window_focus_callback(self.window, self._on_focus)
+        self.overlay = Overlay(self.window) if opts.overlay else None
+        self.paused = False
+        self.scene_time = 0.0
+        self.frames = 0
+        self.quit = False
+        self._screenshot_next = False
+        self.shots = 0
+        self.last_figures: Figures | None = None
+        self.frame_stats: list[dict] = []
+        # Per-frame entries only for runs that end by themselves or write them: an open-ended
+        # session must not grow.
+        self.keep_stats = opts.frames is not None or opts.stats is not None
+        self._frame_times: deque[float] = deque(maxlen=FPS_WINDOW_FRAMES)
+        self._mpf: float | None = None
+        self._window_ms: dict[str, float] = {}
+        self._good_settings: shadow_methods.ShadowSettings | None = None
+
+    # -- input --------------------------------------------------------------------------------
+    def _on_key(self, window, key, scancode, action, mods) -> None:
+        if action == glfw.REPEAT:
+            return
+        self.key(KEY_NAMES.get(key, ""), action == glfw.PRESS)
+
+    def key(self, name: str, pressed: bool) -> None:
+        """A key by name (camera_control's names) went down or up."""
+        if pressed and self.overlay is not None and self.overlay.wants_keyboard:
+            return
+        command = self.controller.key(name, pressed)
+        if command == "quit":
+            self.quit = True
+        elif command == "pause":
+            self.paused = not self.paused
+        elif command == "screenshot":
+            self._screenshot_next = True
+        elif command == "next_method":
+            self.next_method()
+        elif command == "capture_cursor":
+            mode = glfw.CURSOR_DISABLED if self.controller.captured else glfw.CURSOR_NORMAL
+            glfw.set_input_mode(self.window, glfw.CURSOR, mode)
+
+    def _on_mouse_button(self, window, button, action, mods) -> None:
+        if button != glfw.MOUSE_BUTTON_RIGHT:
+            return
+        if action == glfw.PRESS and self.overlay is not None and self.overlay.wants_mouse:
+            return
+        self.controller.mouse_button(action == glfw.PRESS)
+
+    def _on_focus(self, window, focused) -> None:
+        if not focused:  # keys released elsewhere never reach us
+            self.controller.release_all()
+
+    def _on_cursor(self, window, x, y) -> None:
+        self.controller.mouse_move(x, y)
+
+    def next_method(self) -> None:
+        methods = list(METHODS)
+        current = self.renderer.settings.method
+        following = methods[(methods.index(current) + 1) % len(methods)] \
+            if current in methods else methods[0]
+        self.renderer.set_settings(dataclasses.replace(self.renderer.settings,
+                                                       method=following))
+
+    def set_soft(self, on: bool) -> None:
+        """Soft shadows of the linear light on or off, from the next frame."""
+        if on and self.scene.linear_light is None:
+            raise GameError("soft shadows: the scene has no [linear_light]")
+        self.soft = on
+
+    def gl_objects(self) -> int:
+        """Live GL objects of the renderer, its tracer included (toggling must not grow them)."""
+        return sum(self.renderer.gl_objects().values())
+
+    # -- frames -------------------------------------------------------------------------------
+    def framebuffer_size(self) -> tuple[int, int] | None:
+        """The framebuffer's size, or None while it is zero-sized or the window minimised."""
+        w, h = glfw.get_framebuffer_size(self.window)
+        if w <= 0 or h <= 0 or glfw.get_window_attrib(self.window, glfw.ICONIFIED):
+            return None
+        return w, h
+
+    def render_size(self, size: tuple[int, int]) -> tuple[int, int]:
+        """The scene's render size for a window framebuffer of ``size``."""
+        scale = min(self.render_scale, SOFT_RENDER_SCALE) if self.soft else self.render_scale
+        return (max(1, round(size[0] * scale)), max(1, round(size[1] * scale)))
+
+    def view(self, size: tuple[int, int]) -> View:
+        return View(self.controller.view_matrix(), self.controller.camera.proj_matrix(size))
+
+    def step(self, dt: float) -> bool:
+        """Poll input and draw one frame; False when nothing was drawn (minimised)."""
+        glfw.poll_events()
+        if glfw.window_should_close(self.window):
+            self.quit = True
+        size = self.framebuffer_size()
+        if size is None or self.quit:
+            return False
+        self.controller.update(dt)
+        self.renderer.set_gbuffer(self.soft)
+        self.renderer.resize(self.render_size(size))
+        read = self.frames % MPF_EVERY_FRAMES == 0
+        try:
+            frame = self.renderer.render(self.scene_time, self.view(size), read=read)
+        except GameError as exc:  # settings the GL cannot take (too many texels): undo them
+            if self._good_settings is None or self.overlay is None:
+                raise
+            self.renderer.set_settings(self._good_settings)
+            self.overlay.message = str(exc)
+            self.renderer.set_gbuffer(self.soft)
+            frame = self.renderer.render(self.scene_time, self.view(size), read=read)
+        self._good_settings = self.renderer.settings
+        # Soft shadows light the frame by the linear light, so they replace the hard method's
+        # shading (the traced method's exact hard shadows come with the frame itself).
+        if self.soft:
+            frame, _ = trace_run.soft_frame(self.renderer, frame, self.scene_time,
+                                            SOFT_SETTINGS)
+        if frame.maps_per_fragment is not None:
+            self._mpf = frame.maps_per_fragment
+        fps = (len(self._frame_times) / sum(self._frame_times)
+               if self._frame_times and sum(self._frame_times) > 0 else None)
+        figures = Figures.of(frame, self.renderer.timer.clock, fps, self._mpf)
+        figures.ms.update(self._window_ms)  # the panel shows the last frame's window passes
+        timer = self.renderer.timer
+        # Scene, then overlay, into a canvas that is shown in the window. Cheapest on llvmpipe
+        # at 960x540 (medians, one interleaved run): a full-size frame is copied into the
+        # presenter's colour-only canvas and blitted to the window, 1.1 ms (a blit straight
+        # from the renderer's target, which has a depth attachment, 3.7 ms; a textured draw
+        # into the window 2.4 ms); a smaller frame is drawn scaled straight into the window,
+        # 2.3 ms (into the canvas and then blitted, 4.0 ms). A frame saved as a screenshot
+        # always goes through the readable canvas, so the file holds what the window shows.
+        last = self.opts.frames is not None and self.frames + 1 >= self.opts.frames
+        shot = self._screenshot_next or (last and self.opts.screenshot is not None)
+        screen = self.ctx.detect_framebuffer(0)
+        with timer.measure("present", wall=True):
+            if shot or self.renderer.size == size:
+                self.presenter.resize(size)
+                self.presenter.show(self.renderer.target, self.renderer.color_tex)
+                self.canvas = self.presenter.target
+            else:
+                self.presenter.draw(self.renderer.color_tex, screen, size)
+                self.canvas = screen
+        if self.overlay is not None:
+            with timer.measure("overlay", wall=True):
+                changes = self.overlay.draw(figures, self.renderer, self.paused, size,
+                                            render_scale=self.render_scale, soft=self.soft)
+                self.canvas.use()
+                self.overlay.render()
+            if changes.paused is not None:
+                self.paused = changes.paused
+            if changes.render_scale is not None:
+                self.render_scale = changes.render_scale
+            if changes.soft is not None:
+                self.set_soft(changes.soft)
+            try:
+                changes.apply(self.renderer)
+            except (GameError, ValueError) as exc:  # a setting the planner refuses: undo it
+                if self._good_settings is not None:
+                    self.renderer.set_settings(self._good_settings)
+                self.overlay.message = str(exc)
+        if self.canvas is not screen:
+            with timer.measure("present", wall=True):
+                self.ctx.copy_framebuffer(screen, self.canvas)
+        self._window_ms = {k: timer.ms[k] for k in ("present", "overlay") if k in timer.ms}
+        figures.ms.update(self._window_ms)
+        self.last_figures = figures
+        if self.keep_stats:
+            self.frame_stats.append(self._stats_entry(frame, figures))
+        self.frames += 1
+        if not self.paused:  # frame k shows scene time k * dt, as capture's frames do
+            self.scene_time += dt
+        if shot:
+            self._save_screenshot(size, self.opts.screenshot if last else None)
+        glfw.swap_buffers(self.window)
+        return True
+
+    def _stats_entry(self, frame, figures: Figures) -> dict:
+        ms = {name: round(value, 4) for name, value in figures.ms.items()}
+        mpf = frame.maps_per_fragment
+        return {"frame": self.frames, "time": self.scene_time, "ms": ms, **ms,
+                "maps_rendered": frame.maps_rendered, "maps_cached": frame.maps_cached,
+                "maps_total": frame.maps_total, "triangles_to_maps": frame.triangles_to_maps,
+                "maps_per_fragment": None if mpf is None else round(mpf, 5),
+                "method": self.renderer.settings.method, "soft": self.soft}
+
+    def read_screen(self, size: tuple[int, int]) -> np.ndarray:
+        """What the window shows now, (H, W, 3) uint8 with row 0 at the top."""
+        data = self.canvas.read(viewport=(0, 0, *size), components=3, attachment=0)
+        return np.frombuffer(data, np.uint8).reshape(size[1], size[0], 3)[::-1].copy()
+
+    def _save_screenshot(self, size: tuple[int, int], path: Path | None) -> None:
+        self._screenshot_next = False
+        if path is None:
+            SCREENSHOT_DIR.mkdir(exist_ok=True)
+            while True:
+                path = SCREENSHOT_DIR / f"screenshot_{self.shots:04d}.png"
+                self.shots += 1
+                if not path.exists():
+                    break
+        self.screenshot = self.read_screen(size)
+        outputs.write_png(path, self.screenshot)
+
+    def run(self, script: Callable[[Walkaround], None] | None = None) -> dict:
+        """Run until Esc, the window closes, or ``opts.frames`` frames; returns the stats.
+
+        ``script``, when given, is called before every frame (tests drive input with it).
+        """
+        start = last = time.perf_counter()
+        first_frame_end = None
+        while not self.quit:
+            interrupts.check()
+            if self.opts.frames is not None and self.frames >= self.opts.frames:
+                break
+            if script is not None:
+                script(self)
+            now = time.perf_counter()
+            dt = self.opts.time_step if self.opts.time_step is not None else now - last
+            if not self.step(dt):
+                if not self.quit:
+                    glfw.wait_events_timeout(MINIMISED_WAIT_S)
+                last = time.perf_counter()
+                continue
+            end = time.perf_counter()
+            self._frame_times.append(end - last)
+            if self.keep_stats:
+                self.frame_stats[-1]["frame_ms"] = round((end - last) * 1e3, 4)
+            if first_frame_end is None:
+                first_frame_end = end
+            last = end
+        elapsed = last - (first_frame_end or start)
+        timed = max(0, self.frames - 1)  # the first frame compiles and renders every map
+        return {**context.describe(self.ctx), "clock": self.renderer.timer.clock,
+                "scene": str(self.scene.source) if self.scene.source else self.scene.name,
+                "size": list(glfw.get_framebuffer_size(self.window)),
+                "render_size": list(self.renderer.size), "method": self.renderer.settings.method,
+                "soft": self.soft,
+                "overlay": self.overlay is not None,
+                # x, y, w, h in window pixels from the top-left: where the panel was drawn last
+                "overlay_rect": list(self.overlay.rect) if self.overlay is not None else None,
+                "fps": round(timed / elapsed, 3) if timed and elapsed > 0 else None,
+                "frames": self.frame_stats}
+
+    def close(self) -> None:
+        """Release the overlay, the renderer, the context and the window, in that order."""
+        if self.window is None:
+            return
+        glfw.make_context_current(self.window)
+        if self.overlay is not None:
+            self.overlay.release()
+            self.overlay = None
+        self.presenter.release()
+        self.renderer.release()
+        self.ctx.release()
+        glfw.destroy_window(self.window)
+        self.window = None
+        glfw.terminate()
+
+
+def play(scene: Scene, opts: PlayOptions) -> dict:
+    """Open the walkaround, run it, write the stats file if asked; returns the stats."""
+    app = Walkaround(scene, opts)
+    try:
+        stats = app.run()
+    finally:
+        app.close()
+    if opts.stats is not None:
+        outputs.write_json(opts.stats, stats)
+    return stats
+
+
+def summary(stats: dict) -> str:
+    """One line: the frame rate and median ms per pass over the frames after the first."""
+    frames = stats["frames"][1:] or stats["frames"]
+    names = [n for n in ("shadow_static", "shadow_dynamic", "cull", "shade", "traced_trace",
+                         "soft_build", "soft_trace", "composite", "total", "present", "overlay")
+             if any(n in f["ms"] for f in frames)]
+    med = {n: float(np.median([f["ms"].get(n, 0.0) for f in frames])) for n in names}
+    fps = f"{stats['fps']:.1f} fps" if stats["fps"] else "fps -"
+    return (f"{fps}, median ms: " + ", ".join(f"{k} {v:.2f}" for k, v in med.items())
+            + f" ({stats['clock']} on {stats['renderer']}, window {stats['size'][0]}x"
+            f"{stats['size'][1]}, scene {stats['render_size'][0]}x{stats['render_size'][1]})")

@@ -1,0 +1,60 @@
+"""Per-pass timing with the clock that tells the truth on this renderer.
+
+GPU timer queries read wrong on Mesa llvmpipe (28 ms of work read as 0.003 ms; the first query
+read 4294.97 ms), so there the clock is the CPU's, around ``ctx.finish()``: ``cpu-finish``. On
+real GPUs the passes are timed with GL_TIME_ELAPSED queries: ``gpu-query``. Stats files record
+which clock was used (CONTRACT.md section 4).
+"""
+
+from __future__ import annotations
+
+import time
+from contextlib import contextmanager
+
+from game.gpu.context import is_software
+
+CLOCKS = ("auto", "cpu-finish", "gpu-query")
+
+
+class PassTimer:
+    """Times named passes of one frame in milliseconds."""
+
+    def __init__(self, ctx, clock: str = "auto"):
+        if clock not in CLOCKS:
+            raise ValueError(f"unknown clock {clock!r}; valid: {', '.join(CLOCKS)}")
+        if clock == "auto":
+            clock = "cpu-finish" if is_software(ctx) else "gpu-query"
+        self.ctx = ctx
+        self.clock = clock
+        self.ms: dict[str, float] = {}
+        self._queries: dict[str, object] = {}
+
+    def begin_frame(self) -> None:
+        self.ms = {}
+
+    @contextmanager
+    def measure(self, name: str, wall: bool = False):
+        """Time the GL work issued inside the block and add it to ``name``.
+
+        ``wall`` times with the CPU around ``ctx.finish()`` whatever the clock: for the frame's
+        total, which holds the other passes (GL timer queries cannot nest) and the CPU work of
+        planning, as a user waiting for the frame sees it.
+        """
+        if self.clock == "gpu-query" and not wall:
+            query = self._queries.get(name)
+            if query is None:
+                query = self._queries[name] = self.ctx.query(time=True)
+            with query:
+                yield
+            self.ms[name] = self.ms.get(name, 0.0) + query.elapsed / 1e6
+            return
+        self.ctx.finish()
+        start = time.perf_counter()
+        yield
+        self.ctx.finish()
+        self.ms[name] = self.ms.get(name, 0.0) + (time.perf_counter() - start) * 1e3
+
+    def release(self) -> None:
+        for query in self._queries.values():
+            query.release()
+        self._queries = {}

@@ -1,0 +1,225 @@
+"""Fitting one shadow map's projection tightly to one caster (a clump or a character).
+
+Directional lights get orthographic maps in a common light space (rows of
+``transforms.light_rotation``), so every map's footprint is a rectangle in the same plane and its
+texel grid can be snapped to world-fixed positions. Spot and point lights get one perspective
+frustum per caster, aimed from the light at the caster: no cube maps.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from game import transforms
+
+MARGIN_TEXELS = 1          # empty texels kept around each footprint (snapping needs one)
+DEPTH_MARGIN = 0.01        # share of a map's depth range added before near and beyond far
+MAX_TAN = math.tan(math.radians(80.0))  # widest half-angle of a perspective map
+MIN_NEAR_SHARE = 1e-3      # nearest near plane, as a share of the caster's farthest depth
+
+
+@dataclass(frozen=True)
+class MapFit:
+    """One map's projection and what the shading pass needs to know of it."""
+
+    view_proj: np.ndarray   # (4, 4) world -> clip
+    texel: float            # orthographic: metres per texel; perspective: per metre of depth
+    perspective: bool
+    eye: np.ndarray         # (3,) the light's position (perspective) or zeros
+    rect: np.ndarray        # (4,) light-space footprint (orthographic maps), else the tan bounds
+    near: float             # distances of the near and far planes along the map's view axis
+    far: float
+
+
+def _snap_rect(cx: float, cy: float, half: float, texel: float, resolution: int):
+    """A square of ``resolution`` texels on the world-fixed texel grid holding the footprint."""
+    x0 = (math.floor((cx - half) / texel) - MARGIN_TEXELS) * texel
+    y0 = (math.floor((cy - half) / texel) - MARGIN_TEXELS) * texel
+    size = resolution * texel
+    return x0, y0, x0 + size, y0 + size
+
+
+def fit_directional(points: np.ndarray, light_rot: np.ndarray, resolution: int,
+                    radius: float | None = None) -> MapFit:
+    """Orthographic map of ``points`` for a directional light.
+
+    Parameters
+    ----------
+    points
+        (N, 3) world-space points of the caster (its vertices).
+    light_rot
+        3x3 world-to-light rotation; light-space +z points towards the light.
+    resolution
+        Texels per side the map may use.
+    radius
+        For a moving caster: its bounding-sphere radius. The texel size then depends only on it,
+        not on the caster's pose, so with the snapped origin the map moves in whole texels and
+        the shadow does not shimmer as the caster walks and turns.
+    """
+    q = np.asarray(points, float) @ light_rot.T
+    lo, hi = q.min(axis=0), q.max(axis=0)
+    usable = resolution - 2 * MARGIN_TEXELS - 1
+    if radius is not None:
+        centre = (lo + hi) / 2
+        half = radius
+    else:
+        centre = (lo + hi) / 2
+        half = max(hi[0] - lo[0], hi[1] - lo[1]) / 2
+    half = max(half, 1e-6 * max(1.0, float(np.abs(q).max())))
+    texel = 2 * half / usable
+    x0, y0, x1, y1 = _snap_rect(centre[0], centre[1], half, texel, resolution)
+    depth = hi[2] - lo[2]
+    margin = DEPTH_MARGIN * depth + 2 * texel
+    # View space looks down -z: a point at light-space z lies at distance -z.
+    near, far = -hi[2] - margin, -lo[2] + margin
+    view = np.eye(4)
+    view[:3, :3] = light_rot
+    proj = transforms.ortho(x0, x1, y0, y1, near, far)
+    return MapFit(view_proj=proj @ view, texel=texel, perspective=False, eye=np.zeros(3),
+                  rect=np.array([x0, y0, x1, y1]), near=near, far=far)
+
+
+def fit_perspective(points: np.ndarray, eye: np.ndarray, resolution: int) -> MapFit | None:
+    """Perspective map of ``points`` seen from a light at ``eye``; None if nothing is in front.
+
+    The frustum is aimed at the caster's bounding-box centre and bounded by the extreme
+    directions of its points, with square texels. Points at or behind the light's plane (a light
+    inside a caster's bounds) cannot be held by one frustum; they are clipped at a near plane.
+    """
+    p = np.asarray(points, float)
+    eye = np.asarray(eye, float)
+    centre = (p.min(axis=0) + p.max(axis=0)) / 2
+    axis = centre - eye
+    if np.linalg.norm(axis) < 1e-9:
+        axis = np.array([0.0, -1.0, 0.0])
+    view = transforms.look_at(eye, eye + axis)
+    v = transforms.transform_points(view, p)
+    depth = -v[:, 2]
+    far_depth = float(depth.max())
+    if far_depth <= 0:
+        return None
+    near_floor = MIN_NEAR_SHARE * far_depth
+    front = depth > near_floor
+    tx = np.clip(v[front, 0] / depth[front], -MAX_TAN, MAX_TAN)
+    ty = np.clip(v[front, 1] / depth[front], -MAX_TAN, MAX_TAN)
+    if not front.all():
+        # Part of the caster surrounds the light: widen to the maximum angle on those sides.
+        tx = np.concatenate([tx, [-MAX_TAN, MAX_TAN]])
+        ty = np.concatenate([ty, [-MAX_TAN, MAX_TAN]])
+    lo = np.array([tx.min(), ty.min()])
+    hi = np.array([tx.max(), ty.max()])
+    usable = resolution - 2 * MARGIN_TEXELS - 1
+    half = max(float((hi - lo).max()) / 2, 1e-9)
+    texel = 2 * half / usable
+    centre_t = (lo + hi) / 2
+    x0 = centre_t[0] - half - MARGIN_TEXELS * texel
+    y0 = centre_t[1] - half - MARGIN_TEXELS * texel
+    size = resolution * texel
+    near = max(float(depth[front].min()) if front.any() else near_floor, near_floor)
+    span = far_depth - near
+    near = max(near - DEPTH_MARGIN * span, near_floor)
+    far = far_depth + DEPTH_MARGIN * span + 1e-6 * far_depth
+    proj = transforms.frustum(x0 * near, (x0 + size) * near, y0 * near, (y0 + size) * near,
+                              near, far)
+    return MapFit(view_proj=proj @ view, texel=texel, perspective=True, eye=eye.copy(),
+                  rect=np.array([x0, y0, x0 + size, y0 + size]), near=near, far=far)
+
+
+def outside_cone(points: np.ndarray, eye: np.ndarray, direction: np.ndarray,
+                 cone_deg: float) -> bool:
+    """True when a caster lies wholly outside a spot light's cone (it needs no map)."""
+    centre = (points.min(axis=0) + points.max(axis=0)) / 2
+    radius = float(np.linalg.norm(points - centre, axis=1).max())
+    to_centre = centre - eye
+    distance = float(np.linalg.norm(to_centre))
+    if distance <= radius:
+        return False
+    half = math.radians(cone_deg / 2)
+    angle = math.acos(np.clip(to_centre @ direction / distance, -1.0, 1.0))
+    return angle - math.asin(min(1.0, radius / distance)) > half
+
+
+# -- a light inside a caster's bounds (issue 6) ---------------------------------------------------
+# One frustum holds at most MAX_TAN either side of its axis. When a clump's casters surround the
+# light, fit_perspective clips them at the near plane or at MAX_TAN and their shadows would be
+# lost; such a clump gets the six faces of a cube around the light instead, each a 90-degree
+# frustum (plus a texel margin) over the same casters.
+CUBE_AXES = ((1.0, 0.0, 0.0), (-1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, -1.0, 0.0),
+             (0.0, 0.0, 1.0), (0.0, 0.0, -1.0))
+
+
+def holds_in_one_frustum(points: np.ndarray, eye: np.ndarray) -> bool:
+    """True when ``fit_perspective`` holds every point (none clipped by the near plane or angle)."""
+    p = np.asarray(points, float)
+    eye = np.asarray(eye, float)
+    axis = (p.min(axis=0) + p.max(axis=0)) / 2 - eye
+    if np.linalg.norm(axis) < 1e-9:
+        return False
+    v = transforms.transform_points(transforms.look_at(eye, eye + axis), p)
+    depth = -v[:, 2]
+    far_depth = float(depth.max())
+    if far_depth <= 0 or np.any(depth <= MIN_NEAR_SHARE * far_depth):
+        return False
+    return bool(np.all(np.abs(v[:, :2]) <= MAX_TAN * depth[:, None]))
+
+
+def fit_cube_faces(points: np.ndarray, eye: np.ndarray, resolution: int) -> list[MapFit]:
+    """Perspective maps on the faces of a cube around ``eye`` that face any of ``points``."""
+    p = np.asarray(points, float)
+    eye = np.asarray(eye, float)
+    extent = float(np.linalg.norm(p - eye, axis=1).max())
+    usable = resolution - 2 * MARGIN_TEXELS - 1
+    texel = 2.0 / usable
+    half = 1.0 + MARGIN_TEXELS * texel  # a 90-degree face and a texel of overlap
+    fits = []
+    for axis in CUBE_AXES:
+        view = transforms.look_at(eye, eye + np.array(axis))
+        depth = -transforms.transform_points(view, p)[:, 2]
+        if depth.max() <= 0:
+            continue
+        far = extent * (1.0 + DEPTH_MARGIN) + 1e-6 * extent
+        near = max(MIN_NEAR_SHARE * far, 1e-9)
+        x0 = y0 = -half
+        size = resolution * texel
+        proj = transforms.frustum(x0 * near, (x0 + size) * near, y0 * near, (y0 + size) * near,
+                                  near, far)
+        fits.append(MapFit(view_proj=proj @ view, texel=texel, perspective=True,
+                           eye=eye.copy(), rect=np.array([x0, y0, x0 + size, y0 + size]),
+                           near=near, far=far))
+    return fits
+
+
+def light_rotation_of(light) -> np.ndarray | None:
+    """The world-to-light rotation (3, 3) of a directional light; None for spot and point
+    lights, whose maps are perspective."""
+    return transforms.light_rotation(light.direction) if light.kind == "directional" else None
+
+
+def fit_to_light(points: np.ndarray, light, light_rot: np.ndarray | None,
+                 resolution: int) -> MapFit | None:
+    """A map over ``points`` for a scene light: orthographic in ``light_rot`` for a directional
+    light, perspective from its position otherwise. None when there are no points."""
+    if not len(points):
+        return None
+    if light.kind == "directional":
+        return fit_directional(points, light_rot, resolution)
+    return fit_perspective(points, light.position, resolution)
+
+
+def deciding_points(points: np.ndarray, light_rot: np.ndarray | None) -> np.ndarray:
+    """The points of a static caster that can decide its fit, computed once per light.
+
+    Directional light (``light_rot`` given): the extremes along each light-space axis. Spot and
+    point lights: every distinct point, because a perspective fit is aimed at the moving centre
+    of all casters and any point of the convex hull may become the widest direction (the hull
+    itself would need scipy).
+    """
+    if not len(points):
+        return points
+    if light_rot is not None:
+        q = points @ light_rot.T
+        return points[np.unique(np.concatenate([q.argmin(axis=0), q.argmax(axis=0)]))]
+    return np.unique(points, axis=0)

@@ -1,0 +1,459 @@
+"""Which shadow maps exist, what each holds, and which must be re-rendered this frame.
+
+``clumped`` is the seed's method: one cached map per clump of statics, one map per character
+re-rendered every frame, all in one depth texture array. ``single`` is the baseline: one map
+fitted to every caster, re-rendered every frame. Floors are never drawn into any map.
+
+A method only plans; the Renderer owns the GL objects and draws what the plan lists.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from game import transforms
+from game.scene.geometry import PackedGeometry
+from game.scene.loader import Light
+from game.shadows import clumping
+from game.shadows.fit import (
+    MapFit,
+    deciding_points,
+    fit_cube_faces,
+    fit_directional,
+    fit_perspective,
+    fit_to_light,
+    holds_in_one_frustum,
+    light_rotation_of,
+    outside_cone,
+)
+from game.shadows.map_grid import octahedral_encode
+
+# The records live in game/shadow_plan.py; they are re-exported here for the callers.
+from game.shadows.plan import (  # noqa: F401
+    CASCADE_LAMBDA,
+    CASCADE_RESOLUTION,
+    CASCADES,
+    CHARACTER_RESOLUTION,
+    CLUMP_RESOLUTION,
+    DEPTH_BIAS_TEXELS,
+    KIND_ALL,
+    KIND_CASCADE,
+    KIND_CHARACTER,
+    KIND_CLUMP,
+    MAX_SLOPE,
+    NORMAL_BIAS_TEXELS,
+    SHADOW_BUDGET_MIB,
+    SINGLE_RESOLUTION,
+    SLOPE_BIAS_TEXELS,
+    TEXELS_PER_METRE,
+    MapRecord,
+    ShadowPlan,
+    ShadowSettings,
+)
+
+METHODS = ("clumped", "single", "static-dynamic", "csm")
+CLUMPINGS = clumping.STRATEGIES
+
+
+def _footprint(light: Light, statics: list[np.ndarray]):
+    """Light-space footprint function and units-per-metre scale for clumping."""
+    if light.kind == "directional":
+        return clumping.directional_footprint(transforms.light_rotation(light.direction)), 1.0
+    eye = np.asarray(light.position, float)
+    distances = [np.linalg.norm(p.mean(axis=0) - eye) for p in statics] or [1.0]
+    typical = max(float(np.median(distances)), 1e-6)
+    if light.kind == "spot":
+        view = transforms.look_at(eye, eye + light.direction)
+
+        def spot(points: np.ndarray) -> np.ndarray:
+            v = transforms.transform_points(view, points)
+            depth = np.maximum(-v[:, 2], 1e-6 * typical)
+            return v[:, :2] / depth[:, None]
+
+        return spot, 1.0 / typical
+
+    def point(points: np.ndarray) -> np.ndarray:
+        return octahedral_encode(np.asarray(points, float) - eye)
+
+    # An octahedral unit spans about pi/2 radians.
+    return point, 1.0 / (typical * math.pi / 2)
+
+
+class ClumpedShadows:
+    """The multi-map method: cached clump maps plus per-character maps in one array.
+
+    The number of clumps follows the texel-density target, within the layers that the memory
+    budget and the GL limits allow; when the target needs more, the clumps grow (and their
+    texel density falls) and ``notes`` says so. When even the characters outnumber the layers
+    left, several characters share one map (issue 6: degrade, never drop a shadow).
+
+    Layers are handed out from a pool (issue 6, cache invalidation): a clump or a character
+    keeps its layer while it exists, a removed one gives it back, and a new one takes the lowest
+    free layer, so the array only grows when every layer is in use. Clumps are kept by member
+    name, so a static added, removed or moved at run time (:meth:`update_statics`) re-renders
+    only the clump maps it leaves or joins.
+    """
+
+    def __init__(self, geom: PackedGeometry, light: Light, settings: ShadowSettings,
+                 max_layers: int):
+        self.geom = geom
+        self.settings = settings
+        self.light = light
+        layer_bytes = 4 * settings.clump_resolution ** 2
+        budget_layers = int(settings.budget_mib * 2**20 // layer_bytes)
+        self.layer_limit = max(2, min(budget_layers, max_layers))
+        self.notes: list[str] = []
+        self.static_maps: list[MapRecord] = []
+        self.clumps: list[clumping.Clump] = []
+        self._clump_names: list[list[str]] = []   # member names per clump, parallel to clumps
+        self._clump_layers: list[list[int]] = []  # a clump's layers: one, or cube faces
+        self._dirty: set[int] = set()             # clumps (indices) whose maps must be drawn
+        self._free: list[int] = []                # layers given back, reused lowest first
+        self._high = 0                            # layers ever handed out
+        self._char_layers: dict[str, int] = {}    # a character's own layer, by name
+        self._shared: list[tuple[int, list[str]]] = []  # (layer, names) of shared maps
+        self._assign_characters()
+        self.set_light(light)
+
+    # -- layers ---------------------------------------------------------------------------
+    def _take_layer(self) -> int:
+        if self._free:
+            self._free.sort()
+            return self._free.pop(0)
+        self._high += 1
+        return self._high - 1
+
+    def _give_layer(self, layer: int) -> None:
+        self._free.append(layer)
+
+    @property
+    def max_clumps(self) -> int:
+        return max(1, self.layer_limit - len(self._char_layers) - len(self._shared))
+
+    @property
+    def layers(self) -> int:
+        return max(1, self._high)
+
+    @property
+    def resolution(self) -> int:
+        return self.settings.clump_resolution
+
+    def _character_names(self) -> list[str]:
+        g = self.geom
+        return [g.names[g.character_object(i)] for i in range(g.n_characters)]
+
+    def _assign_characters(self) -> None:
+        """Give every character a layer: its own while layers last, else shared maps."""
+        names = self._character_names()
+        for layer, _ in self._shared:
+            self._give_layer(layer)
+        self._shared = []
+        for name in [n for n in self._char_layers if n not in names]:
+            self._give_layer(self._char_layers.pop(name))  # a removed character frees its layer
+        # Leave at least one layer for the clumps.
+        room = self.layer_limit - max(1, sum(len(ls) for ls in self._clump_layers))
+        if len(names) <= room:
+            for name in names:
+                if name not in self._char_layers:
+                    self._char_layers[name] = self._take_layer()
+            return
+        for layer in self._char_layers.values():
+            self._give_layer(layer)
+        self._char_layers = {}
+        groups = max(1, room)
+        self._shared = [(self._take_layer(), names[g::groups]) for g in range(groups)]
+        note = (f"{len(names)} characters but {groups} free shadow-map layers (GL or memory "
+                f"limit): characters share {groups} map(s), at coarser texels")
+        if note not in self.notes:
+            self.notes.append(note)
+
+    # -- statics ----------------------------------------------------------------------------
+    def set_light(self, light: Light) -> None:
+        """A new light invalidates every clump map (and light-space clumps themselves)."""
+        self.light = light
+        self._light_rot = light_rotation_of(light)
+        self._build_static()
+
+    def invalidate_statics(self) -> None:
+        """Static geometry changed: re-clump and re-render every clump map."""
+        self._build_static()
+
+    def _fit(self, points: np.ndarray, resolution: int, radius: float | None = None
+             ) -> MapFit | None:
+        light = self.light
+        if light.kind == "directional":
+            return fit_directional(points, self._light_rot, resolution, radius)
+        if light.kind == "spot" and outside_cone(points, light.position, light.direction,
+                                                 light.cone):
+            return None
+        return fit_perspective(points, light.position, resolution)
+
+    def _static_names(self) -> list[str]:
+        g = self.geom
+        return [g.names[g.static_object(i)] for i in range(g.n_statics)]
+
+    def _build_static(self) -> None:
+        s = self.settings
+        points = self.geom.static_points
+        footprint, per_metre = _footprint(self.light, points)
+        max_extent = clumping.max_extent_for_density(s.clump_resolution, s.texels_per_metre)
+        count = s.clump_count
+        if count is not None and count > self.max_clumps:
+            self.notes.append(f"{count} clumps asked, {self.max_clumps} fit the layer budget")
+            count = self.max_clumps
+        clumps = clumping.make_clumps(points, footprint, s.clumping, max_extent * per_metre,
+                                      count)
+        if len(clumps) > self.max_clumps:
+            self.notes.append(
+                f"{len(clumps)} clumps would meet {s.texels_per_metre:g} texels/m; "
+                f"{self.max_clumps} fit the {s.budget_mib:g} MiB budget and the GL's layers, "
+                "so texels are coarser")
+            clumps = clumping.make_clumps(points, footprint, s.clumping, 0.0, self.max_clumps)
+        for layers in self._clump_layers:
+            for layer in layers:
+                self._give_layer(layer)
+        names = self._static_names()
+        self._clump_names = [[names[m] for m in c.members] for c in clumps]
+        self._clump_layers = [[self._take_layer()] for _ in clumps]
+        self._dirty = set(range(len(clumps)))
+        self._refresh_static()
+
+    def _refresh_static(self) -> None:
+        """Clumps, fits and map records from the member names (after any change)."""
+        s = self.settings
+        points = self.geom.static_points
+        index = {name: i for i, name in enumerate(self._static_names())}
+        footprint = (clumping.directional_footprint(self._light_rot)
+                     if self.light.kind == "directional" else None)
+        keep = [k for k, names in enumerate(self._clump_names) if names]
+        for k in range(len(self._clump_names)):
+            if k not in keep:
+                for layer in self._clump_layers[k]:  # an emptied clump frees its layers
+                    self._give_layer(layer)
+        old_dirty = self._dirty
+        self._clump_names = [self._clump_names[k] for k in keep]
+        self._clump_layers = [self._clump_layers[k] for k in keep]
+        self._dirty = {new for new, k in enumerate(keep) if k in old_dirty}
+        self.clumps, self.static_maps, self._map_of_clump = [], [], {}
+        for k, names in enumerate(self._clump_names):
+            members = tuple(sorted(index[n] for n in names))
+            rects = (clumping.object_summaries([points[i] for i in members], footprint)[0]
+                     if footprint is not None else None)
+            self.clumps.append(clumping.Clump(
+                members=members,
+                rect=clumping.union_rect(rects) if rects is not None else np.zeros(4)))
+            fits = self._clump_fits(k, np.concatenate([points[i] for i in members]))
+            self._map_of_clump[k] = []
+            for fit, layer in zip(fits, self._clump_layers[k], strict=False):
+                self._map_of_clump[k].append(len(self.static_maps))
+                self.static_maps.append(MapRecord(
+                    name=f"clump_{k}", kind=KIND_CLUMP, fit=fit, layer=layer,
+                    viewport=s.clump_resolution,
+                    objects=[self.geom.static_object(i) for i in members], cover=rects))
+        self.static_order = [m for c in self.clumps for m in c.members]
+
+    def _clump_fits(self, k: int, points: np.ndarray) -> list[MapFit]:
+        """The maps of clump ``k``: one fit, or the faces of a cube around a light inside it.
+
+        Takes or gives back layers so that the clump holds one per map (at least one).
+        """
+        res = self.settings.clump_resolution
+        light = self.light
+        fits: list[MapFit] = []
+        if light.kind != "directional" and not holds_in_one_frustum(points, light.position):
+            fits = fit_cube_faces(points, light.position, res)
+            spare = self.layer_limit - self.layers + len(self._free)
+            if len(fits) - len(self._clump_layers[k]) > spare:
+                self.notes.append(f"clump {k} surrounds the light but {spare} free layers "
+                                  "cannot hold a cube of maps; its widest frustum is used")
+                fits = []
+        if not fits:
+            fit = self._fit(points, res)
+            fits = [fit] if fit is not None else []
+        layers = self._clump_layers[k]
+        before = list(layers)
+        while len(layers) < max(1, len(fits)):
+            layers.append(self._take_layer())
+        while len(layers) > max(1, len(fits)):
+            self._give_layer(layers.pop())
+        if layers != before:
+            self._dirty.add(k)
+        return fits
+
+    def update_statics(self, geom: PackedGeometry, changed: set[str]) -> list[int]:
+        """Statics were added, removed or moved (their names in ``changed``).
+
+        Each changed static leaves its clump (that clump's map is re-rendered: its old place)
+        and, if it still exists, joins the clump whose footprint overlaps its own the most, or
+        the nearest one (re-rendered too: its new place). Other clumps keep their cached maps.
+        Returns the indices of the clumps that will be re-rendered.
+        """
+        self.geom = geom
+        names = self._static_names()
+        index = {name: i for i, name in enumerate(names)}
+        for k, members in enumerate(self._clump_names):
+            kept = [n for n in members if n in index and n not in changed]
+            if len(kept) != len(members):
+                self._clump_names[k] = kept
+                self._dirty.add(k)
+        arrivals = [n for n in names if n in changed]
+        if arrivals:
+            footprint, _ = _footprint(self.light, geom.static_points)
+            rects = [clumping.object_summaries(
+                [geom.static_points[index[n]] for n in members], footprint)[0]
+                for members in self._clump_names]
+            for name in arrivals:
+                own = clumping.object_summaries([geom.static_points[index[name]]],
+                                                footprint)[0][0]
+                k = self._nearest_clump(own, rects)
+                if k is None:
+                    self._clump_names.append([])
+                    self._clump_layers.append([self._take_layer()])
+                    rects.append(np.zeros((0, 4)))
+                    k = len(self._clump_names) - 1
+                self._clump_names[k].append(name)
+                rects[k] = np.vstack([rects[k], own[None]])
+                self._dirty.add(k)
+        self._refresh_static()
+        return sorted(self._dirty)
+
+    def _nearest_clump(self, rect: np.ndarray, clump_rects: list[np.ndarray]) -> int | None:
+        """The clump overlapping ``rect`` most, else the one whose footprint is nearest."""
+        best, best_key = None, None
+        for k, rects in enumerate(clump_rects):
+            if not len(rects):
+                continue
+            u = clumping.union_rect(rects)
+            w = min(u[2], rect[2]) - max(u[0], rect[0])
+            h = min(u[3], rect[3]) - max(u[1], rect[1])
+            overlap = max(w, 0.0) * max(h, 0.0)
+            gap = math.hypot(max(-w, 0.0), max(-h, 0.0))
+            key = (-overlap, gap)
+            if best_key is None or key < best_key:
+                best, best_key = k, key
+        return best
+
+    def update_characters(self, geom: PackedGeometry) -> None:
+        """Characters were added or removed: free and hand out their layers."""
+        self.geom = geom
+        self._assign_characters()
+
+    # -- frame ------------------------------------------------------------------------------
+    def plan(self, models: np.ndarray, view=None) -> ShadowPlan:
+        """The maps for this frame; ``models`` are the characters' (n, 4, 4) matrices.
+
+        ``view`` (the camera's renderer.View) is unused here; view-dependent methods (csm)
+        need it.
+        """
+        s = self.settings
+        maps = list(self.static_maps)
+        render_static = sorted(i for k in self._dirty for i in self._map_of_clump.get(k, []))
+        render_dynamic = []
+        resolution = s.clump_resolution
+        char_res = min(s.character_resolution, resolution)
+        names = self._character_names()
+        slots = [(self._char_layers[n], [i], char_res) for i, n in enumerate(names)
+                 if n in self._char_layers]
+        position = {n: i for i, n in enumerate(names)}
+        slots += [(layer, [position[n] for n in group], resolution)
+                  for layer, group in self._shared if group]
+        for layer, members, res in slots:
+            placed = [transforms.transform_points(models[i], self.geom.character_points[i])
+                      for i in members]
+            points = np.concatenate(placed)
+            radius = float(self.geom.character_radius[members[0]]) if len(members) == 1 else None
+            fit = self._fit(points, res, radius)
+            if fit is None:
+                continue
+            cover = None
+            if self.light.kind == "directional":
+                xy = [p @ self._light_rot[:2].T for p in placed]
+                cover = np.array([np.concatenate([q.min(axis=0), q.max(axis=0)]) for q in xy])
+            render_dynamic.append(len(maps))
+            maps.append(MapRecord(name=f"character_{members[0]}", kind=KIND_CHARACTER, fit=fit,
+                                  layer=layer, viewport=res,
+                                  objects=[self.geom.character_object(i) for i in members],
+                                  cover=cover))
+        self._dirty = set()
+        return ShadowPlan(resolution=resolution, maps=maps,
+                          render_static=render_static, render_dynamic=render_dynamic,
+                          static_order=self.static_order)
+
+    def mark_rendered_lost(self) -> None:
+        """The array was re-created (resized): every cached layer must be drawn again."""
+        self._dirty = set(range(len(self._clump_names)))
+
+
+class SingleShadows:
+    """The baseline: one map over every caster, all re-rendered every frame."""
+
+    def __init__(self, geom: PackedGeometry, light: Light, settings: ShadowSettings):
+        self.geom = geom
+        self.settings = settings
+        self.notes: list[str] = []
+        self.set_light(light)
+
+    @property
+    def layers(self) -> int:
+        return 1
+
+    @property
+    def resolution(self) -> int:
+        return self.settings.single_resolution
+
+    def set_light(self, light: Light) -> None:
+        """Keep only the statics' extreme points for this light; refitting is then cheap."""
+        self.light = light
+        self._light_rot = light_rotation_of(light)
+        self._static_points = deciding_points(self.geom.all_static_points(), self._light_rot)
+
+    def invalidate_statics(self) -> None:
+        self.set_light(self.light)
+
+    def update_statics(self, geom: PackedGeometry, changed: set[str]) -> list[int]:
+        """Statics changed: the one map is re-fitted (it is re-rendered every frame anyway)."""
+        self.geom = geom
+        self.set_light(self.light)
+        return []
+
+    def update_characters(self, geom: PackedGeometry) -> None:
+        self.geom = geom
+
+    def mark_rendered_lost(self) -> None:
+        pass
+
+    def plan(self, models: np.ndarray, view=None) -> ShadowPlan:
+        res = self.settings.single_resolution
+        parts = [self._static_points] + [
+            transforms.transform_points(models[i], self.geom.character_points[i])
+            for i in range(self.geom.n_characters)]
+        points = np.concatenate(parts)
+        objects = ([self.geom.static_object(i) for i in range(self.geom.n_statics)]
+                   + [self.geom.character_object(i) for i in range(self.geom.n_characters)])
+        maps, render = [], []
+        fit = fit_to_light(points, self.light, self._light_rot, res)
+        if fit is not None:
+            maps.append(MapRecord("single", KIND_ALL, fit, 0, res, objects))
+            render = [0]
+        return ShadowPlan(resolution=res, maps=maps, render_dynamic=render)
+
+
+def create(geom: PackedGeometry, light: Light, settings: ShadowSettings, max_layers: int):
+    """The planner for ``settings.method``; ``max_layers`` is what the GL allows."""
+    if settings.method == "clumped":
+        return ClumpedShadows(geom, light, settings, max_layers)
+    if settings.method == "single":
+        return SingleShadows(geom, light, settings)
+    if settings.method in ("static-dynamic", "csm"):
+        from game.shadows.methods import baselines  # the baselines build on this module's records
+
+        if settings.method == "csm":
+            return baselines.CascadedShadows(geom, light, settings)
+        return baselines.StaticDynamicShadows(geom, light, settings)
+    if settings.method == "traced":  # exact, from the soft-shadow tracer (issue 4)
+        from game.shadows.methods.traced import TracedShadows
+
+        return TracedShadows()
+    raise ValueError(f"unknown shadow method {settings.method!r}; valid: {', '.join(METHODS)}")

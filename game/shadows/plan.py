@@ -1,0 +1,78 @@
+"""The records every hard-shadow method plans with: settings, map records, the frame's plan.
+
+Kept apart from the planners (game/shadow_methods.py, game/baselines.py,
+game/traced_shadows.py) so that each of them depends on these records and none on another.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from game.shadows.fit import MapFit
+
+# KIND_CASCADE: keep in sync with shaders/shadow.glsl (the finest cascade holding a fragment wins).
+KIND_CLUMP, KIND_CHARACTER, KIND_ALL, KIND_CASCADE = 0, 1, 2, 3
+
+# Defaults chosen so the accuracy bar of tests/test_accuracy.py holds without per-scene tuning.
+TEXELS_PER_METRE = 64.0        # clump maps' texel-density target
+CLUMP_RESOLUTION = 1024        # texels per side of a clump map (and of the array's layers)
+CHARACTER_RESOLUTION = 512     # texels per side a character's map uses of its layer
+SINGLE_RESOLUTION = 4096       # the baseline's one map
+NORMAL_BIAS_TEXELS = 1.0       # offset along the normal, times sin(angle to the light)
+DEPTH_BIAS_TEXELS = 1.0        # offset towards the light
+SLOPE_BIAS_TEXELS = 1.0        # offset towards the light, times tan(angle to the light)
+MAX_SLOPE = 8.0                # cap on that tan, for grazing light
+SHADOW_BUDGET_MIB = 512        # depth-array memory the clumped method may use
+CASCADES = 4                   # csm: cascades (Bevy, Godot and Filament default to 4)
+CASCADE_LAMBDA = 0.75          # csm: practical split blend, 1 logarithmic, 0 uniform
+CASCADE_RESOLUTION = 2048      # csm: texels per side of each cascade
+
+
+@dataclass
+class ShadowSettings:
+    """Everything a user can change about the hard shadows (CLI flags, later the overlay)."""
+
+    method: str = "clumped"
+    clumping: str = "light"
+    clump_count: int | None = None
+    texels_per_metre: float = TEXELS_PER_METRE
+    clump_resolution: int = CLUMP_RESOLUTION
+    character_resolution: int = CHARACTER_RESOLUTION
+    single_resolution: int = SINGLE_RESOLUTION
+    normal_bias: float = NORMAL_BIAS_TEXELS
+    depth_bias: float = DEPTH_BIAS_TEXELS
+    slope_bias: float = SLOPE_BIAS_TEXELS
+    max_slope: float = MAX_SLOPE
+    pcf: bool = False
+    grid: str = "auto"
+    budget_mib: float = SHADOW_BUDGET_MIB
+    cascades: int = CASCADES
+    cascade_lambda: float = CASCADE_LAMBDA
+    cascade_resolution: int = CASCADE_RESOLUTION
+
+
+@dataclass
+class MapRecord:
+    """One shadow map: its projection, its layer, and the objects drawn into it."""
+
+    name: str
+    kind: int
+    fit: MapFit
+    layer: int
+    viewport: int          # texels per side used, from the layer's corner
+    objects: list[int]     # global object indices
+    # Directional light: light-space rectangles of the casters drawn into the map. Much tighter
+    # than the map's own rectangle when a clump is spread out; the map grid lists a map for a
+    # cell only where one of these (grown by the bias reach) overlaps it.
+    cover: np.ndarray | None = None
+
+
+@dataclass
+class ShadowPlan:
+    resolution: int                  # texels per side of the array's layers
+    maps: list[MapRecord]            # every map the shading pass may sample
+    render_static: list[int] = field(default_factory=list)   # indices into maps
+    render_dynamic: list[int] = field(default_factory=list)
+    static_order: list[int] | None = None  # statics in clump order, for the index buffer
