@@ -1,57 +1,28 @@
 #version 430
-// The camera pass's triangle culling (game/triangle_cull.py): drop the triangles that cannot
+// The camera pass's triangle culling (game/render/cull.py): drop the triangles that cannot
 // cover a pixel centre, keep the others in their order. STAGE picks one of three dispatches:
 //   STAGE_MASK:  one invocation per chunk of 32 triangles; one bit per triangle that may show.
 //   STAGE_SCAN:  one workgroup; each chunk's first output slot (exclusive prefix sum of the
 //                chunks' bit counts) and the two indirect draw commands.
 //   STAGE_WRITE: one invocation per chunk; copies the kept triangles' indices to their slots.
 // Chunks never straddle the closed/open boundary: closed volumes (drawn with back faces culled)
-// fill the first u_cull_counts.z chunks, open meshes the rest.
-#include "blocks.glsl"
+// fill the first u_cull.closed_chunks chunks, open meshes the rest.
+#include "blocks/frame.glsl"
+#include "blocks/cull.glsl"
 
 #define CHUNK 32
 
-// Each triangle's three corners (world space, nine floats), in index-buffer order: read in
-// sequence, with no index to follow. Through the index and vertex buffers this stage took
-// about 1.6 times as long on the 1 M-triangle town (16 ms against 10 ms on llvmpipe).
-layout(std430, binding = CULL_CORNERS_BINDING) readonly buffer Corners {
-    float u_corners[];
-};
-
-layout(std430, binding = CULL_INDICES_BINDING) readonly buffer Indices {
-    uint u_indices[];
-};
-
-struct Chunk {
-    uint mask;          // bit i: triangle i of the chunk is kept
-    uint first;         // its first slot in the output, in triangles
-};
-
-layout(std430, binding = CULL_CHUNKS_BINDING) buffer Chunks {
-    Chunk u_chunks[];
-};
-
-layout(std430, binding = CULL_OUTPUT_BINDING) writeonly buffer Culled {
-    uint u_culled[];
-};
-
-// Two DrawElementsIndirectCommand: closed volumes, then open meshes.
-layout(std430, binding = CULL_COMMANDS_BINDING) writeonly buffer Commands {
-    uint u_commands[10];
-};
-
-uniform ivec4 u_cull_counts;    // x closed triangles, y all, z closed chunks, w all chunks
-uniform ivec4 u_cull_keep;      // the characters' triangles: [x, y) and [z, w), always kept
-uniform vec2 u_cull_viewport;   // pixels
+// The mask stage reads each triangle's corners from u_corners, in sequence: following the index
+// and vertex buffers instead was markedly slower on llvmpipe.
 
 // The chunk's triangle range [first, end).
 ivec2 chunk_range(int chunk) {
-    if (chunk < u_cull_counts.z) {
+    if (chunk < u_cull.closed_chunks) {
         int first = chunk * CHUNK;
-        return ivec2(first, min(first + CHUNK, u_cull_counts.x));
+        return ivec2(first, min(first + CHUNK, u_cull.closed_triangles));
     }
-    int first = u_cull_counts.x + (chunk - u_cull_counts.z) * CHUNK;
-    return ivec2(first, min(first + CHUNK, u_cull_counts.y));
+    int first = u_cull.closed_triangles + (chunk - u_cull.closed_chunks) * CHUNK;
+    return ivec2(first, min(first + CHUNK, u_cull.triangles));
 }
 
 #if STAGE == STAGE_MASK
@@ -59,7 +30,7 @@ layout(local_size_x = 64) in;
 
 vec4 corner(int tri, int k) {
     int i = 9 * tri + 3 * k;
-    return u_view_proj * vec4(u_corners[i], u_corners[i + 1], u_corners[i + 2], 1.0);
+    return u_frame.view_proj * vec4(u_corners[i], u_corners[i + 1], u_corners[i + 2], 1.0);
 }
 
 // Characters are few and stored in their own space: they are always kept. For the others:
@@ -69,8 +40,8 @@ vec4 corner(int tri, int k) {
 const float SNAP = 1.0 / 64.0;   // pixels
 
 bool may_show(int tri, bool closed) {
-    if ((tri >= u_cull_keep.x && tri < u_cull_keep.y)
-            || (tri >= u_cull_keep.z && tri < u_cull_keep.w)) {
+    if ((tri >= u_cull.keep_closed.x && tri < u_cull.keep_closed.y)
+            || (tri >= u_cull.keep_open.x && tri < u_cull.keep_open.y)) {
         return true;
     }
     vec4 a = corner(tri, 0);
@@ -85,9 +56,9 @@ bool may_show(int tri, bool closed) {
     if (min(min(a.w, b.w), c.w) <= 0.0) {
         return true;   // crosses the eye plane: the clipper decides
     }
-    vec2 pa = (a.xy / a.w * 0.5 + 0.5) * u_cull_viewport;
-    vec2 pb = (b.xy / b.w * 0.5 + 0.5) * u_cull_viewport;
-    vec2 pc = (c.xy / c.w * 0.5 + 0.5) * u_cull_viewport;
+    vec2 pa = (a.xy / a.w * 0.5 + 0.5) * u_cull.viewport;
+    vec2 pb = (b.xy / b.w * 0.5 + 0.5) * u_cull.viewport;
+    vec2 pc = (c.xy / c.w * 0.5 + 0.5) * u_cull.viewport;
     vec2 lo_px = min(min(pa, pb), pc) - SNAP;
     vec2 hi_px = max(max(pa, pb), pc) + SNAP;
     // Pixel centres sit at k + 0.5: none inside the box on one axis means no fragment.
@@ -108,11 +79,11 @@ bool may_show(int tri, bool closed) {
 
 void main() {
     int chunk = int(gl_GlobalInvocationID.x);
-    if (chunk >= u_cull_counts.w) {
+    if (chunk >= u_cull.chunks) {
         return;
     }
     ivec2 range = chunk_range(chunk);
-    bool closed = chunk < u_cull_counts.z;
+    bool closed = chunk < u_cull.closed_chunks;
     uint mask = 0u;
     for (int tri = range.x; tri < range.y; ++tri) {
         if (may_show(tri, closed)) {
@@ -132,7 +103,7 @@ shared uint s_closed[SCAN_SIZE];
 
 void main() {
     uint me = gl_LocalInvocationID.x;
-    int n = u_cull_counts.w;
+    int n = u_cull.chunks;
     int per = (n + SCAN_SIZE - 1) / SCAN_SIZE;
     int first = int(me) * per;
     int end = min(first + per, n);
@@ -141,7 +112,7 @@ void main() {
     for (int c = first; c < end; ++c) {
         uint kept = uint(bitCount(u_chunks[c].mask));
         sum += kept;
-        closed += c < u_cull_counts.z ? kept : 0u;
+        closed += c < u_cull.closed_chunks ? kept : 0u;
     }
     s_sum[me] = sum;
     s_closed[me] = closed;
@@ -155,16 +126,8 @@ void main() {
             running += s;
             closed_all += s_closed[i];
         }
-        u_commands[0] = 3u * closed_all;                // count
-        u_commands[1] = 1u;                             // instances
-        u_commands[2] = 0u;                             // first index
-        u_commands[3] = 0u;                             // base vertex
-        u_commands[4] = 0u;                             // base instance
-        u_commands[5] = 3u * (running - closed_all);
-        u_commands[6] = 1u;
-        u_commands[7] = 3u * closed_all;
-        u_commands[8] = 0u;
-        u_commands[9] = 0u;
+        u_commands[0] = DrawCommand(3u * closed_all, 1u, 0u, 0u, 0u);
+        u_commands[1] = DrawCommand(3u * (running - closed_all), 1u, 3u * closed_all, 0u, 0u);
     }
     barrier();
     uint slot = s_sum[me];
@@ -180,7 +143,7 @@ layout(local_size_x = 64) in;
 
 void main() {
     int chunk = int(gl_GlobalInvocationID.x);
-    if (chunk >= u_cull_counts.w) {
+    if (chunk >= u_cull.chunks) {
         return;
     }
     ivec2 range = chunk_range(chunk);

@@ -1,6 +1,6 @@
 #version 430
 // Shadow-map pass: casters into one layer of the depth array.
-#include "blocks.glsl"
+#include "world.glsl"
 
 uniform int u_map;   // index into u_maps
 

@@ -1,6 +1,6 @@
 #version 430
 // Shading pass: every object seen from the camera.
-#include "blocks.glsl"
+#include "world.glsl"
 
 in vec3 in_position;
 in int in_object;
@@ -11,5 +11,5 @@ flat out int v_object;
 void main() {
     v_world = world_position(in_position, in_object);
     v_object = in_object;
-    gl_Position = u_view_proj * vec4(v_world, 1.0);
+    gl_Position = u_frame.view_proj * vec4(v_world, 1.0);
 }

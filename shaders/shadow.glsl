@@ -1,39 +1,31 @@
-// Hard-shadow lookup over the multi-map buffer (needs blocks.glsl).
+// Hard-shadow lookup over the multi-map buffer (needs world.glsl and lighting.glsl).
 // A fragment samples only the maps that can shadow it: those whose rectangle holds it and whose
 // caster lies nearer the light. With many maps, a light-space grid lists the candidates per cell
-// so the per-fragment cost stays flat (game/map_grid.py builds it). Visibility is the minimum.
+// so the per-fragment cost stays flat (game/shadows/map_grid.py builds it). Visibility is the minimum.
 //
 // What is fixed for a whole frame arrives as #defines, and the renderer picks the program made
-// for it (Renderer._shading_program): LIGHT_KIND (LIGHT_DIRECTIONAL, LIGHT_SPOT, LIGHT_POINT),
+// for it (game/render/shading_pass.py): LIGHT_KIND (LIGHT_DIRECTIONAL, LIGHT_SPOT, LIGHT_POINT),
 // PCF (0 or 1) and GRID (GRID_NONE, GRID_ORTHO, GRID_OCTAHEDRAL). Branching on uniforms instead
 // cost 2.5 times as much on llvmpipe, which runs both sides of a branch under a lane mask.
 
 uniform sampler2DArrayShadow u_shadow_maps;
 
-// KIND_CASCADE (a #define from game/shadow_methods.py) marks csm cascades. They are listed
+// KIND_CASCADE (a #define from game/shadows/plan.py) marks csm cascades. They are listed
 // finest first, and the first one that holds the fragment decides (coarser ones would only add
 // their larger error under the minimum).
 
 bool decided(int i, int sampled_before, int sampled) {
-    return sampled > sampled_before && int(u_maps[i].eye.w) == KIND_CASCADE;
-}
-
-vec3 to_light(vec3 p) {
-#if LIGHT_KIND == LIGHT_DIRECTIONAL
-    return -u_light_dir.xyz;
-#else
-    return normalize(u_light_pos.xyz - p);
-#endif
+    return sampled > sampled_before && u_maps[i].kind == KIND_CASCADE;
 }
 
 // Depth compare (or 3x3 PCF) in map i at uv (already scaled into the map's share of its layer).
 float lookup(int i, vec2 uv, float depth) {
-    float layer = u_maps[i].params.x;
+    float layer = float(u_maps[i].layer);
 #if !PCF
     return texture(u_shadow_maps, vec4(uv, layer, depth));
 #else
     vec2 step = 1.0 / vec2(textureSize(u_shadow_maps, 0).xy);
-    vec2 lo = vec2(0.0), hi = vec2(u_maps[i].params.w);
+    vec2 lo = vec2(0.0), hi = vec2(u_maps[i].uv_scale);
     float sum = 0.0;
     for (int y = -1; y <= 1; ++y) {
         for (int x = -1; x <= 1; ++x) {
@@ -47,7 +39,7 @@ float lookup(int i, vec2 uv, float depth) {
 // Bias in texel units, times the texel's world size at p: a normal offset that grows towards
 // grazing light, and a slope-scaled offset towards the light. Returns (normal, light) offsets.
 vec2 bias_offsets(float texel, float sin_t, float tan_t) {
-    return vec2(u_bias.x * sin_t, u_bias.y + u_bias.z * tan_t) * texel;
+    return vec2(u_frame.normal_bias * sin_t, u_frame.depth_bias + u_frame.slope_bias * tan_t) * texel;
 }
 
 // Visibility of p in orthographic map i (directional light); 1.0 outside the map's rectangle or
@@ -55,18 +47,18 @@ vec2 bias_offsets(float texel, float sin_t, float tan_t) {
 // lp and ln are p and its normal there, where light-space +z points at the light.
 float sample_ortho(int i, vec3 lp, vec3 ln, float sin_t, float tan_t, out bool sampled) {
     sampled = false;
-    vec2 offset = bias_offsets(u_maps[i].params.y, sin_t, tan_t);
+    vec2 offset = bias_offsets(u_maps[i].texel, sin_t, tan_t);
     vec3 q = lp + ln * offset.x + vec3(0.0, 0.0, offset.y);
     vec4 b = u_maps[i].bounds;
     vec2 uv = (q.xy - b.xy) / (b.zw - b.xy);
     // Depth in [0, 1] as the orthographic projection stores it: distance along -z from near.
-    float depth = (-q.z - u_maps[i].depth.x) * u_maps[i].depth.y;
+    float depth = (-q.z - u_maps[i].near) * u_maps[i].inv_depth_range;
     if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0))) || depth < 0.0) {
         return 1.0;
     }
     sampled = true;
     // Beyond the caster's far side the fragment is shadowed wherever the caster covers the texel.
-    return lookup(i, uv * u_maps[i].params.w, min(depth, 1.0));
+    return lookup(i, uv * u_maps[i].uv_scale, min(depth, 1.0));
 }
 
 // Visibility of p in perspective map i (spot and point lights), as sample_ortho.
@@ -77,14 +69,14 @@ float sample_perspective(int i, vec3 p, vec3 n, vec3 l, float sin_t, float tan_t
     if (clip.w <= 0.0) {
         return 1.0;   // behind the map's eye
     }
-    vec2 offset = bias_offsets(u_maps[i].params.y * clip.w, sin_t, tan_t);
+    vec2 offset = bias_offsets(u_maps[i].texel * clip.w, sin_t, tan_t);
     clip = u_maps[i].view_proj * vec4(p + n * offset.x + l * offset.y, 1.0);
     vec3 ndc = clip.xyz / clip.w;
     if (clip.w <= 0.0 || any(greaterThan(abs(ndc.xy), vec2(1.0))) || ndc.z < -1.0) {
         return 1.0;
     }
     sampled = true;
-    return lookup(i, (ndc.xy * 0.5 + 0.5) * u_maps[i].params.w, min(ndc.z * 0.5 + 0.5, 1.0));
+    return lookup(i, (ndc.xy * 0.5 + 0.5) * u_maps[i].uv_scale, min(ndc.z * 0.5 + 0.5, 1.0));
 }
 
 // Octahedral coordinates of a direction, in [-1, 1]^2: the light-space of point and spot grids.
@@ -134,12 +126,12 @@ float shadow_visibility(vec3 p, vec3 n, out int sampled, out int used) {
         return 0.0;   // the surface faces away from the light
     }
     r.sin_t = sqrt(max(0.0, 1.0 - ndotl * ndotl));
-    r.tan_t = min(r.sin_t / max(ndotl, 1e-4), u_bias.w);
-    r.lp = (u_light_rot * vec4(p, 1.0)).xyz;
-    r.ln = mat3(u_light_rot) * n;
+    r.tan_t = min(r.sin_t / max(ndotl, 1e-4), u_frame.max_slope);
+    r.lp = (u_frame.light_rot * vec4(p, 1.0)).xyz;
+    r.ln = mat3(u_frame.light_rot) * n;
     float vis = 1.0;
 #if GRID == GRID_NONE
-    for (int i = 0; i < u_counts.x && vis > 0.0; ++i) {
+    for (int i = 0; i < u_frame.map_count && vis > 0.0; ++i) {
         int before = sampled;
         consider(i, r, vis, sampled, used);
         if (decided(i, before, sampled)) {
@@ -151,13 +143,13 @@ float shadow_visibility(vec3 p, vec3 n, out int sampled, out int used) {
 #if GRID == GRID_ORTHO
     vec2 g = r.lp.xy;
 #else
-    vec2 g = octahedral(normalize(p - u_light_pos.xyz));
+    vec2 g = octahedral(normalize(p - u_frame.light_pos));
 #endif
-    vec2 f = (g - u_grid_rect.xy) / (u_grid_rect.zw - u_grid_rect.xy);
+    vec2 f = (g - u_frame.grid_rect.xy) / (u_frame.grid_rect.zw - u_frame.grid_rect.xy);
     if (any(lessThan(f, vec2(0.0))) || any(greaterThan(f, vec2(1.0)))) {
         return vis;
     }
-    int size = u_counts.z;
+    int size = u_frame.grid_size;
     ivec2 cell = min(ivec2(f * float(size)), ivec2(size - 1));
     int c = cell.y * size + cell.x;
     for (int k = u_grid[c]; k < u_grid[c + 1] && vis > 0.0; ++k) {

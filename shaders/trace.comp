@@ -1,8 +1,8 @@
 #version 430
 // The soft-shadow compute pass: one invocation per pixel of the G-buffer, one shaded point each.
-// METHOD (a #define from game/tracer.py) picks how occluders are found; all methods share the
+// METHOD (a #define from game/soft/methods.py) picks how occluders are found; all methods share the
 // samples, the 3D-DDA and the ray-triangle test, so the accelerated ones equal METHOD_BRUTE.
-#include "trace_blocks.glsl"
+#include "blocks/trace.glsl"
 #include "trace.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -85,8 +85,9 @@ bool cell_all_tris(Ray r, int c) {
 #if METHOD == METHOD_TRI_CACHE
 uint g_ray_id;
 
-// The seed's reference [643]: per-triangle ray id and flag. The id and flag share one 32-bit
-// word, so a word another invocation overwrote only costs a repeated test, never a wrong flag.
+// The per-triangle scheme that "Some Ideas on Shadow Algorithms" cites as [643]: a ray id and a
+// flag per triangle. They share one 32-bit word, so a word another invocation overwrote only
+// costs a repeated test, never a wrong flag.
 bool tri_cache_may_occlude(int tri) {
     uint state = u_tri_state[tri];
     if ((state >> 1u) == g_ray_id) {
@@ -109,9 +110,9 @@ bool cell_occludes(Ray r, int c) {
     return false;
 }
 #elif METHOD == METHOD_VOXEL_CACHE
-// The seed's scheme with per-invocation state: a direct-mapped table of VC_SLOTS voxels whose
+// The per-voxel scheme of "Some Ideas on Shadow Algorithms", with per-invocation state: a direct-mapped table of VC_SLOTS voxels whose
 // candidate lists (the voxel's triangles that may meet the light triangle) sit in a pool of
-// VC_POOL triangle ids, bump-allocated. It is reset per shaded point (the seed's global ray id)
+// VC_POOL triangle ids, bump-allocated. It is reset per shaded point (the scheme's global ray id)
 // and lives in the invocation's private memory, so no other invocation can race on it. A slot
 // that is re-used leaks its pool space until the pool is full; then the whole table is flushed.
 // A voxel whose candidates alone exceed the pool overflows: counted, and its rays test every
@@ -185,7 +186,7 @@ bool occluded(vec3 o, vec3 d) {
     mailbox_reset();
 #if METHOD == METHOD_BRUTE
     // Four triangles per iteration: a quarter of the loop budget (see loop_budget_left).
-    int n = u_counts.y;
+    int n = u_trace.triangles;
     for (int tri = 0; tri < n; tri += 4) {
         int m = min(4, n - tri);
         g_ray_tri += uint(m);
@@ -200,8 +201,8 @@ bool occluded(vec3 o, vec3 d) {
 #else
     // 3D-DDA (Amanatides and Woo, "A Fast Voxel Traversal Algorithm", 1987), clipped to the
     // grid's box; the binning's padding covers a float step into a neighbouring cell.
-    vec3 lo = u_grid_origin.xyz;
-    vec3 hi = lo + u_grid_cell.xyz * vec3(u_grid_dims.xyz);
+    vec3 lo = u_trace.grid_origin;
+    vec3 hi = lo + u_trace.grid_cell * vec3(u_trace.grid_dims);
     vec3 inv = 1.0 / d;  // +-inf on a zero component: that slab never limits
     vec3 t0 = (lo - o) * inv, t1 = (hi - o) * inv;
     vec3 tn = min(t0, t1), tf = max(t0, t1);
@@ -217,8 +218,8 @@ bool occluded(vec3 o, vec3 d) {
         return false;
     }
     vec3 start = o + d * s0;
-    ivec3 cell = clamp(ivec3(floor((start - lo) / u_grid_cell.xyz)), ivec3(0),
-                       u_grid_dims.xyz - 1);
+    ivec3 cell = clamp(ivec3(floor((start - lo) / u_trace.grid_cell)), ivec3(0),
+                       u_trace.grid_dims - 1);
     ivec3 step = ivec3(sign(d));
     vec3 next, delta;
     for (int a = 0; a < 3; ++a) {
@@ -226,9 +227,9 @@ bool occluded(vec3 o, vec3 d) {
             next[a] = 1e30;
             delta[a] = 1e30;
         } else {
-            float boundary = lo[a] + float(cell[a] + (step[a] > 0 ? 1 : 0)) * u_grid_cell[a];
+            float boundary = lo[a] + float(cell[a] + (step[a] > 0 ? 1 : 0)) * u_trace.grid_cell[a];
             next[a] = (boundary - o[a]) / d[a];
-            delta[a] = u_grid_cell[a] / abs(d[a]);
+            delta[a] = u_trace.grid_cell[a] / abs(d[a]);
         }
     }
     for (;;) {
@@ -241,7 +242,7 @@ bool occluded(vec3 o, vec3 d) {
             return false;
         }
         cell[a] += step[a];
-        if (cell[a] < 0 || cell[a] >= u_grid_dims[a]) {
+        if (cell[a] < 0 || cell[a] >= u_trace.grid_dims[a]) {
             return false;
         }
         next[a] += delta[a];
@@ -250,13 +251,13 @@ bool occluded(vec3 o, vec3 d) {
 }
 
 vec3 light_point(vec3 o, float t) {
-    if (u_size.z == TRACE_LIGHT_POINT) {
-        return u_light_a.xyz;
+    if (u_trace.light_mode == TRACE_LIGHT_POINT) {
+        return u_trace.light_a;
     }
-    if (u_size.z == TRACE_LIGHT_DIRECTIONAL) {
-        return o + u_light_a.xyz * u_offset.z;
+    if (u_trace.light_mode == TRACE_LIGHT_DIRECTIONAL) {
+        return o + u_trace.light_a * u_trace.directional_far;
     }
-    return mix(u_light_a.xyz, u_light_b.xyz, t);
+    return mix(u_trace.light_a, u_trace.light_b, t);
 }
 
 #if METHOD == METHOD_ANALYTIC
@@ -425,12 +426,12 @@ float analytic_visibility(vec3 o, vec3 nrm) {
     }
     // Every cell the light triangle touches, every triangle there that may meet it.
     vec3 lo = min(min(g_apex, g_la), g_lb), hi = max(max(g_apex, g_la), g_lb);
-    vec3 pad = u_grid_cell.xyz * BIN_PAD_CELLS;
-    ivec3 c0 = clamp(ivec3(floor((lo - pad - u_grid_origin.xyz) / u_grid_cell.xyz)), ivec3(0),
-                     u_grid_dims.xyz - 1);
-    ivec3 c1 = clamp(ivec3(floor((hi + pad - u_grid_origin.xyz) / u_grid_cell.xyz)), ivec3(0),
-                     u_grid_dims.xyz - 1);
-    vec3 half_size = u_grid_cell.xyz * (0.5 + BIN_PAD_CELLS);
+    vec3 pad = u_trace.grid_cell * BIN_PAD_CELLS;
+    ivec3 c0 = clamp(ivec3(floor((lo - pad - u_trace.grid_origin) / u_trace.grid_cell)), ivec3(0),
+                     u_trace.grid_dims - 1);
+    ivec3 c1 = clamp(ivec3(floor((hi + pad - u_trace.grid_origin) / u_trace.grid_cell)), ivec3(0),
+                     u_trace.grid_dims - 1);
+    vec3 half_size = u_trace.grid_cell * (0.5 + BIN_PAD_CELLS);
     mailbox_reset();
     for (int z = c0.z; z <= c1.z; ++z) {
         for (int y = c0.y; y <= c1.y; ++y) {
@@ -475,20 +476,20 @@ float analytic_visibility(vec3 o, vec3 nrm) {
 
 // Mesa's llvmpipe (22.3) stops every loop of an invocation once their iterations add up to 65535
 // (one shared counter, LP_MAX_TGSI_LOOP_ITERATIONS): the work left is silently skipped. A loop
-// of u_range.w = 2 trips then runs once; that flags the point as truncated, and game/tracer.py
-// re-runs such traces with fewer samples per dispatch.
+// of u_trace.loop_probe_trips = 2 trips then runs once; that flags the point as truncated, and
+// game/soft/tracer.py re-runs such traces with fewer samples per dispatch.
 bool loop_budget_left() {
     int trips = 0;
-    for (int i = 0; i < u_range.w; ++i) {
+    for (int i = 0; i < u_trace.loop_probe_trips; ++i) {
         trips += 1;
     }
-    return trips == u_range.w;
+    return trips == u_trace.loop_probe_trips;
 }
 
 uint sampled_visible(vec3 o, vec3 nrm, uint point) {
-    int n = u_counts.x;
+    int n = u_trace.samples;
     uint visible = 0u;
-    for (int i = u_range.x; i < u_range.x + u_range.y; ++i) {
+    for (int i = u_trace.first_sample; i < u_trace.first_sample + u_trace.sample_count; ++i) {
         vec3 target = light_point(o, sample_t(point, i, n));
         vec3 d = target - o;
         if (dot(d, nrm) <= 0.0) {
@@ -503,10 +504,10 @@ uint sampled_visible(vec3 o, vec3 nrm, uint point) {
 
 void main() {
     ivec2 px = ivec2(gl_GlobalInvocationID.xy);
-    if (px.x >= u_size.x || px.y >= u_size.y) {
+    if (px.x >= u_trace.width || px.y >= u_trace.height) {
         return;
     }
-    int index = px.y * u_size.x + px.x;
+    int index = px.y * u_trace.width + px.x;
     g_ray_tri = 0u;
     g_tri_tri = 0u;
     g_voxels = 0u;
@@ -518,17 +519,17 @@ void main() {
         vec3 p = texelFetch(u_position, px, 0).xyz;
         vec3 nrm = normalize(texelFetch(u_normal, px, 0).xyz);
         // Receiver self-occlusion: start the rays off the surface along its normal.
-        vec3 o = p + nrm * (u_offset.x + u_offset.y * length(p));
+        vec3 o = p + nrm * (u_trace.ray_offset + u_trace.ray_offset_per_metre * length(p));
         g_apex = o;
-        g_la = u_light_a.xyz;
-        g_lb = u_light_b.xyz;
+        g_la = u_trace.light_a;
+        g_lb = u_trace.light_b;
 #if METHOD == METHOD_TRI_CACHE
-        g_ray_id = uint(u_counts.w + index) & 0x7fffffffu;
+        g_ray_id = uint(u_trace.ray_id_base + index) & 0x7fffffffu;
 #elif METHOD == METHOD_VOXEL_CACHE
         voxel_cache_reset();
 #endif
 #if METHOD == METHOD_ANALYTIC
-        if (u_size.z == TRACE_LIGHT_SEGMENT) {
+        if (u_trace.light_mode == TRACE_LIGHT_SEGMENT) {
             vis = analytic_visibility(o, nrm);
         } else {
             visible = sampled_visible(o, nrm, uint(index));
@@ -538,7 +539,7 @@ void main() {
 #endif
     }
     uint truncated = loop_budget_left() ? 0u : 1u;
-    if (u_range.z != 0) {
+    if (u_trace.accumulate != 0) {
         PointResult before = u_results[index];
         g_ray_tri += before.ray_triangle_tests;
         g_tri_tri += before.triangle_triangle_tests;
@@ -548,9 +549,9 @@ void main() {
         truncated = max(truncated, before.truncated);
         visible += before.visible;
     }
-    bool exact = METHOD == METHOD_ANALYTIC && u_size.z == TRACE_LIGHT_SEGMENT;
+    bool exact = METHOD == METHOD_ANALYTIC && u_trace.light_mode == TRACE_LIGHT_SEGMENT;
     if (texelFetch(u_colour, px, 0).a > 0.0 && !exact) {
-        vis = float(visible) / float(u_counts.x);
+        vis = float(visible) / float(u_trace.samples);
     }
     u_results[index] = PointResult(vis, g_ray_tri, g_tri_tri, g_voxels, g_candidates,
                                    g_overflows, truncated, visible);

@@ -1,6 +1,6 @@
 // Shared code of the soft-shadow tracer: sample positions, the watertight ray-triangle test,
 // the conservative triangle-triangle and triangle-box tests, and cell access.
-// Needs trace_blocks.glsl. Mirrors: game/trace_samples.py (sample positions, for Embree).
+// Needs blocks/trace.glsl. Mirrors: game/reference/soft.py (sample positions, for Embree).
 
 // Relative tolerance of the conservative tests: a separating gap must exceed this share of the
 // coordinates' magnitude before a triangle is dropped (float32 rounding of the rays is ~1e-7).
@@ -162,9 +162,9 @@ bool triangle_may_touch_box(vec3 t0, vec3 t1, vec3 t2, vec3 centre, vec3 half_si
 
 // ---- Cells ----------------------------------------------------------------------------------
 int cell_index(ivec3 c) {
-    return c.x + u_grid_dims.x * (c.y + u_grid_dims.y * c.z);
+    return c.x + u_trace.grid_dims.x * (c.y + u_trace.grid_dims.y * c.z);
 }
 
 vec3 cell_centre(ivec3 c) {
-    return u_grid_origin.xyz + (vec3(c) + 0.5) * u_grid_cell.xyz;
+    return u_trace.grid_origin + (vec3(c) + 0.5) * u_trace.grid_cell;
 }

@@ -1,4 +1,9 @@
-"""Shared fixtures: one EGL context per session, checked for GL errors around every test."""
+"""Shared fixtures and constants: one EGL context per session, checked for GL errors around every
+test; the test scenes; the image sizes and the accuracy bound the tests share.
+
+Constants are imported by the test modules (``from tests.conftest import TINY``); fixtures are
+found by pytest.
+"""
 
 from __future__ import annotations
 
@@ -6,8 +11,22 @@ from pathlib import Path
 
 import pytest
 
+from game.scene import default_scene_path, load_scene
+
 ROOT = Path(__file__).resolve().parent.parent
-SCENES = Path(__file__).resolve().parent / "scenes"
+SCENES = ROOT / "tests" / "scenes"
+ASSETS = ROOT / "assets"
+DEFAULT = default_scene_path()
+TINY = SCENES / "tiny.toml"
+POINT = SCENES / "point.toml"
+SPOT = SCENES / "spot.toml"
+LOW_SUN = SCENES / "low_sun.toml"
+
+ACCURACY_SIZE = (320, 180)   # frames scored against Embree
+SMALL_SIZE = (160, 90)       # frames compared with each other
+MAX_ERROR = 0.05             # the shadow-error bound every method holds on ACCURACY_SCENES
+# The scenes the accuracy bound is asserted on, for every method.
+ACCURACY_SCENES = {"default": DEFAULT, "spot": SPOT, "point": POINT, "low_sun": LOW_SUN}
 
 
 @pytest.fixture(scope="session")
@@ -30,3 +49,15 @@ def ctx(gl_session):
     assert gl_session.error == "GL_NO_ERROR", "a GL error was left by an earlier test"
     yield gl_session
     assert gl_session.error == "GL_NO_ERROR"
+
+
+@pytest.fixture
+def tiny():
+    """tests/scenes/tiny.toml, loaded afresh (tests may edit it)."""
+    return load_scene(TINY)
+
+
+@pytest.fixture
+def default_scene():
+    """The built-in scene, loaded afresh (tests may edit it)."""
+    return load_scene(DEFAULT)

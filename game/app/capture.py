@@ -14,9 +14,8 @@ import numpy as np
 from game.app import dumps, frame_log, interrupts, outputs
 from game.gpu import context, resources
 from game.render.renderer import Frame, Renderer, View
-from game.scene import floors
-from game.scene.loader import Scene
-from game.shadows.methods import clumped as shadow_methods
+from game.scene import Scene, floors
+from game.shadows.plan import ShadowSettings
 
 
 @dataclass
@@ -31,7 +30,7 @@ class CaptureOptions:
     debug_view: str = "none"
     clock: str = "auto"
     overlay: bool = False      # draw the timing overlay (game/overlay.py) into the frames
-    settings: shadow_methods.ShadowSettings = field(default_factory=shadow_methods.ShadowSettings)
+    settings: ShadowSettings = field(default_factory=ShadowSettings)
     soft: object | None = None  # a tracer.TraceSettings: composite the linear light's shadows
     cull: bool = True          # camera pass: only triangles that can cover a pixel centre
 
@@ -57,7 +56,6 @@ def _resource_stats(frame: Frame) -> dict:
 def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
     """Render ``opts.frames`` frames and write them; returns the stats document."""
     opts.out.mkdir(parents=True, exist_ok=True)
-    from game.app import trace as trace_run
 
     renderer = Renderer(ctx, scene, opts.size, opts.settings,
                         gbuffer=opts.dump or opts.soft is not None, clock=opts.clock,
@@ -70,9 +68,7 @@ def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
         for k in range(opts.frames):
             interrupts.check()
             t = opts.time + k / opts.fps
-            frame = renderer.render(t, view)
-            if opts.soft is not None:
-                frame, _ = trace_run.soft_frame(renderer, frame, t, opts.soft)
+            frame = renderer.render(t, view, soft=opts.soft)
             stem = opts.out / f"frame_{k:04d}"
             if hud is not None:
                 frame.image = hud.draw_over_frame(renderer, frame, 1.0 / opts.fps)
@@ -92,7 +88,7 @@ def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
             "static_triangles": renderer.geom.triangle_count(
                 range(renderer.geom.first_static, renderer.geom.first_character)),
             "characters": renderer.geom.n_characters,
-            "notes": list(renderer.method.notes) + floors.floor_warnings(scene),
+            "notes": renderer.notes + floors.floor_warnings(scene),
             "frames": frames,
         }
     finally:

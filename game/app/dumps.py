@@ -12,7 +12,7 @@ import trimesh
 
 from game.app import outputs
 from game.render.renderer import Frame, View
-from game.scene.loader import Scene
+from game.scene import Scene
 
 
 def frame_geometry(scene: Scene, t: float) -> trimesh.Scene:

@@ -1,7 +1,7 @@
-"""Headless soft-shadow runs (``python -m game trace``) and the tracer's part in captures.
+"""Headless soft-shadow runs (``python -m game trace``).
 
-Scene -> Renderer (G-buffer) -> SoftTracer (visibility) -> the shading pass lit through it ->
-files: ``frame_kkkk.png`` (the soft-shadowed image), with ``--dump`` the arrays of CONTRACT.md
+Scene -> Renderer (G-buffer, then the tracer and the soft composite) -> files:
+``frame_kkkk.png`` (the soft-shadowed image), with ``--dump`` the arrays of docs/reference.md
 section 3 plus ``soft``, with ``--stats`` the JSON of section 4 plus the tracer's counters.
 """
 
@@ -16,7 +16,7 @@ from game.app import dumps, interrupts, outputs
 from game.errors import GameError
 from game.gpu import context
 from game.render.renderer import Frame, Renderer, View
-from game.scene.loader import Scene
+from game.scene import Scene
 from game.soft.tracer import COUNTERS, TraceResult, TraceSettings
 
 
@@ -31,21 +31,6 @@ class TraceOptions:
     stats: Path | None = None
     clock: str = "auto"
     settings: TraceSettings = field(default_factory=TraceSettings)
-
-
-def soft_frame(renderer: Renderer, frame: Frame, t: float,
-               settings: TraceSettings) -> tuple[Frame, TraceResult]:
-    """Trace the linear light over a rendered frame and shade the frame through it."""
-    if renderer.scene.linear_light is None:
-        raise GameError("the scene has no [linear_light] to trace")
-    result = renderer.trace(t, settings)
-    before = frame.ms.get("total", 0.0)
-    frame.image = renderer.shade_soft(result)
-    if frame.gbuffer is not None:
-        frame.gbuffer["soft"] = result.visibility
-    renderer.add_trace_ms(frame, result, "soft")
-    frame.ms["gbuffer"] = before
-    return frame, result
 
 
 def frame_stats(index: int, t: float, frame: Frame, result: TraceResult) -> dict:
@@ -78,8 +63,8 @@ def run(ctx, scene: Scene, opts: TraceOptions) -> dict:
         for k in range(opts.frames):
             interrupts.check()
             t = opts.time + k / opts.fps
-            frame = renderer.render(t, view)
-            frame, result = soft_frame(renderer, frame, t, opts.settings)
+            frame = renderer.render(t, view, soft=opts.settings)
+            result = frame.soft
             stem = opts.out / f"frame_{k:04d}"
             outputs.write_png(stem.with_suffix(".png"), frame.image)
             if opts.dump:

@@ -38,10 +38,11 @@ from game.bench.charts import row_number
 from game.errors import GameError
 from game.gpu import context
 from game.reference import hard as reference
+from game.reference.score import score_dump
 from game.render.renderer import Renderer, View
-from game.scene import floors
-from game.scene.loader import Scene, default_scene_path, parse_scene
-from game.shadows.methods import clumped as shadow_methods
+from game.scene import Scene, default_scene_path, floors, parse_scene
+from game.shadows import registry
+from game.shadows.plan import MapRecord, ShadowSettings
 
 FPS = 30.0                  # scene seconds per timing frame: 1 / FPS
 ORBIT_DEG = 1.0             # camera yaw per timing frame about the scene camera's target
@@ -89,9 +90,9 @@ class RunSpec:
     method: str
     params: tuple[tuple[str, object], ...] = ()
 
-    def settings(self) -> shadow_methods.ShadowSettings:
+    def settings(self) -> ShadowSettings:
         params = {k: v for k, v in self.params if k != RERENDER}
-        return shadow_methods.ShadowSettings(method=self.method, **params)
+        return ShadowSettings(method=self.method, **params)
 
     @property
     def rerender(self) -> bool:
@@ -180,12 +181,11 @@ def _p(**kw) -> tuple[tuple[str, object], ...]:
 def method_grid(scene: BenchScene, quick: bool, max_texture: int) -> list[RunSpec]:
     """Methods x parameters for one scene; the full grid on the default scene and the 1 M town."""
     k = scene.key
-    defaults = [RunSpec(k, "clumped"), RunSpec(k, "single"), RunSpec(k, "static-dynamic"),
-                RunSpec(k, "csm")]
+    defaults = [RunSpec(k, method) for method in registry.MAP_METHODS]
     if scene.group == "stability":
         if scene.factor == "maps":  # hundreds of character maps: keep their memory small
             small = _p(clump_resolution=256, character_resolution=256)
-            return [RunSpec(k, "clumped", small), *defaults[1:]]
+            return [RunSpec(k, "clumped", small), *(s for s in defaults if s.method != "clumped")]
         return defaults
     if quick:
         specs = [*defaults, RunSpec(k, "clumped", _p(clumping="world")),
@@ -221,14 +221,7 @@ def method_grid(scene: BenchScene, quick: bool, max_texture: int) -> list[RunSpe
     return specs
 
 
-def renderer_models(scene: Scene, t: float) -> np.ndarray:
-    """The characters' model matrices at time ``t``, as the renderer passes them to a plan."""
-    if not scene.characters:
-        return np.zeros((0, 4, 4))
-    return np.stack([c.model_matrix(t) for c in scene.characters])
-
-
-def footprints(maps: list[shadow_methods.MapRecord], cells: int = 1024) -> dict:
+def footprints(maps: list[MapRecord], cells: int = 1024) -> dict:
     """How the maps holding statics cover light space (directional lights only).
 
     ``footprint_overlap`` is the summed area of their rectangles over the area of their union
@@ -332,11 +325,7 @@ def _score(ctx, scene: Scene, spec: RunSpec, opts: BenchOptions, tmp: Path) -> d
                 continue
             stem = tmp / f"frame_{j:04d}"
             dumps.write_dump(stem, scene, view, opts.size, t, frame)
-            dump = reference.load_frame(stem.with_suffix(".npz"))
-            mesh = reference.load_geometry(stem.with_suffix(".glb"))
-            exact = reference.hard_visibility(mesh, dump["position"], dump["normal"], scene.light)
-            err = reference.shadow_error(dump["lit"], exact, dump["position"], dump["normal"],
-                                         scene.light)
+            err = score_dump(stem.with_suffix(".npz"), scene.light)
             errors.append(err["error"])
             mis += err["misclassified"]
             shadowed += err["shadowed"]
@@ -388,7 +377,7 @@ def measure_timing(ctx, scene: Scene, spec: RunSpec, opts: BenchOptions) -> dict
             frame = renderer.render(k / FPS, view)
             if k >= opts.warmup:
                 timed.append(frame)
-        plan = renderer.method.plan(renderer_models(scene, k / FPS), view)
+        plan = renderer.method.plan(renderer.models(k / FPS), view)
         statics = set(range(g.first_static, g.first_character))
         out.update(footprints([m for m in plan.maps if statics.intersection(m.objects)]))
         for p in PASSES:
@@ -400,7 +389,7 @@ def measure_timing(ctx, scene: Scene, spec: RunSpec, opts: BenchOptions) -> dict
                      "camera_triangles", "maps_per_fragment"):
             out[name] = float(np.mean([getattr(f, name) for f in timed]))
         out["shadow_memory_mib"] = renderer.shadow_memory_bytes / 2**20
-        out["notes"] = "; ".join(renderer.method.notes + floors.floor_warnings(scene))
+        out["notes"] = "; ".join(renderer.notes + floors.floor_warnings(scene))
     finally:
         renderer.release()
     return out

@@ -24,7 +24,7 @@ from game.errors import GameError
 from game.gpu import context
 from game.reference import soft as sr
 from game.render.renderer import Renderer, View
-from game.scene.loader import default_scene_path, load_scene
+from game.scene import default_scene_path, load_scene
 from game.soft.tracer import COUNTERS, RAY_OFFSET_DISTANCE, RAY_OFFSET_SCENE, TraceSettings
 
 SAMPLES = (1, 2, 4, 8, 16, 32, 64, 128, 256)

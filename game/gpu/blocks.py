@@ -1,80 +1,118 @@
-"""Every uniform and storage block, declared once as a numpy dtype with explicit std140 padding.
+"""Every uniform and storage block the shaders read, declared once, here.
 
-Keep in sync with shaders/blocks.glsl: each dtype below has its GLSL twin there, field by field.
-Matrices are stored as GLSL reads them (column-major), so fill them with ``transforms.gl_bytes``
-order, i.e. the transpose of our column-vector matrices.
+Each block's data is a numpy structured dtype with named fields and explicit std140 (uniform)
+or std430 (storage) padding. Its GLSL declaration is generated from that dtype by this module,
+which checks every field's offset against the layout rules as it goes, and reaches the shaders
+as a generated include: ``#include "blocks/frame.glsl"`` (see :data:`GENERATED`). No shader
+declares a block by hand. The binding points and texture units are the tables
+:data:`BINDINGS` and :data:`TEXTURE_UNITS`.
+
+Matrices are stored as GLSL reads them (column-major): fill them with the transpose of our
+column-vector matrices (``transforms.gl_bytes`` order). Fields whose names start with ``_pad``
+are padding and have no GLSL twin.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-# Keep in sync with shaders/blocks.glsl: struct ShadowMap.
-MAP_DTYPE = np.dtype([
-    ("view_proj", "<f4", (4, 4)),  # world -> the map's clip space (stored transposed)
-    # x: layer, y: texel size (orthographic: metres; perspective: per metre of depth),
-    # z: 1 for a perspective map, w: share of the layer the map's viewport uses (uv scale)
-    ("params", "<f4", 4),
-    ("eye", "<f4", 4),  # xyz: the map's eye; w: caster kind (0 static clump, 1 character, 2 all)
-    # orthographic maps: the light-space rectangle (xmin, ymin, xmax, ymax) the map covers
-    ("bounds", "<f4", 4),
-    # orthographic maps: x the near plane's distance along the light, y 1 / (far - near);
-    # z: 1 when the map was re-rendered this frame, 0 when it came from the cache (debug view)
-    ("depth", "<f4", 4),
-])
-assert MAP_DTYPE.itemsize == 128
-
-# Keep in sync with shaders/blocks.glsl: uniform block Frame.
-FRAME_DTYPE = np.dtype([
-    ("view_proj", "<f4", (4, 4)),  # camera: world -> clip (stored transposed)
-    ("light_rot", "<f4", (4, 4)),  # directional light: world -> light-space axes (transposed)
-    ("camera_pos", "<f4", 4),
-    ("light_dir", "<f4", 4),  # xyz: the way the light travels; w: kind (see LIGHT_KINDS)
-    ("light_pos", "<f4", 4),  # xyz: position (spot, point); w: cos of the spot's half cone
-    ("bias", "<f4", 4),  # x: normal offset, y: depth bias, z: slope bias (texels); w: max slope
-    ("grid_rect", "<f4", 4),  # light-space rectangle the map grid covers (xmin, ymin, xmax, ymax)
-    ("counts", "<i4", 4),  # x: maps, y: grid mode (GRID_*), z: grid cells per side, w: debug view
-    ("options", "<i4", 4),  # x: PCF on, y: first character object, z: objects, w: floors
-])
-assert FRAME_DTYPE.itemsize == 64 * 2 + 16 * 7
+# -- constants the shaders share ------------------------------------------------------------------
 
 LIGHT_KINDS = {"directional": 0, "spot": 1, "point": 2}
 GRID_NONE, GRID_ORTHO, GRID_OCTAHEDRAL = 0, 1, 2
-DEBUG_NONE, DEBUG_MAP, DEBUG_MAP_COUNT, DEBUG_CACHE = 0, 1, 2, 3
+DEBUG_VIEWS = {"none": 0, "map": 1, "map-count": 2, "cache": 3}
+TRACE_LIGHT_SEGMENT, TRACE_LIGHT_POINT, TRACE_LIGHT_DIRECTIONAL = 0, 1, 2
 
-# Binding points, shared by Python and shaders/blocks.glsl (passed in as #defines).
+# Binding points of every block, uniform and storage (GL numbers them apart; we never reuse one).
 BINDINGS = {
-    "FRAME_BINDING": 0,
-    "MAPS_BINDING": 1,
-    "GRID_BINDING": 2,
-    "MODELS_BINDING": 3,
-    "CHARACTER_MAPS_BINDING": 4,
+    "Frame": 0, "ShadowMaps": 1, "MapGrid": 2, "Models": 3, "CharacterMaps": 4,
+    "TraceParams": 5, "Triangles": 6, "StaticCells": 7, "DynamicCells": 8, "TriState": 9,
+    "Results": 10,
+    "Corners": 11, "Indices": 12, "Chunks": 13, "Culled": 14, "Commands": 15, "CullParams": 16,
 }
 
+# Texture units. Passes that never run together may share a unit.
+TEXTURE_UNITS = {
+    "shadow_maps": 0,        # the depth array (shading pass)
+    "trace_position": 1,     # the G-buffer, read by the tracer and the soft composite
+    "trace_normal": 2,
+    "trace_colour": 3,
+    "soft_visibility": 4,    # the traced visibility (soft composite)
+    "layer_view": 0,         # the overlay's layer viewer reads the depth array
+    "present_frame": 0,      # the window's picture of the frame
+}
 
-def max_maps(ctx) -> int:
-    """How many ShadowMap records fit the uniform block on this driver."""
-    limit = int(ctx.info.get("GL_MAX_UNIFORM_BLOCK_SIZE", 16384))
-    return min(limit // MAP_DTYPE.itemsize, 1024)
+# -- the blocks' data ------------------------------------------------------------------------------
 
-# Keep in sync with shaders/trace_blocks.glsl: uniform block TraceParams (game/tracer.py).
-TRACE_DTYPE = np.dtype([
-    ("grid_origin", "<f4", 4),  # xyz: the grid's lower corner
-    ("grid_cell", "<f4", 4),    # xyz: cell size (metres)
-    ("grid_dims", "<i4", 4),    # xyz: cells per axis; w: cells in all
-    ("light_a", "<f4", 4),      # xyz: segment start; point: position; directional: to the light
-    ("light_b", "<f4", 4),      # xyz: segment end
-    ("offset", "<f4", 4),       # x: ray start offset (m), y: extra per metre from the origin,
-                                # z: far distance of a directional light's rays
-    ("counts", "<i4", 4),       # x: samples, y: triangles, z: static triangles, w: ray id base
-    ("size", "<i4", 4),         # x: width, y: height, z: light mode (TRACE_LIGHT_*)
-    # x: first sample of this dispatch, y: samples in it, z: 1 to add to the stored results,
-    # w: 2, the trip count of the loop that detects llvmpipe's loop limit (game/tracer.py)
-    ("range", "<i4", 4),
+# One shadow map (struct ShadowMap, an element of the ShadowMaps uniform block).
+MAP_DTYPE = np.dtype([
+    ("view_proj", "<f4", (4, 4)),  # world -> the map's clip space
+    ("layer", "<i4"),              # layer of the depth array
+    ("texel", "<f4"),              # orthographic: metres per texel; perspective: per metre of depth
+    ("uv_scale", "<f4"),           # share of its layer the map uses, from the corner
+    ("fresh", "<i4"),              # 1: rendered this frame; 0: from the cache (debug view)
+    ("eye", "<f4", 3),             # the map's eye (perspective maps)
+    ("kind", "<i4"),               # what it holds: KIND_* of game/shadows/plan.py
+    ("bounds", "<f4", 4),          # orthographic: light-space rectangle (xmin, ymin, xmax, ymax)
+    ("near", "<f4"),               # orthographic: the near plane's distance along the light
+    ("inv_depth_range", "<f4"),    # orthographic: 1 / (far - near)
+    ("_pad0", "<f4", 2),
 ])
-assert TRACE_DTYPE.itemsize == 9 * 16
+assert MAP_DTYPE.itemsize == 128
 
-# Keep in sync with shaders/trace_blocks.glsl: struct PointResult, one per pixel.
+# What the whole frame shares (uniform block Frame).
+FRAME_DTYPE = np.dtype([
+    ("view_proj", "<f4", (4, 4)),  # camera: world -> clip
+    ("light_rot", "<f4", (4, 4)),  # directional light: world -> light-space axes
+    ("camera_pos", "<f4", 3),
+    ("map_count", "<i4"),
+    ("light_dir", "<f4", 3),       # the way the light travels (directional, spot)
+    ("floor_count", "<i4"),        # objects below this index are floors
+    ("light_pos", "<f4", 3),       # spot and point lights
+    ("cos_half_cone", "<f4"),      # spot light
+    ("normal_bias", "<f4"),        # texels, times sin(angle to the light)
+    ("depth_bias", "<f4"),         # texels
+    ("slope_bias", "<f4"),         # texels, times tan(angle to the light)
+    ("max_slope", "<f4"),          # cap on that tan
+    ("grid_rect", "<f4", 4),       # light-space rectangle the map grid covers
+    ("first_character", "<i4"),    # object index of the first character
+    ("grid_size", "<i4"),          # map grid cells per side
+    ("_pad0", "<i4", 2),
+])
+assert FRAME_DTYPE.itemsize == 224
+
+# The soft-shadow tracer's parameters (uniform block TraceParams).
+TRACE_DTYPE = np.dtype([
+    ("grid_origin", "<f4", 3),     # the grid's lower corner
+    ("_pad0", "<f4"),
+    ("grid_cell", "<f4", 3),       # cell size along each axis, metres
+    ("_pad1", "<f4"),
+    ("grid_dims", "<i4", 3),       # cells per axis
+    ("_pad2", "<i4"),
+    ("light_a", "<f4", 3),         # segment start; point light: position; directional: to the light
+    ("_pad3", "<f4"),
+    ("light_b", "<f4", 3),         # segment end
+    ("light_mode", "<i4"),         # TRACE_LIGHT_*
+    ("ray_offset", "<f4"),         # ray start offset along the normal, metres ...
+    ("ray_offset_per_metre", "<f4"),  # ... plus this much per metre from the origin
+    ("directional_far", "<f4"),    # length of a directional light's rays
+    ("samples", "<i4"),            # samples per shaded point
+    ("triangles", "<i4"),          # triangles in all
+    ("static_triangles", "<i4"),   # of which static (the first ones)
+    ("ray_id_base", "<i4"),        # tri-cache: ray id of pixel 0
+    ("width", "<i4"),              # G-buffer size
+    ("height", "<i4"),
+    ("first_sample", "<i4"),       # this dispatch's samples: [first_sample, + sample_count)
+    ("sample_count", "<i4"),
+    ("accumulate", "<i4"),         # 1: add to the stored results (a later dispatch)
+    ("loop_probe_trips", "<i4"),   # 2: the loop that detects llvmpipe's loop limit
+    ("_pad4", "<i4", 3),
+])
+assert TRACE_DTYPE.itemsize == 144
+
+# One shaded point's result (struct PointResult, an element of the Results buffer).
 TRACE_RESULT_DTYPE = np.dtype([
     ("visibility", "<f4"),              # visible share of the light; < 0 where no geometry
     ("ray_triangle_tests", "<u4"),
@@ -82,26 +120,186 @@ TRACE_RESULT_DTYPE = np.dtype([
     ("voxels_visited", "<u4"),
     ("candidates", "<u4"),
     ("overflows", "<u4"),
-    ("truncated", "<u4"),                # 1: the shader ran out of llvmpipe's loop budget
-    ("visible", "<u4"),                  # visible samples so far (accumulated over dispatches)
+    ("truncated", "<u4"),               # 1: the shader ran out of llvmpipe's loop budget
+    ("visible", "<u4"),                 # visible samples so far (accumulated over dispatches)
 ])
 assert TRACE_RESULT_DTYPE.itemsize == 32
 
-TRACE_LIGHT_SEGMENT, TRACE_LIGHT_POINT, TRACE_LIGHT_DIRECTIONAL = 0, 1, 2
-TRACE_BINDINGS = {
-    "TRACE_PARAMS_BINDING": 5,
-    "TRIANGLES_BINDING": 6,
-    "STATIC_CELLS_BINDING": 7,
-    "DYNAMIC_CELLS_BINDING": 8,
-    "TRI_STATE_BINDING": 9,
-    "RESULTS_BINDING": 10,
+# The camera pass's triangle culling (uniform block CullParams).
+CULL_DTYPE = np.dtype([
+    ("closed_triangles", "<i4"),   # closed volumes come first in the index buffer ...
+    ("triangles", "<i4"),          # ... then open meshes
+    ("closed_chunks", "<i4"),      # chunks of 32 triangles that hold closed volumes
+    ("chunks", "<i4"),
+    ("keep_closed", "<i4", 2),     # [first, end) triangles always kept: the characters among
+    ("keep_open", "<i4", 2),       # the closed volumes, and among the open meshes
+    ("viewport", "<f4", 2),        # pixels
+    ("_pad0", "<f4", 2),
+])
+assert CULL_DTYPE.itemsize == 48
+
+# One chunk of 32 triangles (struct Chunk, an element of the Chunks buffer).
+CHUNK_DTYPE = np.dtype([
+    ("mask", "<u4"),               # bit i: triangle i of the chunk is kept
+    ("first", "<u4"),              # its first slot in the output, in triangles
+])
+assert CHUNK_DTYPE.itemsize == 8
+
+# glDrawElementsIndirect's command (struct DrawCommand, an element of the Commands buffer).
+DRAW_COMMAND_DTYPE = np.dtype([
+    ("count", "<u4"), ("instances", "<u4"), ("first_index", "<u4"), ("base_vertex", "<u4"),
+    ("base_instance", "<u4"),
+])
+assert DRAW_COMMAND_DTYPE.itemsize == 20
+
+
+# -- GLSL from the dtypes --------------------------------------------------------------------------
+
+# (kind, components) -> GLSL type, base alignment in std140/std430 (bytes), size.
+_VECTORS = {"f": ("float", "vec"), "i": ("int", "ivec"), "u": ("uint", "uvec")}
+
+
+def _glsl_type(dtype: np.dtype) -> tuple[str, int, int]:
+    """The GLSL type of one field's dtype, its base alignment and its size (both layouts)."""
+    base, shape = (dtype.subdtype if dtype.subdtype is not None else (dtype, ()))
+    if base.itemsize != 4 or base.kind not in _VECTORS or base.byteorder == ">":
+        raise TypeError(f"no GLSL type for {dtype}")
+    scalar, vector = _VECTORS[base.kind]
+    if shape == ():
+        return scalar, 4, 4
+    if len(shape) == 1 and 2 <= shape[0] <= 4:
+        n = shape[0]
+        return f"{vector}{n}", (8 if n == 2 else 16), 4 * n
+    if shape == (4, 4) and base.kind == "f":
+        return "mat4", 16, 64
+    raise TypeError(f"no GLSL type for {dtype}")
+
+
+def _round_up(value: int, alignment: int) -> int:
+    return (value + alignment - 1) // alignment * alignment
+
+
+def glsl_members(dtype: np.dtype, layout: str, indent: str = "    ") -> str:
+    """The GLSL member declarations of ``dtype``, one per line, after checking that each field's
+    offset is where ``layout`` (``"std140"`` or ``"std430"``) puts it, and the size too."""
+    lines, offset, alignment = [], 0, 4
+    for name in dtype.names:
+        field, at = dtype.fields[name][:2]
+        if name.startswith("_pad"):
+            continue  # GLSL has no member here: the layout rules must leave the same gap
+        glsl, align, size = _glsl_type(field)
+        expected = _round_up(offset, align)
+        if at != expected:
+            raise AssertionError(f"{name}: at byte {at}, but {layout} puts it at {expected}")
+        lines.append(f"{indent}{glsl} {name};")
+        offset, alignment = at + size, max(alignment, align)
+    if layout == "std140":
+        alignment = max(alignment, 16)  # std140 rounds a struct's alignment up to a vec4's
+    if dtype.itemsize != _round_up(offset, alignment):
+        raise AssertionError(f"{dtype.itemsize} bytes, but {layout} makes it "
+                             f"{_round_up(offset, alignment)}")
+    return "\n".join(lines)
+
+
+@dataclass(frozen=True)
+class Struct:
+    """A GLSL struct made from a dtype (the element of an array in a block)."""
+
+    name: str
+    dtype: np.dtype
+    layout: str
+
+    def glsl(self) -> str:
+        return f"struct {self.name} {{\n{glsl_members(self.dtype, self.layout)}\n}};"
+
+
+@dataclass(frozen=True)
+class Block:
+    """One uniform or storage block.
+
+    Either ``dtype`` gives its members (read as ``instance.member``), or ``array`` gives one
+    array member: (element type, member name, length; ``""`` for a runtime-sized array).
+    """
+
+    kind: str                      # "uniform" or "buffer"
+    name: str
+    dtype: np.dtype | None = None
+    instance: str = ""
+    array: tuple[str, str, str] | None = None
+    access: str = ""               # storage blocks: "readonly", "writeonly", "coherent" or ""
+
+    @property
+    def layout(self) -> str:
+        return "std140" if self.kind == "uniform" else "std430"
+
+    @property
+    def binding(self) -> int:
+        return BINDINGS[self.name]
+
+    def glsl(self) -> str:
+        qualifiers = f"layout({self.layout}, binding = {self.binding})"
+        head = " ".join(x for x in (qualifiers, self.access, self.kind, self.name) if x)
+        if self.array is not None:
+            element, member, length = self.array
+            return f"{head} {{\n    {element} {member}[{length}];\n}};"
+        return f"{head} {{\n{glsl_members(self.dtype, self.layout)}\n}} {self.instance};"
+
+
+# The generated includes: the blocks each family of shaders reads, in declaration order.
+# MAX_MAPS (the length of the ShadowMaps array) arrives as a #define (see :func:`max_maps`).
+GROUPS: dict[str, list[Struct | Block]] = {
+    "blocks/frame.glsl": [
+        Block("uniform", "Frame", FRAME_DTYPE, instance="u_frame"),
+        Struct("ShadowMap", MAP_DTYPE, "std140"),
+        Block("uniform", "ShadowMaps", array=("ShadowMap", "u_maps", "MAX_MAPS")),
+        # Light-space grid of map lists: u_grid[0 .. n*n] are offsets into the same array,
+        # where the map indices of each cell follow (game/shadows/map_grid.py).
+        Block("buffer", "MapGrid", array=("int", "u_grid", ""), access="readonly"),
+        # Model matrices of the characters, indexed by object - u_frame.first_character.
+        Block("buffer", "Models", array=("mat4", "u_models", ""), access="readonly"),
+        # Per character, the index of its map in u_maps this frame (-1: none).
+        Block("buffer", "CharacterMaps", array=("int", "u_character_maps", ""),
+              access="readonly"),
+    ],
+    "blocks/trace.glsl": [
+        Block("uniform", "TraceParams", TRACE_DTYPE, instance="u_trace"),
+        # Three vec4 per triangle (xyz used), world space: statics, then the posed characters.
+        Block("buffer", "Triangles", array=("vec4", "u_tri", ""), access="readonly"),
+        # Cell lists in CSR form (game/soft/grid.py CellLists.gpu_array): entries 0..cells are
+        # offsets into the same array; the triangle ids of cell c are [cells[c], cells[c + 1]).
+        Block("buffer", "StaticCells", array=("int", "u_static_cells", ""), access="readonly"),
+        Block("buffer", "DynamicCells", array=("int", "u_dynamic_cells", ""),
+              access="readonly"),
+        # tri-cache: per triangle (ray id << 1) | flag, flag 1 = cannot occlude for that point.
+        Block("buffer", "TriState", array=("uint", "u_tri_state", ""), access="coherent"),
+        Struct("PointResult", TRACE_RESULT_DTYPE, "std430"),
+        Block("buffer", "Results", array=("PointResult", "u_results", "")),
+    ],
+    "blocks/cull.glsl": [
+        Block("uniform", "CullParams", CULL_DTYPE, instance="u_cull"),
+        # Each triangle's three corners (world space, nine floats), in index-buffer order.
+        Block("buffer", "Corners", array=("float", "u_corners", ""), access="readonly"),
+        Block("buffer", "Indices", array=("uint", "u_indices", ""), access="readonly"),
+        Struct("Chunk", CHUNK_DTYPE, "std430"),
+        Block("buffer", "Chunks", array=("Chunk", "u_chunks", "")),
+        Block("buffer", "Culled", array=("uint", "u_culled", ""), access="writeonly"),
+        Struct("DrawCommand", DRAW_COMMAND_DTYPE, "std430"),
+        # Two commands: the closed volumes (back faces culled), then the open meshes.
+        Block("buffer", "Commands", array=("DrawCommand", "u_commands", "2"),
+              access="writeonly"),
+    ],
 }
 
-# The camera pass's triangle culling (game/triangle_cull.py, shaders/cull.comp).
-CULL_BINDINGS = {
-    "CULL_CORNERS_BINDING": 11,
-    "CULL_INDICES_BINDING": 12,
-    "CULL_CHUNKS_BINDING": 13,
-    "CULL_OUTPUT_BINDING": 14,
-    "CULL_COMMANDS_BINDING": 15,
-}
+
+def _generate(name: str, items: list[Struct | Block]) -> str:
+    head = f"// {name}: generated by game/gpu/blocks.py from its numpy dtypes; do not edit."
+    return "\n".join([head, *(item.glsl() for item in items)]) + "\n"
+
+
+GENERATED = {name: _generate(name, items) for name, items in GROUPS.items()}
+
+
+def max_maps(ctx) -> int:
+    """How many ShadowMap records fit the uniform block on this driver."""
+    limit = int(ctx.info.get("GL_MAX_UNIFORM_BLOCK_SIZE", 16384))
+    return min(limit // MAP_DTYPE.itemsize, 1024)

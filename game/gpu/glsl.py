@@ -1,7 +1,9 @@
 """The shader preprocessor: ``#define``s after ``#version`` and ``#include`` with a depth limit.
 
-Shader sources live in ``shaders/``; values reach GLSL only through :func:`build`'s ``defines``,
-never through string formatting of GLSL code. Pure string work, unit-tested without GL.
+Shader sources live in ``shaders/``; the block declarations are generated includes
+(``blocks/*.glsl``, from game/gpu/blocks.py). Values reach GLSL only through :func:`build`'s
+``defines``, never through string formatting of GLSL code. Pure string work, unit-tested
+without GL.
 """
 
 from __future__ import annotations
@@ -10,6 +12,7 @@ import re
 from collections.abc import Callable, Mapping
 
 from game.data import SHADER_DIR
+from game.gpu.blocks import GENERATED
 
 MAX_INCLUDE_DEPTH = 8
 
@@ -81,6 +84,8 @@ def _resolve(source: str, read: Callable[[str], str], name: str, depth: int) -> 
 
 
 def _read_shader_file(name: str) -> str:
+    if name in GENERATED:
+        return GENERATED[name]
     path = (SHADER_DIR / name).resolve()
     if SHADER_DIR not in path.parents:
         raise OSError(f"{name} is outside {SHADER_DIR}")

@@ -3,7 +3,7 @@
 GPU timer queries read wrong on Mesa llvmpipe (28 ms of work read as 0.003 ms; the first query
 read 4294.97 ms), so there the clock is the CPU's, around ``ctx.finish()``: ``cpu-finish``. On
 real GPUs the passes are timed with GL_TIME_ELAPSED queries: ``gpu-query``. Stats files record
-which clock was used (CONTRACT.md section 4).
+which clock was used (docs/reference.md, section 4).
 """
 
 from __future__ import annotations
@@ -53,6 +53,10 @@ class PassTimer:
         yield
         self.ctx.finish()
         self.ms[name] = self.ms.get(name, 0.0) + (time.perf_counter() - start) * 1e3
+
+    def gl_objects(self) -> int:
+        """The timer queries made so far (one per pass name, kept for later frames)."""
+        return len(self._queries)
 
     def release(self) -> None:
         for query in self._queries.values():

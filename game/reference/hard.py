@@ -121,7 +121,11 @@ def load_geometry(glb_path: str | Path, skip_prefixes: tuple[str, ...] = ()) -> 
     Nodes whose name starts with one of ``skip_prefixes`` are left out (``NON_CASTER_PREFIXES``
     drops the floors, which the contract says cast no shadows).
     """
-    data = Path(glb_path).read_bytes()
+    return geometry_from_glb(Path(glb_path).read_bytes(), skip_prefixes)
+
+
+def geometry_from_glb(data: bytes, skip_prefixes: tuple[str, ...] = ()) -> trimesh.Trimesh:
+    """:func:`load_geometry` of a glb file's bytes."""
     # process=False: keep the triangles exactly as written, no merging or reordering.
     scene = trimesh.load(io.BytesIO(data), file_type="glb", force="scene", process=False)
     parts = []

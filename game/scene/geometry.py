@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from game.scene.loader import Scene
+from game.scene.model import Scene
 
 
 @dataclass

@@ -1,7 +1,7 @@
 """The records every hard-shadow method plans with: settings, map records, the frame's plan.
 
-Kept apart from the planners (game/shadow_methods.py, game/baselines.py,
-game/traced_shadows.py) so that each of them depends on these records and none on another.
+Kept apart from the methods (game/shadows/methods/) so that each of them depends on these
+records and none on another.
 """
 
 from __future__ import annotations

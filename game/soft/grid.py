@@ -18,8 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from game.scene import Scene
 from game.scene.geometry import PackedGeometry
-from game.scene.loader import Scene
 
 # Cells per triangle the grid aims for (Wald et al. and PBRT use a few cells per primitive).
 CELLS_PER_TRIANGLE = 2.0

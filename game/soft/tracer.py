@@ -5,17 +5,7 @@ buffers), creates them explicitly and releases them in :meth:`SoftTracer.release
 :class:`~game.renderer.Renderer`) releases it. The grid comes from game/trace_grid.py: the
 statics' lists are uploaded once, the characters' triangles and lists every frame.
 
-Methods (CONTRACT.md section 2), all in shaders/trace.comp, picked by ``#define METHOD``:
-
-- ``brute``: every sample ray against every triangle (the oracle).
-- ``grid``: 3D-DDA through the grid, a small per-ray mailbox.
-- ``tri-cache``: [643] of the seed: a per-triangle (ray id, flag) word; the triangle-versus-light
-  triangle test runs once per shaded point and triangle.
-- ``voxel-cache``: the seed's scheme, per invocation: a direct-mapped table of ``vc_slots``
-  voxels whose candidates share a pool of ``vc_pool`` triangle ids, reset per point
-  (see docs/soft.md).
-- ``analytic``: exact: every triangle that meets the light triangle hides an interval of the
-  segment; the union of the intervals is the hidden share.
+The methods (game/soft/methods.py) all live in shaders/trace.comp, picked by ``#define METHOD``.
 """
 
 from __future__ import annotations
@@ -25,15 +15,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from game.gpu import blocks as gpu_blocks
-from game.gpu import context, glsl, resources
+from game.gpu import blocks, context, glsl, resources
 from game.gpu.blocks import TRACE_DTYPE, TRACE_RESULT_DTYPE
 from game.gpu.timing import PassTimer
+from game.scene import Scene
 from game.scene.geometry import PackedGeometry
-from game.scene.loader import Scene
 from game.soft.grid import BIN_PAD_CELLS, CELLS_PER_TRIANGLE, SceneGrid
+from game.soft.methods import METHODS, TraceSettings
 
-METHODS = {"brute": 0, "grid": 1, "tri-cache": 2, "voxel-cache": 3, "analytic": 4}
 COUNTERS = ("ray_triangle_tests", "triangle_triangle_tests", "voxels_visited", "candidates",
             "overflows")
 # Ray start offset along the normal (receiver self-occlusion): a share of the grid's diagonal
@@ -48,33 +37,9 @@ POINTS_PER_ROW = 1024      # trace_points: G-buffer width
 # on Mesa 22.3.6; see loop_budget_left in shaders/trace.comp). Dispatches aim below this.
 LOOP_BUDGET = 60_000
 LOOP_PROBE_TRIPS = 2
-TEXTURE_UNITS = {"u_position": 1, "u_normal": 2, "u_colour": 3}
-
-
-@dataclass(frozen=True)
-class TraceSettings:
-    """How the soft-shadow pass runs."""
-
-    method: str = "voxel-cache"
-    samples: int = 32
-    cells_per_triangle: float = CELLS_PER_TRIANGLE
-    vc_slots: int = 64       # voxel-cache: voxels cached per shaded point (a power of two)
-    vc_pool: int = 256       # voxel-cache: candidate ids cached per shaded point
-    mailbox: int = 8         # triangles remembered per ray
-    max_intervals: int = 32  # analytic: disjoint hidden intervals kept per point
-
-    def __post_init__(self) -> None:
-        if self.method not in METHODS:
-            raise ValueError(f"unknown trace method {self.method!r}; valid: {', '.join(METHODS)}")
-        if self.samples < 1:
-            raise ValueError("samples must be at least 1")
-        if self.vc_slots < 1 or self.vc_slots & (self.vc_slots - 1):
-            raise ValueError("vc_slots must be a power of two")
-
-    @property
-    def voxel_cache_bytes_per_point(self) -> int:
-        """Private memory of one invocation's voxel cache: keys, starts, counts, the pool."""
-        return 4 * (3 * self.vc_slots + self.vc_pool + 1)
+TEXTURE_UNITS = {"u_position": blocks.TEXTURE_UNITS["trace_position"],
+                 "u_normal": blocks.TEXTURE_UNITS["trace_normal"],
+                 "u_colour": blocks.TEXTURE_UNITS["trace_colour"]}
 
 
 @dataclass
@@ -131,12 +96,11 @@ class SoftTracer:
         return [self.tri_ssbo, self.static_ssbo, self.dynamic_ssbo, self.state_ssbo,
                 self.params_ubo, self.results_ssbo]
 
-    @property
     def gl_objects(self) -> int:
         """GL objects this tracer holds now: buffers, programs, their shader objects (moderngl
         keeps them attached until the program is released) and timer queries."""
         return (len(self._buffers()) + len(self._programs)
-                + resources.attached_shaders(self._programs.values()) + len(self.timer._queries))
+                + resources.attached_shaders(self._programs.values()) + self.timer.gl_objects())
 
     def release(self) -> None:
         for obj in [*self._programs.values(), *self._buffers()]:
@@ -155,16 +119,16 @@ class SoftTracer:
                settings.max_intervals)
         prog = self._programs.get(key)
         if prog is None:
-            defines = dict(gpu_blocks.TRACE_BINDINGS)
-            defines.update({f"METHOD_{name.upper().replace('-', '_')}": value
-                            for name, value in METHODS.items()})
+            defines = {}
+            defines.update({f"METHOD_{name.upper().replace('-', '_')}": method.shader_id
+                            for name, method in METHODS.items()})
             defines.update(
-                METHOD=METHODS[settings.method], MAILBOX_SIZE=settings.mailbox,
+                METHOD=METHODS[settings.method].shader_id, MAILBOX_SIZE=settings.mailbox,
                 VC_SLOTS=settings.vc_slots, VC_POOL=settings.vc_pool,
                 MAX_INTERVALS=settings.max_intervals, BIN_PAD_CELLS=BIN_PAD_CELLS,
-                TRACE_LIGHT_SEGMENT=gpu_blocks.TRACE_LIGHT_SEGMENT,
-                TRACE_LIGHT_POINT=gpu_blocks.TRACE_LIGHT_POINT,
-                TRACE_LIGHT_DIRECTIONAL=gpu_blocks.TRACE_LIGHT_DIRECTIONAL)
+                TRACE_LIGHT_SEGMENT=blocks.TRACE_LIGHT_SEGMENT,
+                TRACE_LIGHT_POINT=blocks.TRACE_LIGHT_POINT,
+                TRACE_LIGHT_DIRECTIONAL=blocks.TRACE_LIGHT_DIRECTIONAL)
             prog = self.ctx.compute_shader(glsl.build("trace.comp", defines))
             self._programs[key] = prog
         return prog
@@ -217,17 +181,18 @@ class SoftTracer:
                 first: int = 0, count: int | None = None) -> np.ndarray:
         spec = self.grid.spec
         p = np.zeros(1, TRACE_DTYPE)
-        p["grid_origin"] = (*spec.origin, 0.0)
-        p["grid_cell"] = (*spec.cell, 0.0)
-        p["grid_dims"] = (*spec.dims, spec.n_cells)
-        p["light_a"] = (*np.asarray(a, float), 0.0)
-        p["light_b"] = (*np.asarray(b, float), 0.0)
-        p["offset"] = (RAY_OFFSET_SCENE * spec.diagonal, RAY_OFFSET_DISTANCE,
-                       4.0 * (spec.diagonal + float(np.linalg.norm(spec.origin))), 0.0)
-        p["counts"] = (samples, self.n_triangles, self.grid.n_static, self._ray_id_base)
-        p["size"] = (size[0], size[1], mode, 0)
-        count = samples if count is None else count
-        p["range"] = (first, count, int(first > 0), LOOP_PROBE_TRIPS)
+        p["grid_origin"], p["grid_cell"], p["grid_dims"] = spec.origin, spec.cell, spec.dims
+        p["light_a"], p["light_b"], p["light_mode"] = a, b, mode
+        p["ray_offset"] = RAY_OFFSET_SCENE * spec.diagonal
+        p["ray_offset_per_metre"] = RAY_OFFSET_DISTANCE
+        p["directional_far"] = 4.0 * (spec.diagonal + float(np.linalg.norm(spec.origin)))
+        p["samples"], p["triangles"] = samples, self.n_triangles
+        p["static_triangles"], p["ray_id_base"] = self.grid.n_static, self._ray_id_base
+        p["width"], p["height"] = size
+        p["first_sample"] = first
+        p["sample_count"] = samples if count is None else count
+        p["accumulate"] = int(first > 0)
+        p["loop_probe_trips"] = LOOP_PROBE_TRIPS
         return p
 
     def _first_chunk(self, settings: TraceSettings) -> int:
@@ -242,7 +207,7 @@ class SoftTracer:
                       chunk: int) -> None:
         w, h = size
         n = settings.samples
-        exact = settings.method == "analytic" and mode == gpu_blocks.TRACE_LIGHT_SEGMENT
+        exact = not METHODS[settings.method].sampled and mode == blocks.TRACE_LIGHT_SEGMENT
         starts = [0] if exact else range(0, n, chunk)
         for first in starts:
             count = n if exact else min(chunk, n - first)
@@ -284,14 +249,11 @@ class SoftTracer:
                     self.state_ssbo.clear()
                     self._ray_id_base = 1
                 self._ray_id_base += w * h
-            self.params_ubo.bind_to_uniform_block(
-                gpu_blocks.TRACE_BINDINGS["TRACE_PARAMS_BINDING"])
-            for buf, name in ((self.tri_ssbo, "TRIANGLES_BINDING"),
-                              (self.static_ssbo, "STATIC_CELLS_BINDING"),
-                              (self.dynamic_ssbo, "DYNAMIC_CELLS_BINDING"),
-                              (self.state_ssbo, "TRI_STATE_BINDING"),
-                              (self.results_ssbo, "RESULTS_BINDING")):
-                buf.bind_to_storage_buffer(gpu_blocks.TRACE_BINDINGS[name])
+            self.params_ubo.bind_to_uniform_block(blocks.BINDINGS["TraceParams"])
+            for buf, name in ((self.tri_ssbo, "Triangles"), (self.static_ssbo, "StaticCells"),
+                              (self.dynamic_ssbo, "DynamicCells"), (self.state_ssbo, "TriState"),
+                              (self.results_ssbo, "Results")):
+                buf.bind_to_storage_buffer(blocks.BINDINGS[name])
             for tex, (name, unit) in zip(textures, TEXTURE_UNITS.items(), strict=True):
                 tex.use(unit)
                 try:
@@ -325,7 +287,7 @@ class SoftTracer:
         ms["total"] = ms.get("total", 0.0) + build_ms
         ms["trace_discarded"] = discarded
         counters = {name: np.ascontiguousarray(raw[name]) for name in COUNTERS}
-        n = settings.samples
+        sampled = METHODS[settings.method].sampled
         return TraceResult(visibility=vis, counters=counters, ms=ms,
                            truncated=int(raw["truncated"][np.isfinite(vis)].sum()),
-                           samples_per_dispatch=n if settings.method == "analytic" else chunk)
+                           samples_per_dispatch=chunk if sampled else settings.samples)

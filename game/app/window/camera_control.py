@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from game import transforms
-from game.scene.loader import Camera
+from game.scene import Camera
 
 MOVE_SPEED_M_S = 4.0          # walking speed
 FAST_FACTOR = 4.0             # Shift multiplies the speed by this

@@ -18,7 +18,7 @@ MAPS_UNIT = 0
 class LayerViewer:
     def __init__(self, ctx):
         self.ctx = ctx
-        self.program = ctx.program(vertex_shader=glsl.build("present.vert"),
+        self.program = ctx.program(vertex_shader=glsl.build("fullscreen.vert"),
                                    fragment_shader=glsl.build("layer_view.frag"))
         self.vao = ctx.vertex_array(self.program, [])
         self.sampler = ctx.sampler(filter=(moderngl.NEAREST, moderngl.NEAREST),

@@ -7,7 +7,7 @@ included), the sun, the debug view and, in a window, whether soft shadows are tr
 
 The same overlay draws into a window (``window`` given: the GLFW backend feeds it input) or into
 any framebuffer with no window at all (``capture --overlay``: display size and frame time are set
-by hand). The controls are built from :class:`shadow_methods.ShadowSettings`'s fields and the
+by hand). The controls are built from :class:`ShadowSettings`'s fields and the
 method list, so settings and methods added later appear without edits here.
 
 The overlay owns an imgui and an implot context and the OpenGL3 backend's GL objects (made in
@@ -25,9 +25,10 @@ import numpy as np
 from imgui_bundle import imgui, implot
 
 from game.app.window.layer_view import LayerViewer
-from game.render.renderer import DEBUG_VIEWS, Frame, Renderer
-from game.shadows.methods import clumped as shadow_methods
-from game.shadows.methods.traced import TRACED_METHOD
+from game.gpu.blocks import DEBUG_VIEWS
+from game.render.renderer import Frame, Renderer
+from game.shadows import clumping, registry
+from game.shadows.plan import ShadowSettings
 
 GLSL_VERSION = "#version 430"
 HISTORY_FRAMES = 300               # frames in the rolling graph
@@ -47,14 +48,14 @@ HIDDEN_PASSES = ("readback", "gbuffer")
 # The tracer's sub-totals and parts: counted in the passes above and in "total".
 HIDDEN_SUFFIXES = ("_total", "_build_static", "_build_dynamic", "_trace_discarded")
 # The methods offered: the map-based ones and the compute tracer's exact hard shadows.
-METHODS = (*shadow_methods.METHODS, TRACED_METHOD)
+METHODS = tuple(registry.METHODS)
 # Window work after the scene's passes; shown after "total", which does not include them.
 WINDOW_PASSES = ("present", "overlay")      # CPU copy for files, not part of drawing a frame
 RESOLUTIONS = (128, 256, 512, 1024, 2048, 4096)  # larger layers: GiBs of depth array
 # Settings read only by the shading pass: edited in place, no re-clumping, maps stay cached.
 SHADING_ONLY = {"normal_bias", "depth_bias", "slope_bias", "max_slope", "pcf"}
 SETTING_CHOICES = {"method": lambda: METHODS,
-                   "clumping": lambda: shadow_methods.CLUMPINGS,
+                   "clumping": lambda: clumping.STRATEGIES,
                    "grid": lambda: ("auto", "on", "off")}
 MAX_INT_EDIT = 1 << 16           # drag limits of whole-number and real settings
 MAX_FLOAT_EDIT = 1e6
@@ -99,7 +100,7 @@ class Figures:
 class Changes:
     """What the user changed in the overlay this frame (None: unchanged)."""
 
-    settings: shadow_methods.ShadowSettings | None = None   # needs new maps
+    settings: ShadowSettings | None = None   # needs new maps
     light: object | None = None
     debug_view: str | None = None
     paused: bool | None = None
@@ -297,7 +298,7 @@ class Overlay:
             imgui.end_tab_item()
         if self._tab("shadows"):
             self._draw_settings(renderer.settings, changes)
-            for note in renderer.method.notes[-2:]:
+            for note in renderer.notes[-2:]:
                 imgui.text_wrapped(f"note: {note}")
             imgui.end_tab_item()
         if self._tab("maps"):
@@ -378,7 +379,7 @@ class Overlay:
             changes.light = dataclasses.replace(light,
                                                 direction=sun_direction(azimuth, elevation))
 
-    def _draw_settings(self, settings: shadow_methods.ShadowSettings, changes: Changes) -> None:
+    def _draw_settings(self, settings: ShadowSettings, changes: Changes) -> None:
         """One control per settings field, chosen by the field's name and default's type."""
         new = {}
         for field in dataclasses.fields(settings):
@@ -450,10 +451,11 @@ class Overlay:
         figures = Figures.of(frame, renderer.timer.clock, 1e3 / total if total else None)
         figures.fps_from_total = True
         self.draw(figures, renderer, False, renderer.size, dt)
-        renderer.target.use()
+        framebuffer, _ = renderer.display
+        framebuffer.use()
         self.render()
         w, h = renderer.size
-        data = renderer.target.read(viewport=(0, 0, w, h), components=3, attachment=0)
+        data = framebuffer.read(viewport=(0, 0, w, h), components=3, attachment=0)
         return np.frombuffer(data, np.uint8).reshape(h, w, 3)[::-1].copy()
 
     def release(self) -> None:

@@ -25,7 +25,7 @@ class Presenter:
 
     def __init__(self, ctx):
         self.ctx = ctx
-        self.program = ctx.program(vertex_shader=glsl.build("present.vert"),
+        self.program = ctx.program(vertex_shader=glsl.build("fullscreen.vert"),
                                    fragment_shader=glsl.build("present.frag"))
         self.vao = ctx.vertex_array(self.program, [])
         self.size: tuple[int, int] | None = None

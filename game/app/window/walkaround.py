@@ -37,14 +37,13 @@ import glfw
 import numpy as np
 
 from game.app import interrupts, outputs
-from game.app import trace as trace_run
 from game.app.window.overlay import METHODS, Figures, Overlay
 from game.app.window.present import Presenter
 from game.errors import GameError
 from game.gpu import context
 from game.render.renderer import Renderer, View
-from game.scene.loader import Scene
-from game.shadows.methods import clumped as shadow_methods
+from game.scene import Scene
+from game.shadows.plan import ShadowSettings
 from game.soft.tracer import TraceSettings
 
 TITLE = "shadowgame"
@@ -113,8 +112,8 @@ class PlayOptions:
     soft: bool = False                   # trace the linear light's soft shadows
     cull: bool = True                    # camera pass: only triangles that can show
     platform: str = "auto"               # "null": no display (tests)
-    settings: shadow_methods.ShadowSettings = dataclasses.field(
-        default_factory=shadow_methods.ShadowSettings)
+    settings: ShadowSettings = dataclasses.field(
+        default_factory=ShadowSettings)
 
 
 class Walkaround:
@@ -182,7 +181,7 @@ class Walkaround:
         self._frame_times: deque[float] = deque(maxlen=FPS_WINDOW_FRAMES)
         self._mpf: float | None = None
         self._window_ms: dict[str, float] = {}
-        self._good_settings: shadow_methods.ShadowSettings | None = None
+        self._good_settings: ShadowSettings | None = None
 
     # -- input --------------------------------------------------------------------------------
     def _on_key(self, window, key, scancode, action, mods) -> None:
@@ -235,6 +234,11 @@ class Walkaround:
             raise GameError("soft shadows: the scene has no [linear_light]")
         self.soft = on
 
+    def _soft_settings(self) -> TraceSettings | None:
+        """Soft shadows light the frame by the linear light, replacing the hard method's
+        shading."""
+        return SOFT_SETTINGS if self.soft else None
+
     def gl_objects(self) -> int:
         """Live GL objects of the renderer, its tracer included (toggling must not grow them)."""
         return sum(self.renderer.gl_objects().values())
@@ -268,20 +272,17 @@ class Walkaround:
         self.renderer.resize(self.render_size(size))
         read = self.frames % MPF_EVERY_FRAMES == 0
         try:
-            frame = self.renderer.render(self.scene_time, self.view(size), read=read)
+            frame = self.renderer.render(self.scene_time, self.view(size), read=read,
+                                         soft=self._soft_settings())
         except GameError as exc:  # settings the GL cannot take (too many texels): undo them
             if self._good_settings is None or self.overlay is None:
                 raise
             self.renderer.set_settings(self._good_settings)
             self.overlay.message = str(exc)
             self.renderer.set_gbuffer(self.soft)
-            frame = self.renderer.render(self.scene_time, self.view(size), read=read)
+            frame = self.renderer.render(self.scene_time, self.view(size), read=read,
+                                         soft=self._soft_settings())
         self._good_settings = self.renderer.settings
-        # Soft shadows light the frame by the linear light, so they replace the hard method's
-        # shading (the traced method's exact hard shadows come with the frame itself).
-        if self.soft:
-            frame, _ = trace_run.soft_frame(self.renderer, frame, self.scene_time,
-                                            SOFT_SETTINGS)
         if frame.maps_per_fragment is not None:
             self._mpf = frame.maps_per_fragment
         fps = (len(self._frame_times) / sum(self._frame_times)
@@ -300,12 +301,13 @@ class Walkaround:
         shot = self._screenshot_next or (last and self.opts.screenshot is not None)
         screen = self.ctx.detect_framebuffer(0)
         with timer.measure("present", wall=True):
+            framebuffer, texture = self.renderer.display
             if shot or self.renderer.size == size:
                 self.presenter.resize(size)
-                self.presenter.show(self.renderer.target, self.renderer.color_tex)
+                self.presenter.show(framebuffer, texture)
                 self.canvas = self.presenter.target
             else:
-                self.presenter.draw(self.renderer.color_tex, screen, size)
+                self.presenter.draw(texture, screen, size)
                 self.canvas = screen
         if self.overlay is not None:
             with timer.measure("overlay", wall=True):

@@ -1,10 +1,7 @@
-"""Which shadow maps exist, what each holds, and which must be re-rendered this frame.
+"""``clumped``: the multi-map method of "Some Ideas on Shadow Algorithms".
 
-``clumped`` is the seed's method: one cached map per clump of statics, one map per character
-re-rendered every frame, all in one depth texture array. ``single`` is the baseline: one map
-fitted to every caster, re-rendered every frame. Floors are never drawn into any map.
-
-A method only plans; the Renderer owns the GL objects and draws what the plan lists.
+One cached map per clump of statics, one map per character re-rendered every frame, all in one
+depth texture array. Floors are never drawn into any map.
 """
 
 from __future__ import annotations
@@ -14,47 +11,21 @@ import math
 import numpy as np
 
 from game import transforms
+from game.scene import Light
 from game.scene.geometry import PackedGeometry
-from game.scene.loader import Light
 from game.shadows import clumping
 from game.shadows.fit import (
     MapFit,
-    deciding_points,
     fit_cube_faces,
     fit_directional,
     fit_perspective,
-    fit_to_light,
     holds_in_one_frustum,
     light_rotation_of,
     outside_cone,
 )
 from game.shadows.map_grid import octahedral_encode
-
-# The records live in game/shadow_plan.py; they are re-exported here for the callers.
-from game.shadows.plan import (  # noqa: F401
-    CASCADE_LAMBDA,
-    CASCADE_RESOLUTION,
-    CASCADES,
-    CHARACTER_RESOLUTION,
-    CLUMP_RESOLUTION,
-    DEPTH_BIAS_TEXELS,
-    KIND_ALL,
-    KIND_CASCADE,
-    KIND_CHARACTER,
-    KIND_CLUMP,
-    MAX_SLOPE,
-    NORMAL_BIAS_TEXELS,
-    SHADOW_BUDGET_MIB,
-    SINGLE_RESOLUTION,
-    SLOPE_BIAS_TEXELS,
-    TEXELS_PER_METRE,
-    MapRecord,
-    ShadowPlan,
-    ShadowSettings,
-)
-
-METHODS = ("clumped", "single", "static-dynamic", "csm")
-CLUMPINGS = clumping.STRATEGIES
+from game.shadows.method import ShadowMethod
+from game.shadows.plan import KIND_CHARACTER, KIND_CLUMP, MapRecord, ShadowPlan, ShadowSettings
 
 
 def _footprint(light: Light, statics: list[np.ndarray]):
@@ -81,30 +52,37 @@ def _footprint(light: Light, statics: list[np.ndarray]):
     return point, 1.0 / (typical * math.pi / 2)
 
 
-class ClumpedShadows:
+class ClumpedShadows(ShadowMethod):
     """The multi-map method: cached clump maps plus per-character maps in one array.
 
     The number of clumps follows the texel-density target, within the layers that the memory
     budget and the GL limits allow; when the target needs more, the clumps grow (and their
     texel density falls) and ``notes`` says so. When even the characters outnumber the layers
-    left, several characters share one map (issue 6: degrade, never drop a shadow).
+    left, several characters share one map (degrade, never drop a shadow).
 
-    Layers are handed out from a pool (issue 6, cache invalidation): a clump or a character
+    Layers are handed out from a pool: a clump or a character
     keeps its layer while it exists, a removed one gives it back, and a new one takes the lowest
     free layer, so the array only grows when every layer is in use. Clumps are kept by member
     name, so a static added, removed or moved at run time (:meth:`update_statics`) re-renders
     only the clump maps it leaves or joins.
     """
 
+    name = "clumped"
+    summary = ("one cached map per clump of statics and one map per character, in one depth "
+               "array")
+    resolution_fields = ("clump_resolution", "character_resolution")
+    budgeted = True
+
+    @classmethod
+    def min_layers(cls, settings: ShadowSettings, n_characters: int) -> int:
+        return 1 + min(n_characters, 1)  # one clump and one (shared) character map
+
     def __init__(self, geom: PackedGeometry, light: Light, settings: ShadowSettings,
                  max_layers: int):
-        self.geom = geom
-        self.settings = settings
-        self.light = light
+        super().__init__(geom, light, settings, max_layers)
         layer_bytes = 4 * settings.clump_resolution ** 2
         budget_layers = int(settings.budget_mib * 2**20 // layer_bytes)
         self.layer_limit = max(2, min(budget_layers, max_layers))
-        self.notes: list[str] = []
         self.static_maps: list[MapRecord] = []
         self.clumps: list[clumping.Clump] = []
         self._clump_names: list[list[str]] = []   # member names per clump, parallel to clumps
@@ -174,10 +152,6 @@ class ClumpedShadows:
         """A new light invalidates every clump map (and light-space clumps themselves)."""
         self.light = light
         self._light_rot = light_rotation_of(light)
-        self._build_static()
-
-    def invalidate_statics(self) -> None:
-        """Static geometry changed: re-clump and re-render every clump map."""
         self._build_static()
 
     def _fit(self, points: np.ndarray, resolution: int, radius: float | None = None
@@ -344,8 +318,6 @@ class ClumpedShadows:
     def plan(self, models: np.ndarray, view=None) -> ShadowPlan:
         """The maps for this frame; ``models`` are the characters' (n, 4, 4) matrices.
 
-        ``view`` (the camera's renderer.View) is unused here; view-dependent methods (csm)
-        need it.
         """
         s = self.settings
         maps = list(self.static_maps)
@@ -384,76 +356,3 @@ class ClumpedShadows:
     def mark_rendered_lost(self) -> None:
         """The array was re-created (resized): every cached layer must be drawn again."""
         self._dirty = set(range(len(self._clump_names)))
-
-
-class SingleShadows:
-    """The baseline: one map over every caster, all re-rendered every frame."""
-
-    def __init__(self, geom: PackedGeometry, light: Light, settings: ShadowSettings):
-        self.geom = geom
-        self.settings = settings
-        self.notes: list[str] = []
-        self.set_light(light)
-
-    @property
-    def layers(self) -> int:
-        return 1
-
-    @property
-    def resolution(self) -> int:
-        return self.settings.single_resolution
-
-    def set_light(self, light: Light) -> None:
-        """Keep only the statics' extreme points for this light; refitting is then cheap."""
-        self.light = light
-        self._light_rot = light_rotation_of(light)
-        self._static_points = deciding_points(self.geom.all_static_points(), self._light_rot)
-
-    def invalidate_statics(self) -> None:
-        self.set_light(self.light)
-
-    def update_statics(self, geom: PackedGeometry, changed: set[str]) -> list[int]:
-        """Statics changed: the one map is re-fitted (it is re-rendered every frame anyway)."""
-        self.geom = geom
-        self.set_light(self.light)
-        return []
-
-    def update_characters(self, geom: PackedGeometry) -> None:
-        self.geom = geom
-
-    def mark_rendered_lost(self) -> None:
-        pass
-
-    def plan(self, models: np.ndarray, view=None) -> ShadowPlan:
-        res = self.settings.single_resolution
-        parts = [self._static_points] + [
-            transforms.transform_points(models[i], self.geom.character_points[i])
-            for i in range(self.geom.n_characters)]
-        points = np.concatenate(parts)
-        objects = ([self.geom.static_object(i) for i in range(self.geom.n_statics)]
-                   + [self.geom.character_object(i) for i in range(self.geom.n_characters)])
-        maps, render = [], []
-        fit = fit_to_light(points, self.light, self._light_rot, res)
-        if fit is not None:
-            maps.append(MapRecord("single", KIND_ALL, fit, 0, res, objects))
-            render = [0]
-        return ShadowPlan(resolution=res, maps=maps, render_dynamic=render)
-
-
-def create(geom: PackedGeometry, light: Light, settings: ShadowSettings, max_layers: int):
-    """The planner for ``settings.method``; ``max_layers`` is what the GL allows."""
-    if settings.method == "clumped":
-        return ClumpedShadows(geom, light, settings, max_layers)
-    if settings.method == "single":
-        return SingleShadows(geom, light, settings)
-    if settings.method in ("static-dynamic", "csm"):
-        from game.shadows.methods import baselines  # the baselines build on this module's records
-
-        if settings.method == "csm":
-            return baselines.CascadedShadows(geom, light, settings)
-        return baselines.StaticDynamicShadows(geom, light, settings)
-    if settings.method == "traced":  # exact, from the soft-shadow tracer (issue 4)
-        from game.shadows.methods.traced import TracedShadows
-
-        return TracedShadows()
-    raise ValueError(f"unknown shadow method {settings.method!r}; valid: {', '.join(METHODS)}")

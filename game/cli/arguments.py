@@ -1,0 +1,284 @@
+"""The command line's parser: every subcommand, flag, default and value check.
+
+A bad value becomes one :class:`ArgumentError` line (exit status 2), never argparse's usage
+block. The method choices come from the registries (game/shadows/registry.py,
+game/soft/methods.py).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+from game.errors import GameError
+from game.gpu.blocks import DEBUG_VIEWS
+from game.gpu.timing import CLOCKS
+from game.shadows import clumping, registry
+from game.shadows.plan import ShadowSettings
+from game.soft import methods as trace_methods
+from game.soft.methods import TraceSettings
+
+MAX_SIZE = 16384
+DEFAULT_OUT = Path("captures")
+
+
+class ArgumentError(GameError):
+    """A bad command-line value."""
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse that reports a bad argument in one line instead of usage plus message."""
+
+    def error(self, message: str):
+        if message.endswith("expected one argument"):
+            # argparse reads a value such as -5x10 as an option and reports the value missing.
+            message += " (write a value that starts with '-' as --option=VALUE)"
+        raise ArgumentError(f"{self.prog}: {message}")
+
+
+def size_value(text: str) -> tuple[int, int]:
+    parts = text.lower().split("x")
+    try:
+        w, h = (int(p) for p in parts)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"size must be WxH, like 960x540, got {text!r}") from None
+    if not (1 <= w <= MAX_SIZE and 1 <= h <= MAX_SIZE):
+        raise argparse.ArgumentTypeError(f"size must be 1..{MAX_SIZE} per side, got {text!r}")
+    return w, h
+
+
+def positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def finite(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be finite, got {text!r}")
+    return value
+
+
+def positive(text: str) -> float:
+    value = finite(text)
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"must be positive, got {text!r}")
+    return value
+
+
+def non_negative(text: str) -> float:
+    value = finite(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be zero or more, got {text!r}")
+    return value
+
+
+def unit(text: str) -> float:
+    value = finite(text)
+    if not 0.0 <= value <= 1.0:
+        raise argparse.ArgumentTypeError(f"must be in [0, 1], got {text!r}")
+    return value
+
+
+def _add_shadow_options(p: argparse.ArgumentParser) -> None:
+    d = ShadowSettings()
+    g = p.add_argument_group("hard-shadow parameters")
+    g.add_argument("--clumping", choices=clumping.STRATEGIES, default=d.clumping,
+                   help="group statics by neighbourhood in world space or in light space")
+    g.add_argument("--clumps", type=positive_int, default=None, metavar="N",
+                   help="number of clumps (default: from --texels-per-metre)")
+    g.add_argument("--texels-per-metre", type=positive, default=d.texels_per_metre,
+                   help="texel-density target that sets the number of clumps")
+    g.add_argument("--clump-resolution", type=positive_int, default=d.clump_resolution,
+                   help="texels per side of each clump map")
+    g.add_argument("--character-resolution", type=positive_int,
+                   default=d.character_resolution, help="texels per side of each character map")
+    g.add_argument("--single-resolution", type=positive_int, default=d.single_resolution,
+                   help="texels per side of the single baseline map")
+    g.add_argument("--cascades", type=positive_int, default=d.cascades,
+                   help="csm: number of cascades")
+    g.add_argument("--cascade-lambda", type=unit, default=d.cascade_lambda,
+                   help="csm: split blend, 1 logarithmic, 0 uniform")
+    g.add_argument("--cascade-resolution", type=positive_int, default=d.cascade_resolution,
+                   help="csm: texels per side of each cascade")
+    g.add_argument("--normal-bias", type=non_negative, default=d.normal_bias,
+                   help="normal offset in texels")
+    g.add_argument("--depth-bias", type=non_negative, default=d.depth_bias,
+                   help="constant depth bias in texels")
+    g.add_argument("--slope-bias", type=non_negative, default=d.slope_bias,
+                   help="slope-scaled depth bias in texels")
+    g.add_argument("--pcf", action="store_true", help="3x3 percentage-closer filtering")
+    g.add_argument("--grid", choices=("auto", "on", "off"), default=d.grid,
+                   help="light-space grid of map lists (auto: when there are many maps)")
+    g.add_argument("--debug-view", choices=list(DEBUG_VIEWS),
+                   default="none",
+                   help="colour pixels by the map they used, by the number of maps read, or "
+                        "by whether their map was re-rendered (red) or cached (green)")
+    g.add_argument("--clock", choices=CLOCKS, default="auto",
+                   help="timing clock (auto: CPU around glFinish on llvmpipe, GPU queries "
+                        "elsewhere)")
+
+
+def shadow_settings(args) -> ShadowSettings:
+    return ShadowSettings(
+        method=args.method, clumping=args.clumping, clump_count=args.clumps,
+        texels_per_metre=args.texels_per_metre, clump_resolution=args.clump_resolution,
+        character_resolution=args.character_resolution,
+        single_resolution=args.single_resolution, normal_bias=args.normal_bias,
+        depth_bias=args.depth_bias, slope_bias=args.slope_bias, pcf=args.pcf, grid=args.grid,
+        cascades=args.cascades, cascade_lambda=args.cascade_lambda,
+        cascade_resolution=args.cascade_resolution)
+
+
+def render_scale(text: str) -> float:
+    value = finite(text)
+    if not 0.25 <= value <= 1.0:
+        raise argparse.ArgumentTypeError(f"must be 0.25..1, got {text!r}")
+    return value
+
+
+def _add_play_parser(sub) -> None:
+    play = sub.add_parser(
+        "play", help="the walkaround window",
+        description="WASD move, right mouse button (or Tab) looks, Shift faster, Q/E down/up, "
+                    "R resets the view, P pauses the characters, M next method, F12 screenshot, "
+                    "Esc quits. See docs/window.md.")
+    play.add_argument("scene", nargs="?", help="scene file (default: the built-in scene)")
+    play.add_argument("--frames", type=positive_int, help="quit by itself after N frames")
+    play.add_argument("--screenshot", type=Path, metavar="FILE",
+                      help="save the last frame as the window shows it, overlay included")
+    play.add_argument("--stats", type=Path, metavar="FILE",
+                      help="write per-frame stats JSON and the frame rate")
+    play.add_argument("--size", type=size_value, default=(960, 540), metavar="WxH",
+                      help="window size in pixels")
+    play.add_argument("--method", choices=list(registry.METHODS),
+                      default=registry.DEFAULT_METHOD)
+    play.add_argument("--fps", type=positive, default=None,
+                      help="scene seconds advance 1/F per frame (default: real time)")
+    play.add_argument("--render-scale", type=render_scale, default=1.0, metavar="S",
+                      help="render the scene at S times the window's size per side, then "
+                           "scale it up (0.25..1; llvmpipe is fill-bound)")
+    play.add_argument("--no-overlay", action="store_true", help="hide the timing overlay")
+    _add_cull_option(play)
+    play.add_argument("--soft", action="store_true",
+                      help="start with soft shadows of the scene's [linear_light], traced at a "
+                           "quarter of the window's size per side (overlay checkbox)")
+    play.add_argument("--platform", choices=("auto", "null"), default="auto",
+                      help="null: GLFW's null platform, a window with no display (scripts, CI)")
+    _add_shadow_options(play)
+
+
+def _add_cull_option(parser) -> None:
+    parser.add_argument("--no-cull", action="store_true",
+                        help="draw every triangle in the camera pass, not only those that can "
+                             "cover a pixel centre (same pixels; slower where triangles are "
+                             "small on screen; game/triangle_cull.py)")
+
+
+def _add_frame_options(parser, dump_help: str) -> None:
+    """Which frames to render and where they go: the same for capture and trace."""
+    parser.add_argument("--frames", type=positive_int, default=1)
+    parser.add_argument("--size", type=size_value, default=(960, 540), metavar="WxH")
+    parser.add_argument("--time", type=finite, default=0.0,
+                        help="scene time of the first frame")
+    parser.add_argument("--fps", type=positive, default=30.0, help="frames per scene second")
+    parser.add_argument("--out", type=Path, default=DEFAULT_OUT, metavar="DIR")
+    parser.add_argument("--dump", action="store_true", help=dump_help)
+    parser.add_argument("--stats", type=Path, metavar="FILE", help="write per-frame stats JSON")
+
+
+def _add_trace_parser(sub) -> None:
+    d = TraceSettings()
+    trace = sub.add_parser("trace", help="soft shadows of the linear light (compute pass)")
+    trace.add_argument("scene", nargs="?", help="scene file (default: the built-in scene)")
+    trace.add_argument("--method", choices=list(trace_methods.METHODS),
+                       default=trace_methods.DEFAULT_METHOD)
+    trace.add_argument("--samples", type=positive_int, default=d.samples, metavar="N",
+                       help="stratified samples along the segment per shaded point")
+    _add_frame_options(trace, dump_help="write npz (with soft) + glb")
+    trace.add_argument("--clock", choices=CLOCKS, default="auto")
+    g = trace.add_argument_group("tracer parameters")
+    g.add_argument("--cells-per-triangle", type=positive, default=d.cells_per_triangle,
+                   help="grid resolution: cells per triangle of the scene")
+    g.add_argument("--vc-slots", type=positive_int, default=d.vc_slots,
+                   help="voxel-cache: voxels cached per shaded point (a power of two)")
+    g.add_argument("--vc-pool", type=positive_int, default=d.vc_pool,
+                   help="voxel-cache: candidate triangle ids cached per shaded point")
+    g.add_argument("--mailbox", type=positive_int, default=d.mailbox,
+                   help="triangles remembered per ray (mailboxing)")
+
+
+def trace_settings(args) -> TraceSettings:
+    if args.vc_slots & (args.vc_slots - 1):
+        raise ArgumentError(f"--vc-slots {args.vc_slots}: must be a power of two")
+    return TraceSettings(method=args.method, samples=args.samples,
+                         cells_per_triangle=args.cells_per_triangle, vc_slots=args.vc_slots,
+                         vc_pool=args.vc_pool, mailbox=args.mailbox)
+
+
+def _add_bench_parser(sub) -> None:
+    bench = sub.add_parser(
+        "bench", help="speed-versus-accuracy sweeps and charts",
+        description="Sweep methods x parameters x scenes along a fixed camera path; write "
+                    "OUT/bench.csv (one row per run; finished rows are kept and skipped on a "
+                    "rerun), OUT/charts/*.png|svg and OUT/summary.json. See docs/results.md.")
+    bench.add_argument("--quick", action="store_true",
+                       help="the short sweep (default scene, a small town, stability scenes)")
+    bench.add_argument("--out", type=Path, default=Path("bench"), metavar="DIR")
+    bench.add_argument("--size", type=size_value, default=(320, 180), metavar="WxH")
+    bench.add_argument("--frames", type=positive_int, default=None,
+                       help="timed frames per run (default 8, quick 4)")
+    bench.add_argument("--warmup", type=int, default=None,
+                       help="frames before timing (default 2, quick 1)")
+    bench.add_argument("--error-frames", type=int, default=None,
+                       help="frames scored against Embree per run (default 2, quick 1)")
+    bench.add_argument("--flicker-frames", type=int, default=None,
+                       help="frames with only the camera moving, for flicker (default 3, quick 2)")
+    bench.add_argument("--repeat", type=positive_int, default=1,
+                       help="time each run N times, round-robin over the scene's runs, and "
+                            "keep the median (steadier ratios on a loaded machine)")
+    bench.add_argument("--scenes", help="comma-separated scene keys or patterns (town_*)")
+    bench.add_argument("--methods", help="comma-separated methods")
+    bench.add_argument("--list", action="store_true", help="print the runs and exit")
+    bench.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = Parser(prog="python -m game",
+                     description="Multi-map hard shadows and linear-light soft shadows.")
+    sub = parser.add_subparsers(dest="command", parser_class=Parser)
+
+    _add_play_parser(sub)
+    cap = sub.add_parser("capture", help="render frames headless through EGL")
+    cap.add_argument("scene", nargs="?", help="scene file (default: the built-in scene)")
+    cap.add_argument("--method", choices=list(registry.METHODS),
+                     default=registry.DEFAULT_METHOD)
+    _add_frame_options(cap, dump_help="write npz + glb beside each frame")
+    cap.add_argument("--overlay", action="store_true", help="draw the timing overlay")
+    _add_cull_option(cap)
+    cap.add_argument("--soft", action="store_true",
+                     help="light the frames by the linear light, with traced soft shadows "
+                          "(voxel-cache, 32 samples; see python -m game trace)")
+    _add_shadow_options(cap)
+
+    _add_trace_parser(sub)
+    _add_bench_parser(sub)
+
+    verify = sub.add_parser(
+        "verify", help="shadow error of dumped frames against Embree shadow rays")
+    verify.add_argument("dumps", type=Path, metavar="DIR", help="a capture --dump folder")
+    verify.add_argument("scene", nargs="?", help="the scene captured (default: built-in)")
+    verify.add_argument("--out", type=Path, metavar="FILE",
+                        help="write the per-frame errors as JSON")
+    return parser
+
+

@@ -1,0 +1,53 @@
+"""The records of one frame: where the camera is (:class:`View`), what was made (:class:`Frame`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from game import transforms
+from game.scene.model import Camera
+from game.soft.tracer import TraceResult
+
+
+@dataclass
+class View:
+    """Where the camera is this frame."""
+
+    view: np.ndarray   # (4, 4) world -> view
+    proj: np.ndarray   # (4, 4) view -> clip
+
+    @staticmethod
+    def from_camera(camera: Camera, size: tuple[int, int]) -> View:
+        aspect = size[0] / size[1]
+        return View(transforms.look_at(camera.position, camera.target),
+                    transforms.perspective(camera.fov, aspect, camera.near, camera.far))
+
+
+@dataclass
+class Frame:
+    """What one rendered frame produced."""
+
+    # The next three are None when the frame was rendered with ``read=False`` (the window
+    # shows the renderer's display texture instead of reading it back).
+    image: np.ndarray | None          # (H, W, 3) uint8, row 0 at the top
+    covered: np.ndarray | None        # (H, W) bool: geometry under the pixel centre
+    maps_sampled: np.ndarray | None   # (H, W) int: shadow maps read for the pixel
+    ms: dict[str, float]
+    maps_rendered: int
+    maps_cached: int
+    maps_total: int
+    triangles_to_maps: int
+    gbuffer: dict[str, np.ndarray] | None = None  # position, normal, object, lit (and soft)
+    gl_objects: dict[str, int] | None = None  # live GL objects by owner, after the frame
+    texels_to_maps: int = 0    # depth texels cleared and rendered into maps this frame
+    camera_triangles: int = 0  # triangles the camera pass drew (after culling)
+    soft: TraceResult | None = None  # the linear light's trace, when the frame asked for one
+
+    @property
+    def maps_per_fragment(self) -> float | None:
+        if self.covered is None:
+            return None
+        n = int(self.covered.sum())
+        return float(self.maps_sampled[self.covered].sum()) / n if n else 0.0

@@ -1,0 +1,90 @@
+"""The shading pass: every object seen from the camera, lit through the maps, and the G-buffer.
+
+One program per variant. What a frame fixes (the G-buffer outputs, the light's kind, PCF, the
+map grid's mode and the debug view) is a ``#define``, and the pass keeps one compiled program
+per combination it meets. llvmpipe runs both sides of a branch under a lane mask, so one program
+that branched on uniforms paid for code that no fragment of the frame could reach: about 2.5
+times the cost of the shading pass on the built-in scene (docs/design/shading-variants.md).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import moderngl
+
+from game.gpu import blocks, glsl, resources
+from game.gpu.depth_array import DepthArray
+from game.render.cull import TriangleCuller
+from game.render.scene_buffers import SceneBuffers
+from game.render.target import FrameTarget
+
+SHADOW_UNIT = blocks.TEXTURE_UNITS["shadow_maps"]
+
+
+class Variant(NamedTuple):
+    """What one shading program is compiled for."""
+
+    gbuffer: bool
+    light_kind: int     # blocks.LIGHT_KINDS
+    pcf: bool
+    grid_mode: int      # blocks.GRID_*
+    debug_view: int     # blocks.DEBUG_VIEWS
+
+
+class ShadingPass:
+    """Draws the scene into a :class:`FrameTarget`. Owns its programs and vertex arrays: each
+    made on first use and kept, so that switching back and forth makes no new objects."""
+
+    def __init__(self, ctx, buffers: SceneBuffers, defines: dict):
+        self.ctx = ctx
+        self.buffers = buffers
+        self.defines = defines
+        self._programs: dict[Variant, tuple] = {}
+
+    def _program(self, variant: Variant, culler: TriangleCuller | None) -> tuple:
+        """(program, vertex array over every triangle, vertex array over the culled ones)."""
+        if variant not in self._programs:
+            defines = {**self.defines, "GBUFFER": variant.gbuffer, "LIGHT_KIND": variant.light_kind,
+                       "PCF": variant.pcf, "GRID": variant.grid_mode,
+                       "DEBUG_VIEW": variant.debug_view}
+            prog = self.ctx.program(vertex_shader=glsl.build("shade.vert", self.defines),
+                                    fragment_shader=glsl.build("shade.frag", defines))
+            culled = None if culler is None else self.buffers.vertex_array(prog, culler.output)
+            self._programs[variant] = (prog, self.buffers.vertex_array(prog), culled)
+        return self._programs[variant]
+
+    def draw(self, target: FrameTarget, array: DepthArray, variant: Variant,
+             culler: TriangleCuller | None, culled_only: bool) -> None:
+        """Clear ``target`` and draw every object: with ``culled_only``, the triangles the
+        culler's last run kept; otherwise closed volumes with back faces culled, then the open
+        meshes."""
+        prog, vao, culled = self._program(variant, culler)
+        target.begin()
+        self.ctx.enable(moderngl.DEPTH_TEST)
+        array.bind(SHADOW_UNIT)
+        prog["u_shadow_maps"].value = SHADOW_UNIT
+        if culled_only:
+            culler.draw(culled)
+            return
+        layout = self.buffers.layout
+        closed, total = layout.n_closed, len(layout.indices)
+        if closed:
+            self.ctx.enable(moderngl.CULL_FACE)
+            vao.render(moderngl.TRIANGLES, vertices=closed)
+            self.ctx.disable(moderngl.CULL_FACE)
+        if total > closed:
+            vao.render(moderngl.TRIANGLES, vertices=total - closed, first=closed)
+
+    def gl_objects(self) -> int:
+        """Programs, their attached shaders and their vertex arrays."""
+        programs = [entry[0] for entry in self._programs.values()]
+        arrays = sum(1 + (entry[2] is not None) for entry in self._programs.values())
+        return len(programs) + resources.attached_shaders(programs) + arrays
+
+    def release(self) -> None:
+        for prog, vao, culled in self._programs.values():
+            for obj in (culled, vao, prog):
+                if obj is not None:
+                    obj.release()
+        self._programs = {}

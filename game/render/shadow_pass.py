@@ -1,0 +1,113 @@
+"""The shadow-map pass: the planned maps drawn into the layers of the depth texture array."""
+
+from __future__ import annotations
+
+import moderngl
+
+from game.gpu import glsl, resources
+from game.gpu.depth_array import DepthArray
+from game.render.scene_buffers import SceneBuffers
+from game.shadows.plan import KIND_CHARACTER, ShadowPlan
+
+LAYERED_EXTENSION = "GL_ARB_shader_viewport_layer_array"
+CLEAR_EXTENSION = "GL_ARB_clear_texture"  # DepthArray.clear
+
+
+class ShadowMapPass:
+    """Draws a plan's maps. Owns the depth programs, their vertex arrays and the depth array.
+
+    Where the vertex shader may pick the layer (GL_ARB_shader_viewport_layer_array) and layers
+    can be cleared in place (GL_ARB_clear_texture), all character maps are cleared and drawn in
+    one layered draw (:attr:`layered`); otherwise each map costs one framebuffer switch.
+    """
+
+    def __init__(self, ctx, buffers: SceneBuffers, defines: dict):
+        self.ctx = ctx
+        self.buffers = buffers
+        self.depth_prog = ctx.program(vertex_shader=glsl.build("depth.vert", defines),
+                                      fragment_shader=glsl.build("depth.frag"))
+        self.layered = {LAYERED_EXTENSION, CLEAR_EXTENSION} <= set(ctx.extensions)
+        self.layered_prog = None
+        if self.layered:
+            self.layered_prog = ctx.program(
+                vertex_shader=glsl.build("depth_layered.vert", defines),
+                fragment_shader=glsl.build("depth.frag"))
+        self.depth_vao = buffers.vertex_array(self.depth_prog)
+        self.layered_vao = buffers.vertex_array(self.layered_prog) if self.layered else None
+        self.array: DepthArray | None = None
+
+    def prepare(self, resolution: int, layers: int) -> bool:
+        """Make sure the array holds ``layers`` layers of ``resolution``; True when it was made
+        anew (every cached map in it is lost)."""
+        a = self.array
+        if a is not None and a.resolution == resolution and a.layers >= layers:
+            return False
+        if a is not None:
+            a.release()
+            self.array = None  # a refused new array must not leave the released one
+        self.array = DepthArray(self.ctx, resolution, layers)
+        return True
+
+    def draw_maps(self, plan: ShadowPlan, indices: list[int]) -> int:
+        """Render the listed maps into their layers, one framebuffer each; returns the
+        triangles drawn."""
+        self._depth_state()
+        layout, triangles = self.buffers.layout, 0
+        for index in indices:
+            rec = plan.maps[index]
+            fbo = self.array.framebuffers[rec.layer]
+            fbo.use()
+            fbo.viewport = (0, 0, rec.viewport, rec.viewport)
+            fbo.clear(depth=1.0, viewport=(0, 0, rec.viewport, rec.viewport))
+            self.depth_prog["u_map"].value = index
+            for first, count in layout.ranges(rec.objects):
+                self.depth_vao.render(moderngl.TRIANGLES, vertices=count, first=first)
+                triangles += count // 3
+        return triangles
+
+    def draw_dynamic(self, plan: ShadowPlan) -> int:
+        """Render the plan's per-frame maps: in one layered draw when they are all character
+        maps and the GL allows it, else map by map. Returns the triangles drawn."""
+        indices = plan.render_dynamic
+        if not (self.layered and all(plan.maps[i].kind == KIND_CHARACTER for i in indices)):
+            return self.draw_maps(plan, indices)
+        if not indices:
+            return 0
+        self._depth_state()
+        array = self.array
+        for i in indices:
+            array.clear(plan.maps[i].layer, plan.maps[i].viewport)
+        fbo = array.layered
+        fbo.use()
+        fbo.viewport = (0, 0, array.resolution, array.resolution)
+        characters = [o for i in indices for o in plan.maps[i].objects]
+        for first, count in self.buffers.layout.ranges(characters):
+            self.layered_vao.render(moderngl.TRIANGLES, vertices=count, first=first)
+        return sum(self.buffers.geom.triangle_count(plan.maps[i].objects) for i in indices)
+
+    def _depth_state(self) -> None:
+        """Depth test on; both faces drawn (a map holds every caster's nearest surface)."""
+        self.ctx.enable(moderngl.DEPTH_TEST)
+        self.ctx.disable(moderngl.CULL_FACE)
+
+    @property
+    def memory_bytes(self) -> int:
+        return self.array.bytes if self.array is not None else 0
+
+    def _programs(self) -> list:
+        return [p for p in (self.depth_prog, self.layered_prog) if p is not None]
+
+    def gl_objects(self) -> int:
+        """Programs, their attached shaders, vertex arrays, and the array's texture and
+        framebuffers."""
+        programs = self._programs()
+        array = 0 if self.array is None else self.array.gl_objects()
+        return 2 * len(programs) + resources.attached_shaders(programs) + array
+
+    def release(self) -> None:
+        if self.array is not None:
+            self.array.release()
+            self.array = None
+        for obj in (self.depth_vao, self.layered_vao, *self._programs()):
+            if obj is not None:
+                obj.release()

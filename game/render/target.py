@@ -1,0 +1,76 @@
+"""The frame's render target: its colour, the G-buffer when kept, and depth, in one framebuffer."""
+
+from __future__ import annotations
+
+import numpy as np
+
+SKY = (0.58, 0.68, 0.80)   # the clear colour: pixels with no geometry
+
+
+class FrameTarget:
+    """Colour (RGBA8; alpha is 1 + the maps a pixel read, over 255, and 0 where there is no
+    geometry), and with ``gbuffer`` two RGBA32F textures: world position and object index, unit
+    normal and the hard light's visibility. Owns its textures, renderbuffer and framebuffer."""
+
+    def __init__(self, ctx, size: tuple[int, int], gbuffer: bool):
+        self.ctx = ctx
+        self._make((int(size[0]), int(size[1])), gbuffer)
+
+    def _make(self, size: tuple[int, int], gbuffer: bool) -> None:
+        ctx = self.ctx
+        self.size, self.gbuffer = size, gbuffer
+        self.colour = ctx.texture(size, 4)
+        self.position = self.normal = None
+        attachments = [self.colour]
+        if gbuffer:
+            self.position = ctx.texture(size, 4, dtype="f4")
+            self.normal = ctx.texture(size, 4, dtype="f4")
+            attachments += [self.position, self.normal]
+        self.depth = ctx.depth_renderbuffer(size)
+        self.framebuffer = ctx.framebuffer(attachments, self.depth)
+
+    def remake(self, size: tuple[int, int], gbuffer: bool) -> None:
+        """Make the target anew at ``size``, with or without the G-buffer, if either changed."""
+        size = (int(size[0]), int(size[1]))
+        if (size, gbuffer) != (self.size, self.gbuffer):
+            self.release()
+            self._make(size, gbuffer)
+
+    def begin(self) -> None:
+        """Draw into the whole target from here, cleared to the sky."""
+        fb = self.framebuffer
+        fb.use()
+        fb.viewport = (0, 0, *self.size)
+        fb.clear(*SKY, 0.0)
+
+    def read_colour(self) -> np.ndarray:
+        """(H, W, 4) uint8, row 0 at the top."""
+        w, h = self.size
+        rgba = np.frombuffer(self.framebuffer.read(components=4, attachment=0), np.uint8)
+        return rgba.reshape(h, w, 4)[::-1]
+
+    def read_gbuffer(self, covered: np.ndarray) -> dict[str, np.ndarray]:
+        """The dump arrays (docs/reference.md, section 3): NaN and -1 where nothing is seen."""
+        w, h = self.size
+        fb = self.framebuffer
+        pos = np.frombuffer(fb.read(components=4, attachment=1, dtype="f4"), np.float32)
+        nrm = np.frombuffer(fb.read(components=4, attachment=2, dtype="f4"), np.float32)
+        pos = pos.reshape(h, w, 4)[::-1]
+        nrm = nrm.reshape(h, w, 4)[::-1]
+        position = np.where(covered[..., None], pos[..., :3], np.nan).astype(np.float32)
+        normal = np.where(covered[..., None], nrm[..., :3], np.nan).astype(np.float32)
+        obj = np.where(covered, np.rint(pos[..., 3]), -1).astype(np.int32)
+        lit = np.where(covered, nrm[..., 3], np.nan).astype(np.float32)
+        return {"position": position, "normal": normal, "object": obj, "lit": lit}
+
+    def gl_objects(self) -> int:
+        """Textures, the depth renderbuffer and the framebuffer."""
+        return 3 + 2 * self.gbuffer
+
+    def release(self) -> None:
+        # moderngl re-binds the framebuffer it last used after creating one; leave it the
+        # default framebuffer, not one whose name is about to be deleted.
+        self.ctx.detect_framebuffer(0).use()
+        for obj in (self.framebuffer, self.depth, self.colour, self.position, self.normal):
+            if obj is not None:
+                obj.release()

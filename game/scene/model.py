@@ -1,0 +1,135 @@
+"""The scene model: one camera, one hard-shadow light, an optional linear light, and rigid objects.
+
+Floors and statics are stored in world space, so nothing downstream needs their transforms;
+characters keep a local mesh and are placed every frame by :meth:`Character.model_matrix`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+DEFAULT_FOV_DEG = 60.0
+DEFAULT_NEAR = 0.1  # metres
+DEFAULT_FAR = 200.0  # metres
+DEFAULT_SPEED = 1.0  # metres per second
+LIGHT_KINDS = ("directional", "spot", "point")
+
+
+@dataclass(frozen=True)
+class Camera:
+    """The start view: a look-at camera with a vertical field of view in degrees."""
+
+    position: np.ndarray
+    target: np.ndarray
+    fov: float = DEFAULT_FOV_DEG
+    near: float = DEFAULT_NEAR
+    far: float = DEFAULT_FAR
+
+
+@dataclass(frozen=True)
+class Light:
+    """The hard-shadow light.
+
+    ``direction`` is the unit vector the light travels along (directional and spot), ``position``
+    its origin (spot and point), ``cone`` the full cone angle in degrees (spot). Fields a kind
+    does not use are None.
+    """
+
+    kind: str
+    direction: np.ndarray | None
+    position: np.ndarray | None
+    cone: float | None
+
+
+@dataclass(frozen=True)
+class LinearLight:
+    """The soft-shadow light: the segment from ``a`` to ``b``."""
+
+    a: np.ndarray
+    b: np.ndarray
+
+
+@dataclass
+class Body:
+    """A floor or a static object, its mesh already in world space."""
+
+    name: str
+    kind: str
+    mesh: trimesh.Trimesh
+
+
+@dataclass
+class Character:
+    """A rigid shape walking a closed loop.
+
+    ``mesh`` is in local space: analytic shapes are centred on the origin, mesh files keep their
+    own coordinates; the optional rotation and scale keys are already applied. The walk adds a yaw
+    about +Y that turns local +Z to the direction of travel, then the translation to the path.
+    """
+
+    name: str
+    mesh: trimesh.Trimesh
+    path: np.ndarray
+    speed: float
+    phase: float
+
+    def pose(self, t: float) -> tuple[np.ndarray, float]:
+        """Position (3,) and yaw in radians about +Y at scene time ``t`` seconds.
+
+        The position is the point at arc length ``speed * (t + phase)`` along the closed path
+        (last point back to the first), modulo the loop length. The yaw is ``atan2(dx, dz)`` of
+        the segment being walked, so local +Z faces the direction of travel. A one-point path
+        stands still with yaw 0.
+        """
+        points = np.asarray(self.path, dtype=np.float64)
+        if len(points) == 1:
+            return points[0].copy(), 0.0
+        deltas = np.roll(points, -1, axis=0) - points
+        lengths = np.linalg.norm(deltas, axis=1)
+        loop = float(lengths.sum())
+        if loop <= 0.0:
+            return points[0].copy(), 0.0
+        s = (self.speed * (t + self.phase)) % loop
+        if s >= loop:  # float modulo of a tiny negative number can return the divisor itself
+            s = 0.0
+        starts = np.concatenate(([0.0], np.cumsum(lengths)[:-1]))
+        # The last segment starting at or before s; zero-length segments share their start with
+        # the next one, so side="right" skips them and the yaw never comes from a zero vector.
+        i = int(np.searchsorted(starts, s, side="right")) - 1
+        f = (s - starts[i]) / lengths[i]
+        position = points[i] + f * deltas[i]
+        yaw = math.atan2(float(deltas[i, 0]), float(deltas[i, 2]))
+        return position, yaw
+
+    def model_matrix(self, t: float) -> np.ndarray:
+        """The (4, 4) local-to-world matrix at time ``t``: ``T(position) @ Ry(yaw)``."""
+        position, yaw = self.pose(t)
+        c, s = math.cos(yaw), math.sin(yaw)
+        m = np.eye(4)
+        m[:3, :3] = [[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]]
+        m[:3, 3] = position
+        return m
+
+
+@dataclass
+class Scene:
+    """A loaded scene: the view, the lights and every object, in file order within each kind."""
+
+    name: str
+    source: Path | None
+    camera: Camera
+    light: Light
+    linear_light: LinearLight | None
+    floors: list[Body]
+    statics: list[Body]
+    characters: list[Character]
+
+    def object_names(self) -> list[str]:
+        """Floors, then statics, then characters: the global object index used everywhere."""
+        return ([b.name for b in self.floors] + [b.name for b in self.statics]
+                + [c.name for c in self.characters])

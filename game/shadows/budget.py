@@ -1,0 +1,79 @@
+"""Shadow settings fitted inside the GL's limits and the shadow memory budget.
+
+Map resolutions above GL_MAX_TEXTURE_SIZE, more maps than GL_MAX_ARRAY_TEXTURE_LAYERS (or than
+the uniform block of map records holds) and depth arrays over the memory budget degrade with a
+note, never crash and never drop a shadow. The degradations, in order:
+
+1. a resolution above GL_MAX_TEXTURE_SIZE is clamped to it;
+2. a budgeted depth array (clumped) over the budget gets coarser layers: the resolution halves
+   until the fewest layers it needs fit; the baselines keep the resolution asked for;
+3. the clumped method then shares layers (game/shadows/methods/clumped.py): fewer, larger
+   clumps, and when even the characters outnumber the free layers, several characters share one
+   map.
+
+Each step adds a one-line note that the command line prints as ``note: ...`` and the stats file
+records under ``notes``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+from game.gpu.limits import GLLimits
+from game.shadows.plan import ShadowSettings
+from game.shadows.registry import method_class
+
+DEPTH_TEXEL_BYTES = 4          # GL_DEPTH_COMPONENT32F
+MIN_MAP_RESOLUTION = 64        # texels per side below which a map is useless; never halve past it
+
+
+def layer_bytes(resolution: int) -> int:
+    return DEPTH_TEXEL_BYTES * resolution * resolution
+
+
+def fit_settings(settings: ShadowSettings, limits: GLLimits,
+                 n_characters: int) -> tuple[ShadowSettings, list[str]]:
+    """``settings`` with resolutions inside the GL limits and the memory budget, plus notes.
+
+    Returns ``(settings, notes)``; ``settings`` is a new object when anything changed.
+    """
+    notes: list[str] = []
+    changes: dict[str, int] = {}
+    method = method_class(settings.method)
+    used = method.resolution_fields
+    if not used:  # no maps
+        return settings, notes
+    needed = method.min_layers(settings, n_characters)
+    for name in used:
+        value = getattr(settings, name)
+        if value > limits.max_texture_size:
+            changes[name] = limits.max_texture_size
+            notes.append(f"{name.replace('_', '-')} {value} is above this GL's "
+                         f"GL_MAX_TEXTURE_SIZE; clamped to {limits.max_texture_size}")
+    if not method.budgeted:
+        # The memory budget is the clumped method's (it sets its number of clumps); a baseline
+        # gets the resolution it was asked for, within the GL's limit, so that a comparison at
+        # a given resolution is made at that resolution.
+        return (dataclasses.replace(settings, **changes) if changes else settings), notes
+    budget = settings.budget_mib * 2**20
+    name = used[0]
+    res = changes.get(name, getattr(settings, name))
+    start = res
+    while res > MIN_MAP_RESOLUTION and layer_bytes(res) * needed > budget:
+        res //= 2
+    if res != start:
+        changes[name] = res
+        notes.append(f"{name.replace('_', '-')} {start} needs {needed} x "
+                     f"{layer_bytes(start) / 2**20:g} MiB, over the {settings.budget_mib:g} MiB "
+                     f"shadow budget; using {res}")
+    # The later fields size maps that use a corner of one layer (the characters'): at most the
+    # layer's resolution.
+    for corner in used[1:]:
+        value = changes.get(corner, getattr(settings, corner))
+        if value > res:
+            changes[corner] = res
+            notes.append(f"{corner.replace('_', '-')} {value} is above the array's layers "
+                         f"({res} texels); using {res}")
+    if not changes:
+        return settings, notes
+    return dataclasses.replace(settings, **changes), notes

@@ -1,0 +1,92 @@
+"""The protocol every hard-shadow method implements: plan the maps of one light, frame by frame.
+
+A method only plans. It decides which maps exist, what each holds and which must be drawn this
+frame (a :class:`~game.shadows.plan.ShadowPlan`); the render layer owns the GL objects and draws
+what the plan lists. Planning is kept apart from drawing as in Filament, whose
+``ShadowMapManager`` decides which maps exist while each ``ShadowMap`` fits one.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from typing import ClassVar
+
+import numpy as np
+
+from game.scene.geometry import PackedGeometry
+from game.scene.model import Light
+from game.shadows.plan import ShadowPlan, ShadowSettings
+
+# Where the shading pass's visibility of the hard light comes from.
+VISIBILITY_MAPS = "maps"      # the depth maps the method plans
+VISIBILITY_TRACED = "traced"  # exact rays from the compute tracer over the frame's G-buffer
+
+
+class ShadowMethod(ABC):
+    """A hard-shadow method: the maps of the scene's light for every frame.
+
+    Subclasses set :attr:`name` (the command line's ``--method``) and :attr:`summary`, and
+    register in :mod:`game.shadows.registry`.
+    """
+
+    name: ClassVar[str]
+    summary: ClassVar[str]
+    visibility: ClassVar[str] = VISIBILITY_MAPS
+    # The ShadowSettings fields that size this method's maps; each is clamped to the GL's
+    # GL_MAX_TEXTURE_SIZE (game/shadows/budget.py).
+    resolution_fields: ClassVar[tuple[str, ...]] = ()
+    # Whether the shadow memory budget bounds the array (else the resolution asked is used).
+    budgeted: ClassVar[bool] = False
+
+    def __init__(self, geom: PackedGeometry, light: Light, settings: ShadowSettings,
+                 max_layers: int):
+        self.geom = geom
+        self.light = light
+        self.settings = settings
+        self.max_layers = max_layers
+        self.notes: list[str] = []   # one line each: how the method degraded, and why
+
+    @classmethod
+    def min_layers(cls, settings: ShadowSettings, n_characters: int) -> int:
+        """The fewest array layers the method can work with (for the memory budget)."""
+        return 1
+
+    @property
+    @abstractmethod
+    def resolution(self) -> int:
+        """Texels per side of the array's layers."""
+
+    @property
+    @abstractmethod
+    def layers(self) -> int:
+        """Layers the array needs."""
+
+    @abstractmethod
+    def plan(self, models: np.ndarray, view=None) -> ShadowPlan:
+        """The maps of this frame; ``models`` are the characters' (n, 4, 4) matrices and
+        ``view`` the camera's :class:`~game.render.frame.View` (view-dependent methods)."""
+
+    @abstractmethod
+    def set_light(self, light: Light) -> None:
+        """The light moved: every map that depends on it is planned and drawn anew."""
+
+    def update_statics(self, geom: PackedGeometry, changed: set[str]) -> list[int]:
+        """Statics were added, removed or moved (their names in ``changed``).
+
+        Returns the clumps whose maps the next frame re-renders. By default the method plans
+        everything anew.
+        """
+        self._restart(geom)
+        return []
+
+    def update_characters(self, geom: PackedGeometry) -> None:
+        """Characters were added or removed. By default the method plans everything anew."""
+        self._restart(geom)
+
+    def mark_rendered_lost(self) -> None:  # noqa: B027 - most methods cache nothing
+        """The depth array was re-created: every cached map must be drawn again."""
+
+    def _restart(self, geom: PackedGeometry) -> None:
+        notes = self.notes
+        self.__init__(geom, self.light, self.settings, self.max_layers)
+        self.notes = notes + [n for n in self.notes if n not in notes]

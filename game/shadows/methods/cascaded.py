@@ -1,0 +1,195 @@
+"""``csm``: cascaded shadow maps, the default of Bevy, Godot and Filament.
+
+The view frustum is cut at the practical split distances (Zhang et al., "Parallel-split shadow
+maps", 2006: a blend, ``lambda``, of logarithmic and uniform splits), each slice gets an
+orthographic map fitted to its bounding sphere (so its texel size never changes as the camera
+turns) and snapped to whole texels (no shimmering as it moves), and every cascade is re-rendered
+every frame. The shading pass reads the finest cascade that holds the fragment
+(shaders/shadow.glsl). Same depth array, bias rules and shading pass as ``clumped``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from game import transforms
+from game.scene.geometry import PackedGeometry
+from game.scene.model import Light
+from game.shadows.fit import DEPTH_MARGIN, MARGIN_TEXELS, MapFit, deciding_points, fit_to_light
+from game.shadows.method import ShadowMethod
+from game.shadows.plan import KIND_ALL, KIND_CASCADE, MapRecord, ShadowPlan, ShadowSettings
+
+
+def split_distances(near: float, far: float, count: int, blend: float) -> np.ndarray:
+    """The practical split scheme: ``count + 1`` distances from ``near`` to ``far``.
+
+    ``blend`` = 1 gives logarithmic splits (equal texel density per depth ratio), 0 uniform.
+    """
+    i = np.arange(count + 1) / count
+    log = near * (far / near) ** i
+    uniform = near + (far - near) * i
+    d = blend * log + (1.0 - blend) * uniform
+    d[0], d[-1] = near, far
+    return d
+
+
+def slice_corners(view: np.ndarray, proj: np.ndarray, d0: float, d1: float) -> np.ndarray:
+    """(8, 3) world-space corners of the view frustum between view depths ``d0`` and ``d1``."""
+    tx, ty = 1.0 / proj[0, 0], 1.0 / proj[1, 1]
+    corners = np.array([[sx * tx * d, sy * ty * d, -d] for d in (d0, d1)
+                        for sx in (-1, 1) for sy in (-1, 1)])
+    return transforms.transform_points(np.linalg.inv(view), corners)
+
+
+def bounding_sphere(points: np.ndarray) -> tuple[np.ndarray, float]:
+    """A sphere holding a frustum slice, exact for its symmetric shape (centre on the axis)."""
+    near, far = points[:4], points[4:]
+    a, b = near.mean(axis=0), far.mean(axis=0)
+    rn2 = float(np.sum((near[0] - a) ** 2))
+    rf2 = float(np.sum((far[0] - b) ** 2))
+    length = float(np.linalg.norm(b - a))
+    if length < 1e-12:
+        return a, math.sqrt(max(rn2, rf2))
+    # Centre at distance s from a along the axis, equidistant from both rims, clamped to [0, L].
+    s = float(np.clip((length ** 2 + rf2 - rn2) / (2 * length), 0.0, length))
+    centre = a + (b - a) * (s / length)
+    return centre, math.sqrt(max(s * s + rn2, (length - s) ** 2 + rf2))
+
+
+def fit_cascade(centre_l: np.ndarray, radius: float, z_lo: float, z_hi: float,
+                light_rot: np.ndarray, resolution: int) -> MapFit:
+    """Orthographic map of a slice's bounding sphere, snapped to the world-fixed texel grid.
+
+    ``centre_l`` is the sphere's centre in light space; ``z_lo``..``z_hi`` the light-space depth
+    range the map holds.
+    """
+    usable = resolution - 2 * MARGIN_TEXELS - 1
+    texel = 2 * radius / usable
+    x0 = (math.floor((centre_l[0] - radius) / texel) - MARGIN_TEXELS) * texel
+    y0 = (math.floor((centre_l[1] - radius) / texel) - MARGIN_TEXELS) * texel
+    size = resolution * texel
+    margin = DEPTH_MARGIN * (z_hi - z_lo) + 2 * texel
+    near, far = -z_hi - margin, -z_lo + margin
+    view = np.eye(4)
+    view[:3, :3] = light_rot
+    proj = transforms.ortho(x0, x0 + size, y0, y0 + size, near, far)
+    return MapFit(view_proj=proj @ view, texel=texel, perspective=False, eye=np.zeros(3),
+                  rect=np.array([x0, y0, x0 + size, y0 + size]), near=near, far=far)
+
+
+class CascadedShadows(ShadowMethod):
+    """Cascaded shadow maps for a directional light, all re-rendered every frame.
+
+    The shadow distance is the camera's far plane, cut to the farthest corner of the scene's
+    bounds (engines expose it as a setting; past the scene nothing receives a shadow). Each
+    cascade draws only the casters whose light-space rectangle meets it. Spot and point lights
+    have no cascades in engines; there this method renders one perspective map of
+    ``cascade_resolution`` over every caster (and says so in ``notes``).
+    """
+
+    name = "csm"
+    summary = "cascaded shadow maps over the view frustum, all re-rendered every frame"
+    resolution_fields = ("cascade_resolution",)
+
+    @classmethod
+    def min_layers(cls, settings: ShadowSettings, n_characters: int) -> int:
+        return settings.cascades
+
+    def __init__(self, geom: PackedGeometry, light: Light, settings: ShadowSettings,
+                 max_layers: int):
+        super().__init__(geom, light, settings, max_layers)
+        bounds = (geom.positions.min(axis=0), geom.positions.max(axis=0)) if len(
+            geom.positions) else (np.zeros(3), np.zeros(3))
+        self._corners = np.array([[x, y, z] for x in (bounds[0][0], bounds[1][0])
+                                  for y in (bounds[0][1], bounds[1][1])
+                                  for z in (bounds[0][2], bounds[1][2])], float)
+        self.set_light(light)
+
+    @property
+    def layers(self) -> int:
+        return self.settings.cascades if self.light.kind == "directional" else 1
+
+    @property
+    def resolution(self) -> int:
+        return self.settings.cascade_resolution
+
+    def set_light(self, light: Light) -> None:
+        self.light = light
+        g = self.geom
+        if light.kind != "directional":
+            note = "csm: cascades need a directional light; one perspective map used instead"
+            if note not in self.notes:
+                self.notes.append(note)
+            self._light_rot = None
+            self._static_points = deciding_points(g.all_static_points(), None)
+            return
+        self._light_rot = transforms.light_rotation(light.direction)
+        # Light-space boxes of the statics, once per light: per-cascade culling is then a
+        # rectangle test per static.
+        boxes = [np.concatenate([(p @ self._light_rot.T).min(axis=0),
+                                 (p @ self._light_rot.T).max(axis=0)]) for p in g.static_points]
+        self._static_boxes = np.array(boxes).reshape(-1, 6)
+        self._static_objects = np.array([g.static_object(i) for i in range(g.n_statics)], int)
+
+    def _shadow_far(self, view: np.ndarray, near: float, far: float) -> float:
+        depths = -transforms.transform_points(view, self._corners)[:, 2]
+        return float(np.clip(depths.max(), near * 1.001, far))
+
+    def plan(self, models: np.ndarray, view=None) -> ShadowPlan:
+        if view is None:
+            raise ValueError("csm needs the camera view to fit its cascades")
+        s, g = self.settings, self.geom
+        res = s.cascade_resolution
+        character_points = [transforms.transform_points(models[i], g.character_points[i])
+                            for i in range(g.n_characters)]
+        character_objects = [g.character_object(i) for i in range(g.n_characters)]
+        if self.light.kind != "directional":
+            points = np.concatenate([self._static_points, *character_points])
+            fit = fit_to_light(points, self.light, None, res)
+            objects = [g.static_object(i) for i in range(g.n_statics)] + character_objects
+            if fit is None:
+                return ShadowPlan(resolution=res, maps=[])
+            return ShadowPlan(resolution=res, maps=[MapRecord("csm", KIND_ALL, fit, 0, res,
+                                                              objects)],
+                              render_dynamic=[0])
+        rot = self._light_rot
+        boxes = self._static_boxes
+        objects = self._static_objects
+        if character_points:
+            cb = np.array([np.concatenate([(p @ rot.T).min(axis=0), (p @ rot.T).max(axis=0)])
+                           for p in character_points])
+            boxes = np.concatenate([boxes, cb])
+            objects = np.concatenate([objects, character_objects])
+        near = self._near(view)
+        far = self._shadow_far(view.view, near, self._far(view))
+        splits = split_distances(near, far, s.cascades, s.cascade_lambda)
+        # Every cascade holds the scene's whole depth range (receivers included), so a
+        # fragment inside a cascade's rectangle is always inside its volume: the shader can pick
+        # the first rectangle that holds it ("map-based cascade selection").
+        scene_z = self._corners @ rot.T
+        z_lo = float(scene_z[:, 2].min())
+        z_hi = max(float(scene_z[:, 2].max()), float(boxes[:, 5].max()) if len(boxes) else 0.0)
+        maps = []
+        for c in range(s.cascades):
+            corners = slice_corners(view.view, view.proj, splits[c], splits[c + 1])
+            centre, radius = bounding_sphere(corners)
+            fit = fit_cascade(rot @ centre, radius, z_lo, z_hi, rot, res)
+            x0, y0, x1, y1 = fit.rect
+            inside = ((boxes[:, 0] <= x1) & (boxes[:, 3] >= x0) & (boxes[:, 1] <= y1)
+                      & (boxes[:, 4] >= y0))
+            maps.append(MapRecord(f"cascade_{c}", KIND_CASCADE, fit, c, res,
+                                  [int(o) for o in objects[inside]]))
+        return ShadowPlan(resolution=res, maps=maps, render_dynamic=list(range(len(maps))))
+
+    @staticmethod
+    def _near(view) -> float:
+        # Near and far planes back from the perspective matrix (transforms.perspective).
+        a, b = view.proj[2, 2], view.proj[2, 3]
+        return float(b / (a - 1.0))
+
+    @staticmethod
+    def _far(view) -> float:
+        a, b = view.proj[2, 2], view.proj[2, 3]
+        return float(b / (a + 1.0))

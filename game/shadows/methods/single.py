@@ -1,0 +1,63 @@
+"""``single``: the baseline of one map fitted to every caster, re-rendered every frame."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from game import transforms
+from game.scene.geometry import PackedGeometry
+from game.scene.model import Light
+from game.shadows.fit import deciding_points, fit_to_light, light_rotation_of
+from game.shadows.method import ShadowMethod
+from game.shadows.plan import KIND_ALL, MapRecord, ShadowPlan, ShadowSettings
+
+
+class SingleShadows(ShadowMethod):
+    """The baseline: one map over every caster, all re-rendered every frame."""
+
+    name = "single"
+    summary = "one map over every caster, re-rendered every frame"
+    resolution_fields = ("single_resolution",)
+
+    def __init__(self, geom: PackedGeometry, light: Light, settings: ShadowSettings,
+                 max_layers: int):
+        super().__init__(geom, light, settings, max_layers)
+        self.set_light(light)
+
+    @property
+    def layers(self) -> int:
+        return 1
+
+    @property
+    def resolution(self) -> int:
+        return self.settings.single_resolution
+
+    def set_light(self, light: Light) -> None:
+        """Keep only the statics' extreme points for this light; refitting is then cheap."""
+        self.light = light
+        self._light_rot = light_rotation_of(light)
+        self._static_points = deciding_points(self.geom.all_static_points(), self._light_rot)
+
+    def update_statics(self, geom: PackedGeometry, changed: set[str]) -> list[int]:
+        """Statics changed: the one map is re-fitted (it is re-rendered every frame anyway)."""
+        self.geom = geom
+        self.set_light(self.light)
+        return []
+
+    def update_characters(self, geom: PackedGeometry) -> None:
+        self.geom = geom
+
+    def plan(self, models: np.ndarray, view=None) -> ShadowPlan:
+        res = self.settings.single_resolution
+        parts = [self._static_points] + [
+            transforms.transform_points(models[i], self.geom.character_points[i])
+            for i in range(self.geom.n_characters)]
+        points = np.concatenate(parts)
+        objects = ([self.geom.static_object(i) for i in range(self.geom.n_statics)]
+                   + [self.geom.character_object(i) for i in range(self.geom.n_characters)])
+        maps, render = [], []
+        fit = fit_to_light(points, self.light, self._light_rot, res)
+        if fit is not None:
+            maps.append(MapRecord("single", KIND_ALL, fit, 0, res, objects))
+            render = [0]
+        return ShadowPlan(resolution=res, maps=maps, render_dynamic=render)

@@ -1,0 +1,82 @@
+"""``static-dynamic``: the "mixed cached shadow map" of current engines.
+
+One cached map of every static plus one map of every character, re-rendered each frame; the
+shading pass takes the minimum of the two. Planned like ``clumped``, with the same depth array,
+bias rules and shading pass, so the benchmark compares like with like.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from game import transforms
+from game.scene.geometry import PackedGeometry
+from game.scene.model import Light
+from game.shadows.fit import fit_to_light, light_rotation_of
+from game.shadows.method import ShadowMethod
+from game.shadows.plan import KIND_ALL, KIND_CLUMP, MapRecord, ShadowPlan, ShadowSettings
+
+
+class StaticDynamicShadows(ShadowMethod):
+    """One cached map of all statics and one map of all characters (re-rendered each frame).
+
+    Both maps have ``settings.single_resolution`` texels per side: the same memory as two
+    ``single`` maps, so the comparison with ``single`` isolates what caching buys.
+    """
+
+    name = "static-dynamic"
+    summary = ("the engines' cached map of every static plus one map of every character, "
+               "re-rendered each frame")
+    resolution_fields = ("single_resolution",)
+
+    @classmethod
+    def min_layers(cls, settings: ShadowSettings, n_characters: int) -> int:
+        return 2
+
+    def __init__(self, geom: PackedGeometry, light: Light, settings: ShadowSettings,
+                 max_layers: int):
+        super().__init__(geom, light, settings, max_layers)
+        self.set_light(light)
+
+    @property
+    def layers(self) -> int:
+        return 2
+
+    @property
+    def resolution(self) -> int:
+        return self.settings.single_resolution
+
+    def set_light(self, light: Light) -> None:
+        """A new light refits (and re-renders) the static map."""
+        self.light = light
+        self._light_rot = light_rotation_of(light)
+        fit = fit_to_light(self.geom.all_static_points(), light, self._light_rot,
+                           self.resolution)
+        objects = [self.geom.static_object(i) for i in range(self.geom.n_statics)]
+        self._static = (None if fit is None else
+                        MapRecord("statics", KIND_CLUMP, fit, 0, self.resolution, objects))
+        self._static_dirty = True
+
+    def mark_rendered_lost(self) -> None:
+        self._static_dirty = True
+
+    def plan(self, models: np.ndarray, view=None) -> ShadowPlan:
+        maps, render_static, render_dynamic = [], [], []
+        if self._static is not None:
+            maps.append(self._static)
+            if self._static_dirty:
+                render_static.append(0)
+        n = self.geom.n_characters
+        if n:
+            points = np.concatenate([
+                transforms.transform_points(models[i], self.geom.character_points[i])
+                for i in range(n)])
+            fit = fit_to_light(points, self.light, self._light_rot, self.resolution)
+            if fit is not None:
+                render_dynamic.append(len(maps))
+                # KIND_ALL, not KIND_CHARACTER: one map holds many characters.
+                maps.append(MapRecord("characters", KIND_ALL, fit, 1, self.resolution,
+                                      [self.geom.character_object(i) for i in range(n)]))
+        self._static_dirty = False
+        return ShadowPlan(resolution=self.resolution, maps=maps, render_static=render_static,
+                          render_dynamic=render_dynamic)

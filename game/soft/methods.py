@@ -1,0 +1,82 @@
+"""The soft-shadow tracer's methods by name, and the settings of one trace.
+
+The one list of trace method names: the command line, the sweep and the docs read it. Every
+method runs in shaders/trace.comp, picked by ``#define METHOD`` (the ``shader_id``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from game.gpu import blocks
+from game.scene.model import Light
+from game.soft.grid import CELLS_PER_TRIANGLE
+
+
+@dataclass(frozen=True)
+class TraceMethod:
+    name: str
+    shader_id: int
+    sampled: bool   # False: exact, its result does not depend on the number of samples
+    summary: str
+
+
+METHODS: dict[str, TraceMethod] = {m.name: m for m in (
+    TraceMethod("brute", 0, True, "every sample ray against every triangle (the oracle)"),
+    TraceMethod("grid", 1, True, "3D-DDA through the uniform grid, a small per-ray mailbox"),
+    TraceMethod("tri-cache", 2, True,
+                "a (ray id, flag) word per triangle: the triangle-versus-light-triangle test "
+                "runs once per shaded point and triangle"),
+    TraceMethod("voxel-cache", 3, True,
+                "a ray id and a candidate list per voxel, reset per shaded point: the "
+                "per-voxel scheme of \"Some Ideas on Shadow Algorithms\""),
+    TraceMethod("analytic", 4, False,
+                "exact: the union of the segment intervals that the triangles meeting the "
+                "light triangle hide"),
+)}
+DEFAULT_METHOD = "voxel-cache"
+SAMPLED_METHODS = tuple(name for name, m in METHODS.items() if m.sampled)
+
+
+@dataclass(frozen=True)
+class TraceSettings:
+    """How the soft-shadow pass runs."""
+
+    method: str = DEFAULT_METHOD
+    samples: int = 32
+    cells_per_triangle: float = CELLS_PER_TRIANGLE
+    vc_slots: int = 64       # voxel-cache: voxels cached per shaded point (a power of two)
+    vc_pool: int = 256       # voxel-cache: candidate ids cached per shaded point
+    mailbox: int = 8         # triangles remembered per ray
+    max_intervals: int = 32  # analytic: disjoint hidden intervals kept per point
+
+    def __post_init__(self) -> None:
+        if self.method not in METHODS:
+            raise ValueError(f"unknown trace method {self.method!r}; valid: {', '.join(METHODS)}")
+        if self.samples < 1:
+            raise ValueError("samples must be at least 1")
+        if self.vc_slots < 1 or self.vc_slots & (self.vc_slots - 1):
+            raise ValueError("vc_slots must be a power of two")
+
+    @property
+    def voxel_cache_bytes_per_point(self) -> int:
+        """Private memory of one invocation's voxel cache: keys, starts, counts, the pool."""
+        return 4 * (3 * self.vc_slots + self.vc_pool + 1)
+
+
+# Exact hard shadows: one ray per point toward the hard light through the grid (one sample
+# toward a point is exact). The ``traced`` hard-shadow method uses these.
+EXACT_HARD = TraceSettings(method="grid", samples=1)
+
+
+def hard_light(light: Light) -> tuple[int, np.ndarray, np.ndarray]:
+    """The tracer's light tuple for the scene's hard light (spot: its cone is shading, not
+    visibility, as in the Embree reference)."""
+    if light.kind == "directional":
+        d = -np.asarray(light.direction, np.float64)
+        d = d / np.linalg.norm(d)
+        return blocks.TRACE_LIGHT_DIRECTIONAL, d, d
+    p = np.asarray(light.position, np.float64)
+    return blocks.TRACE_LIGHT_POINT, p, p

@@ -1,0 +1,41 @@
+#version 430
+// The soft composite: the frame lit again through a traced visibility, from its G-buffer alone
+// (the scene is not drawn again). HARD 0: the linear light's soft shadows, its direction taken
+// from the segment's midpoint; HARD 1: the hard light's exact shadows (the traced method).
+// The arithmetic is the shading pass's (shade.frag), so a pixel lit by the same visibility gets
+// the same colour.
+#include "blocks/frame.glsl"
+#include "lighting.glsl"
+
+uniform sampler2D u_position;    // xyz world position; w object index
+uniform sampler2D u_normal;      // xyz unit normal facing the camera
+uniform sampler2D u_colour;      // the shaded frame: a > 0 where geometry covers the pixel
+uniform sampler2D u_visibility;  // the traced visibility of the pixel's surface point
+#if !HARD
+uniform vec3 u_soft_light;       // the segment's midpoint
+#endif
+
+out vec4 out_color;
+
+void main() {
+    ivec2 px = ivec2(gl_FragCoord.xy);
+    vec4 frame = texelFetch(u_colour, px, 0);
+    if (frame.a == 0.0) {
+        out_color = frame;   // no geometry: the sky, as the shading pass cleared it
+        return;
+    }
+    vec4 position = texelFetch(u_position, px, 0);
+    vec3 p = position.xyz;
+    vec3 n = texelFetch(u_normal, px, 0).xyz;
+    float vis = texelFetch(u_visibility, px, 0).r;
+#if HARD
+    vec3 l = to_light(p);
+    float cone = spot_cone(l);
+#else
+    vec3 l = normalize(u_soft_light - p);
+    float cone = 1.0;
+#endif
+    vec3 base = base_colour(int(position.w));
+    vec3 colour = base * (AMBIENT + (1.0 - AMBIENT) * max(dot(n, l), 0.0) * vis * cone);
+    out_color = vec4(colour, frame.a);
+}

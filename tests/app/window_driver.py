@@ -1,0 +1,210 @@
+"""Drives the real walkaround window with scripted input, for tests/test_window.py.
+
+Runs in its own process (the window's GL context must not meet the test session's headless
+one) on GLFW's null platform with an EGL context, and prints what it saw as one JSON line.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import sys
+from pathlib import Path
+
+import imgui_bundle  # noqa: F401 - before glfw
+
+# isort: split
+import glfw
+
+from game.app.window.walkaround import PlayOptions, Walkaround
+from game.errors import GameError
+from game.scene import load_scene
+from game.shadows.plan import ShadowSettings
+
+SIZE = (320, 180)
+WIDE = (1280, 720)  # room beside the overlay's panel for comparing shadows
+COARSE = 64         # texels per side of the maps in traced_and_soft
+STEP_S = 1.0 / 30.0
+NO_WINDOW = 77  # exit status: this machine cannot open a null-platform EGL window
+
+
+def screen_matches_screenshot(scene_path: str, shots: str) -> None:
+    """Most frames go straight to the window, screenshots through a canvas: same pixels?
+
+    Reads the window's framebuffer (which moderngl cannot) with PyOpenGL just before each swap.
+    """
+    import numpy as np
+    from OpenGL import GL
+
+    import game.app.window.walkaround
+
+    game.app.window.walkaround.SCREENSHOT_DIR = Path(shots)
+    scene = load_scene(Path(scene_path))
+    result = {}
+    for scale in (1.0, 0.5):
+        try:
+            app = Walkaround(scene, PlayOptions(size=SIZE, time_step=0.0, platform="null",
+                                                render_scale=scale))
+        except GameError as exc:
+            print(exc, file=sys.stderr)
+            sys.exit(NO_WINDOW)
+        swap, shown = glfw.swap_buffers, []
+
+        def read_then_swap(window, app=app, swap=swap, shown=shown):
+            GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, 0)
+            data = GL.glReadPixels(0, 0, SIZE[0], SIZE[1], GL.GL_RGB, GL.GL_UNSIGNED_BYTE)
+            shown.append(np.frombuffer(data, np.uint8).reshape(SIZE[1], SIZE[0], 3)[::-1])
+            app.ctx.detect_framebuffer(0).use()
+            swap(window)
+
+        glfw.swap_buffers = read_then_swap
+        try:
+            app.paused = True
+            app.step(0.0)                 # straight to the window
+            app.key("f12", True)          # through the canvas, saved
+            app.step(0.0)
+            x, y, w, h = app.overlay.rect
+        finally:
+            glfw.swap_buffers = swap
+            app.close()
+        # The panel's figures change between the frames: compare outside it.
+        keep = np.ones(shown[0].shape[:2], bool)
+        keep[y:y + h, x:x + w] = False
+        result[str(scale)] = {
+            "direct_vs_canvas": int(np.abs(shown[0].astype(int) - shown[1].astype(int))[keep]
+                                    .max()),
+            "screenshot_vs_window": int(np.abs(app.screenshot.astype(int)
+                                               - shown[1].astype(int)).max()),
+            "mean": float(shown[0].mean())}
+    print(json.dumps(result))
+
+
+def traced_and_soft(scene_path: str, out: str) -> None:
+    """Switch to the traced method with M, back, then soft shadows on and off several times.
+
+    Saves the frames shown (F12) as .npy files in ``out`` and prints what it saw.
+    """
+    import numpy as np
+
+    import game.app.window.walkaround
+
+    game.app.window.walkaround.SCREENSHOT_DIR = Path(out)
+    scene = load_scene(Path(scene_path))
+    try:
+        # Coarse maps, so that the maps' hard shadows differ visibly from the traced ones.
+        coarse = ShadowSettings(clump_resolution=COARSE, character_resolution=COARSE)
+        app = Walkaround(scene, PlayOptions(size=WIDE, time_step=0.0, platform="null",
+                                            settings=coarse))
+    except GameError as exc:
+        print(exc, file=sys.stderr)
+        sys.exit(NO_WINDOW)
+    seen: dict = {}
+
+    def shot(name: str) -> None:
+        app.step(0.0)
+        app.key("f12", True)
+        app.key("f12", False)
+        app.step(0.0)
+        np.save(Path(out) / f"{name}.npy", app.screenshot)
+        seen[name] = {"method": app.renderer.settings.method, "soft": app.soft,
+                      "render_size": list(app.renderer.size), "ms": app.last_figures.ms,
+                      "overlay_rect": list(app.overlay.rect)}
+
+    try:
+        app.paused = True
+        shot("clumped")
+        methods = []
+        for _ in range(4):
+            app.key("m", True)
+            app.key("m", False)
+            methods.append(app.renderer.settings.method)
+        seen["methods"] = methods
+        shot("traced")
+        app.key("m", True)
+        app.key("m", False)
+        seen["after_traced"] = app.renderer.settings.method
+        app.set_soft(True)
+        shot("soft")
+        counts: dict = {"on": [], "off": []}
+        for _ in range(4):
+            for state in ("off", "on"):
+                app.set_soft(state == "on")
+                app.step(0.0)
+                app.step(0.0)
+                counts[state].append(app.gl_objects())
+        seen["gl_objects"] = counts
+        seen["gl_error"] = app.ctx.error
+    finally:
+        app.close()
+    print(json.dumps(seen))
+
+
+def main(scene_path: str) -> None:
+    scene = load_scene(Path(scene_path))
+    try:
+        app = Walkaround(scene, PlayOptions(size=SIZE, frames=None, time_step=STEP_S,
+                                            platform="null"))
+    except GameError as exc:
+        print(exc, file=sys.stderr)
+        sys.exit(NO_WINDOW)
+    seen: dict = {"positions": [], "methods": [], "sizes": [], "framebuffers": [], "errors": []}
+    calls = 0
+
+    def script(w: Walkaround) -> None:
+        nonlocal calls
+        k = calls
+        calls += 1
+        seen["positions"].append(w.controller.camera.position.tolist())
+        seen["methods"].append(w.renderer.settings.method)
+        seen["sizes"].append(list(w.renderer.size))
+        seen["framebuffers"].append(list(glfw.get_framebuffer_size(w.window)))
+        seen["errors"].append(w.ctx.error)
+        if k == 3:
+            w.key("w", True)
+        elif k == 13:
+            w.key("w", False)
+        elif k == 15:
+            w.key("m", True)
+            w.key("m", False)
+        elif k == 18:
+            glfw.set_window_size(w.window, 200, 120)
+        elif k == 21:
+            glfw.iconify_window(w.window)
+            seen["frames_before_minimise"] = w.frames
+        elif k == 25:
+            seen["frames_while_minimised"] = w.frames - seen["frames_before_minimise"]
+            glfw.restore_window(w.window)
+        elif k == 28:
+            glfw.set_window_size(w.window, *SIZE)
+        elif k == 35:  # a map larger than the GL allows: undone, and said in the panel
+            w.renderer.set_settings(dataclasses.replace(w.renderer.settings,
+                                                        single_resolution=1 << 20))
+        elif k == 36:
+            seen["refused"] = {"message": w.overlay.message,
+                               "notes": list(w.renderer.notes),
+                               "resolution": w.renderer.settings.single_resolution}
+        elif k == 41:
+            w.key("escape", True)
+
+    try:
+        app.run(script)
+        f = app.last_figures
+        seen["figures"] = {"ms": f.ms, "clock": f.clock, "maps_rendered": f.maps_rendered,
+                           "maps_cached": f.maps_cached,
+                           "triangles_to_maps": f.triangles_to_maps,
+                           "maps_per_fragment": f.maps_per_fragment, "fps": f.fps}
+        seen["overlay_rect"] = list(app.overlay.rect)
+        seen["frames"] = app.frames
+        seen["final_error"] = app.ctx.error
+    finally:
+        app.close()
+    print(json.dumps(seen))
+
+
+if __name__ == "__main__":
+    if len(sys.argv) > 3 and sys.argv[3] == "traced-soft":
+        traced_and_soft(sys.argv[1], sys.argv[2])
+    elif len(sys.argv) > 2:
+        screen_matches_screenshot(sys.argv[1], sys.argv[2])
+    else:
+        main(sys.argv[1])

@@ -1,0 +1,187 @@
+"""The machine's limits (issue 6): missing EGL, no display, old GL, and shadow maps beyond the GL's
+limits or the memory budget. Each either stops with one clear line or degrades with a note, and a
+degraded frame still matches Embree (never a silently missing shadow)."""
+
+from __future__ import annotations
+
+import moderngl
+import pytest
+
+from game import cli
+from game.errors import GameError
+from game.gpu import context
+from game.gpu.limits import GLLimits
+from game.render.renderer import Renderer
+from game.scene import parse_scene
+from game.shadows.budget import fit_settings
+from game.shadows.plan import KIND_CHARACTER, ShadowSettings
+from tests.conftest import ACCURACY_SIZE as SIZE
+from tests.conftest import MAX_ERROR, ROOT
+from tests.conftest import TINY as TINY_PATH
+from tests.shadow_check import render_and_check
+
+TINY = TINY_PATH.read_text()
+EXTRA = [(-4.5, 3.0), (-2.5, 4.0), (0.5, 3.5), (3.0, 3.0), (4.5, 1.0)]
+
+
+def crowd_scene():
+    """tiny.toml plus five standing characters: six in all."""
+    text = TINY + "".join(
+        f'\n[[character]]\nshape = "capsule"\nradius = 0.3\nheight = 1.8\n'
+        f"path = [[{x}, 0.9, {z}]]\n" for x, z in EXTRA)
+    return parse_scene(text, TINY_PATH, TINY_PATH.parent)
+
+
+# -- the context -------------------------------------------------------------------------------
+def one_line(capsys, argv) -> tuple[int, str]:
+    code = cli.main(argv)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1, err
+    assert "Traceback" not in err[0]
+    return code, err[0]
+
+
+def test_no_egl_library_says_what_to_install(capsys, monkeypatch, tmp_path):
+    def fail(**kwargs):
+        raise Exception("libEGL.so.1: cannot open shared object file: No such file or directory")
+
+    monkeypatch.setattr(moderngl, "create_context", fail)
+    code, line = one_line(capsys, ["capture", str(TINY_PATH), "--out", str(tmp_path)])
+    assert code == 1
+    assert line.startswith("error: no EGL library found") and "apt-get install libegl1" in line
+
+
+def test_egl_without_a_driver_says_what_to_install(monkeypatch):
+    def fail(**kwargs):
+        raise Exception("eglInitialize failed: 0x3001")
+
+    monkeypatch.setattr(moderngl, "create_context", fail)
+    with pytest.raises(GameError, match="libgl1-mesa-dri"):
+        context.create_headless()
+
+
+class OldContext:
+    """What moderngl returns on a GL 3.3 driver, as far as the version check looks."""
+
+    version_code = 330
+    info = {"GL_RENDERER": "OldGPU", "GL_VERSION": "3.3 Core"}
+    released = False
+
+    def release(self):
+        self.released = True
+
+
+def test_gl_below_4_3_says_what_to_use(capsys, monkeypatch, tmp_path):
+    old = OldContext()
+    monkeypatch.setattr(moderngl, "create_context", lambda **kwargs: old)
+    code, line = one_line(capsys, ["capture", str(TINY_PATH), "--out", str(tmp_path)])
+    assert code == 1
+    assert "OpenGL 4.3 core is required" in line and "OldGPU" in line and "3.3 Core" in line
+    assert "llvmpipe" in line  # what to use instead
+    assert old.released
+
+
+def test_no_display_points_to_capture(monkeypatch):
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    with pytest.raises(GameError, match="no display.*python -m game capture"):
+        context.require_display()
+    monkeypatch.setenv("DISPLAY", ":0")
+    context.require_display()
+
+
+# -- settings inside the limits ------------------------------------------------------------------
+LIMITS = GLLimits(max_texture_size=16384, max_array_layers=2048, max_maps=128)
+
+
+def test_resolution_above_max_texture_size_is_clamped_with_a_note():
+    s = ShadowSettings(clump_resolution=4096, character_resolution=8192)
+    fitted, notes = fit_settings(s, LIMITS.tightened(max_texture_size=2048), 3)
+    assert fitted.clump_resolution == 2048 and fitted.character_resolution == 2048
+    assert len(notes) == 2 and all("GL_MAX_TEXTURE_SIZE" in n for n in notes)
+    assert s.clump_resolution == 4096  # the caller's settings are left alone
+
+
+def test_array_over_the_budget_gets_coarser_layers():
+    s = ShadowSettings(clump_resolution=4096, budget_mib=64)
+    fitted, notes = fit_settings(s, LIMITS, 2)
+    # Two layers (a clump and a character) of 4 * res^2 bytes must fit 64 MiB: 2048 does.
+    assert fitted.clump_resolution == 2048
+    assert "budget" in notes[0]
+    single = ShadowSettings(method="single", single_resolution=8192,
+                                           budget_mib=64)
+    # The budget is clumped's: a baseline keeps the resolution the comparison names.
+    assert fit_settings(single, LIMITS, 2) == (single, [])
+
+
+def test_settings_inside_the_limits_are_untouched():
+    s = ShadowSettings()
+    assert fit_settings(s, LIMITS, 7) == (s, [])
+
+
+# -- frames under simulated limits, checked against Embree -----------------------------------------
+def check(renderer: Renderer, t: float = 0.0):
+    frame, err = render_and_check(renderer, t)
+    assert err["shadowed"] >= 200
+    assert err["error"] <= MAX_ERROR, err["error"]
+    return frame
+
+
+def test_characters_beyond_the_layer_limit_share_maps(ctx):
+    scene = crowd_scene()
+    limits = GLLimits.of(ctx).tightened(max_array_layers=3)
+    renderer = Renderer(ctx, scene, SIZE, gbuffer=True, limits=limits)
+    try:
+        method = renderer.method
+        assert method.layers <= 3
+        assert any("share" in note for note in method.notes)
+        frame = check(renderer, 0.5)
+        plan = method.plan(renderer.models(0.5))
+        drawn = sorted(o for m in plan.maps for o in m.objects
+                       if m.kind == KIND_CHARACTER)
+        assert drawn == [renderer.geom.character_object(i) for i in range(6)]  # none dropped
+        assert frame.maps_total <= 3
+    finally:
+        renderer.release()
+
+
+def test_more_maps_than_the_uniform_block_holds(ctx):
+    scene = crowd_scene()
+    limits = GLLimits.of(ctx).tightened(max_maps=4)
+    settings = ShadowSettings(clump_count=2)
+    renderer = Renderer(ctx, scene, SIZE, settings, gbuffer=True, limits=limits)
+    try:
+        frame = check(renderer)
+        assert frame.maps_total <= 4
+    finally:
+        renderer.release()
+
+
+def test_small_max_texture_size_and_budget(ctx):
+    limits = GLLimits.of(ctx).tightened(max_texture_size=512)
+    settings = ShadowSettings(clump_resolution=2048, budget_mib=2)
+    renderer = Renderer(ctx, crowd_scene(), SIZE, settings, gbuffer=True, limits=limits)
+    try:
+        notes = renderer.notes
+        assert renderer.settings.clump_resolution == 512
+        assert any("GL_MAX_TEXTURE_SIZE" in n for n in notes)
+        # 2 MiB holds two 512^2 layers: the clumps and the characters share them.
+        assert renderer.shadow_memory_bytes == 0
+        check(renderer)
+        assert renderer.shadow_memory_bytes <= 2 * 2**20
+    finally:
+        renderer.release()
+
+
+def test_capture_clamps_a_resolution_above_the_gl_limit(tmp_path):
+    import subprocess
+    import sys
+
+    result = subprocess.run(
+        [sys.executable, "-m", "game", "capture", str(TINY_PATH), "--size", "32x18",
+         "--clump-resolution", "99999", "--out", str(tmp_path)],
+        cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr
+    notes = result.stderr.strip().splitlines()
+    assert notes and all(n.startswith("note: ") for n in notes)
+    assert "GL_MAX_TEXTURE_SIZE" in notes[0]
