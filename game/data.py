@@ -1,9 +1,9 @@
 """Where the program's own data lives: the ``shaders/`` and ``assets/`` folders.
 
 In a source checkout (and an editable install) they sit beside the ``game`` package, at the top
-of the repository. A built wheel carries them inside the package, as ``game/_data/shaders`` and
-``game/_data/assets`` (pyproject.toml maps the folders there), so an installed program finds
-them from any working directory.
+of the repository. A built wheel carries them inside the package, as ``game/shaders`` and
+``game/assets`` (pyproject.toml maps the folders there), so an installed program finds them
+from any working directory.
 """
 
 from __future__ import annotations
@@ -11,14 +11,13 @@ from __future__ import annotations
 from pathlib import Path
 
 _PACKAGE = Path(__file__).resolve().parent
-_INSTALLED = _PACKAGE / "_data"
 _CHECKOUT = _PACKAGE.parent
 
 
 def data_dir(name: str) -> Path:
     """The folder ``name`` (``"shaders"`` or ``"assets"``): the wheel's copy, else the
     checkout's."""
-    installed = _INSTALLED / name
+    installed = _PACKAGE / name
     return installed if installed.is_dir() else _CHECKOUT / name
 
 

@@ -6,4 +6,4 @@ class GameError(Exception):
 
 
 class SceneError(GameError):
-    """A scene file that does not follow the format (CONTRACT.md section 1)."""
+    """A scene file that does not follow the format (docs/reference.md, section 1)."""

@@ -1,7 +1,7 @@
 """Matrix conventions, tested once and wrapped (tests/test_transforms.py).
 
 Every matrix in this project is a float64 numpy array in the column-vector convention of
-CONTRACT.md: ``clip = proj @ view @ [x, y, z, 1]``. pyrr builds its matrices for row vectors
+docs/reference.md: ``clip = proj @ view @ [x, y, z, 1]``. pyrr builds its matrices for row vectors
 (``v @ M``), so each pyrr result is transposed here and nowhere else. Uploading to GLSL, whose
 ``mat4`` is column-major, takes the transpose's bytes: :func:`gl_bytes`.
 """

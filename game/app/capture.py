@@ -1,4 +1,5 @@
-"""Headless frame capture (``python -m game capture``): frames, dumps and stats per CONTRACT.md.
+"""Headless frame capture (``python -m game capture``): frames, dumps and stats
+(docs/reference.md).
 
 Scene -> Renderer -> Frame -> files. Frame k is rendered at scene time ``time + k / fps``.
 """
@@ -16,6 +17,7 @@ from game.gpu import context, resources
 from game.render.renderer import Frame, Renderer, View
 from game.scene import Scene, floors
 from game.shadows.plan import ShadowSettings
+from game.soft.methods import TraceSettings
 
 
 @dataclass
@@ -29,14 +31,14 @@ class CaptureOptions:
     stats: Path | None = None
     debug_view: str = "none"
     clock: str = "auto"
-    overlay: bool = False      # draw the timing overlay (game/overlay.py) into the frames
+    overlay: bool = False       # draw the timing overlay (game/app/window/overlay.py) in frames
     settings: ShadowSettings = field(default_factory=ShadowSettings)
-    soft: object | None = None  # a tracer.TraceSettings: composite the linear light's shadows
-    cull: bool = True          # camera pass: only triangles that can cover a pixel centre
+    soft: TraceSettings | None = None  # light the frames by the linear light, soft shadows
+    cull: bool = True           # camera pass: only triangles that can cover a pixel centre
 
 
 def frame_stats(index: int, t: float, frame: Frame) -> dict:
-    """One frame's entry of the stats file (CONTRACT.md section 4)."""
+    """One frame's entry of the stats file (docs/reference.md, section 4)."""
     ms = {name: round(value, 4) for name, value in frame.ms.items()}
     return {"frame": index, "time": t, "ms": ms, **ms,
             "maps_rendered": frame.maps_rendered, "maps_cached": frame.maps_cached,
@@ -63,7 +65,7 @@ def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
     renderer.debug_view = opts.debug_view
     hud = _overlay() if opts.overlay else None
     view = View.from_camera(scene.camera, opts.size)
-    frames = frame_log.FrameLog()  # on disk: a long run's memory stays flat (issue 6)
+    frames = frame_log.FrameLog()  # on disk: a long run's memory stays flat
     try:
         for k in range(opts.frames):
             interrupts.check()

@@ -1,6 +1,6 @@
-"""The dumps (CONTRACT.md section 3): a frame's G-buffer as npz and its geometry as glb.
+"""The dumps (docs/reference.md, section 3): a frame's G-buffer as npz and its geometry as glb.
 
-Written by capture, trace and the bench alike; read back by game/reference.py.
+Written by capture, trace and the bench alike; read back by game/reference/hard.py.
 """
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ def write_dump(stem: Path, scene: Scene, view: View, size: tuple[int, int], t: f
         "view": view.view.astype(np.float64), "proj": view.proj.astype(np.float64),
         "size": np.array(size, dtype=np.int64), "time": np.float64(t),
     }
-    if "soft" in g:  # the linear light's traced visibility (game/trace_run.py)
+    if "soft" in g:  # the linear light's traced visibility (game/app/trace.py)
         arrays["soft"] = g["soft"]
     outputs.write_npz(stem.with_suffix(".npz"), arrays)
     glb = frame_geometry(scene, t).export(file_type="glb")

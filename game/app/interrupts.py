@@ -8,7 +8,7 @@ that into something else (seen in 150 captures stopped at random moments):
 - inside ``numpy.savez``, zipfile's cleanup raised ValueError over it and left a traceback.
 So the handler here also remembers the signal (:func:`pending`, for the command line's last
 ``except``), the long loops call :func:`check` at every step, and :func:`deferred` holds the
-interrupt while a file is written (game/outputs.py), raising it once the file is in place.
+interrupt while a file is written (game/app/outputs.py), raising it once the file is in place.
 """
 
 from __future__ import annotations

@@ -36,7 +36,7 @@ def atomic_file(path: str | Path):
     path = Path(path)
     # The temp name is chosen before the file exists, so an interrupt that lands anywhere after
     # this line (even inside the open) still finds the name to remove. Ctrl-C itself waits for
-    # the rename (game/interrupts.py); this covers other exceptions, and signals not deferred.
+    # the rename (game/app/interrupts.py); this covers other exceptions, and signals not deferred.
     tmp = path.parent / f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp"
     try:
         with interrupts.deferred():

@@ -1,4 +1,5 @@
-"""The benchmark's charts (matplotlib, PNG and SVG), drawn from the CSV rows of game/bench.py.
+"""The benchmark's charts (matplotlib, PNG and SVG), drawn from the CSV rows of
+game/bench/runner.py.
 
 - ``pareto_SCENE``: shadow error against per-frame total ms, one point per run, the Pareto
   front drawn through the runs no other run beats in both;
@@ -15,6 +16,7 @@ from collections import defaultdict
 from pathlib import Path
 
 from game.app import outputs
+from game.bench.rows import row_number
 
 COLOURS = {"clumped": "#d62728", "single": "#1f77b4", "static-dynamic": "#2ca02c",
            "csm": "#9467bd"}
@@ -29,14 +31,6 @@ def pareto_front(points: list[tuple[float, float]]) -> list[int]:
                    for j, (c2, e2) in enumerate(points) if j != i):
             front.append(i)
     return front
-
-
-def row_number(row: dict, key: str) -> float:
-    """A CSV row's number under ``key``; NaN where it is empty or not a number."""
-    try:
-        return float(row.get(key, ""))
-    except (TypeError, ValueError):
-        return float("nan")
 
 
 def _ok(row: dict) -> bool:

@@ -1,11 +1,11 @@
-"""The stability sweep: scenes built to make shadow methods fail ("where methods fail", issue 3).
+"""The stability sweep: scenes built to make shadow methods fail ("where methods fail").
 
-Each case is a scene file's text (CONTRACT.md section 1) made from one small layout, varying one
-thing: the light's elevation (2 to 90 degrees; exactly 90 is the look-at up-vector
-singularity), characters overlapping each other and the statics, a character walking far out of
-the scene's bounds, the scene's scale (0.01 to 1000 m), thin casters close to their receivers
-(peter-panning), a floor raised above other objects (the seed's floor assumption failing), and
-more characters than the shading pass can hold maps for.
+Each case is a scene file's text (docs/reference.md, section 1) made from one small layout, varying
+one thing: the light's elevation (2 to 90 degrees; exactly 90 is the look-at up-vector singularity),
+characters overlapping each other and the statics, a character walking far out of the scene's
+bounds, the scene's scale (0.01 to 1000 m), thin casters close to their receivers (peter-panning), a
+floor raised above other objects (the floor assumption failing), and more characters than the
+shading pass can hold maps for.
 
 The raised floor is detected by ``floors.floor_warnings`` (capture and bench report it).
 """

@@ -181,7 +181,7 @@ def _add_cull_option(parser) -> None:
     parser.add_argument("--no-cull", action="store_true",
                         help="draw every triangle in the camera pass, not only those that can "
                              "cover a pixel centre (same pixels; slower where triangles are "
-                             "small on screen; game/triangle_cull.py)")
+                             "small on screen; game/render/cull.py)")
 
 
 def _add_frame_options(parser, dump_help: str) -> None:

@@ -75,6 +75,7 @@ def cmd_trace(args) -> int:
 
 def cmd_bench(args) -> int:
     from game.bench import runner as bench
+    from game.bench import runs
 
     _check_out(args.out)
     quick = args.quick
@@ -92,17 +93,17 @@ def cmd_bench(args) -> int:
             raise ArgumentError(f"--methods: unknown method {m!r}; valid: "
                                 f"{', '.join(registry.MAP_METHODS)}")
     if args.scenes:
-        keys = [s.key for s in bench.bench_scenes(quick)]
+        keys = [s.key for s in runs.bench_scenes(quick)]
         for pattern in args.scenes.split(","):
-            if not any(bench.selected(k, [pattern]) for k in keys):
+            if not any(runs.selected(k, [pattern]) for k in keys):
                 raise ArgumentError(f"--scenes: {pattern!r} matches no scene; valid: "
                                     f"{', '.join(keys)}")
-    opts = bench.BenchOptions(
+    opts = runs.BenchOptions(
         out=args.out, quick=quick, size=args.size, repeat=args.repeat,
         scenes=args.scenes.split(",") if args.scenes else None, methods=methods,
         progress=not args.no_progress, **values)
     if args.list:
-        for _scene, spec in bench.plan_runs(opts, MAX_SIZE):
+        for _scene, spec in runs.plan_runs(opts, MAX_SIZE):
             print(spec.run_id(opts.size))
         return 0
     try:

@@ -91,7 +91,7 @@ def unbind_program() -> None:
     """Leave no program current, after compute dispatches.
 
     On Mesa 22.3 the first program drawn with after a dispatch otherwise outlives its
-    glDeleteProgram, with its shaders (tests/test_render.py counts the GL names a released
+    glDeleteProgram, with its shaders (tests/render/test_renderer.py counts the GL names a released
     renderer leaves behind).
     """
     from OpenGL import GL

@@ -1,6 +1,6 @@
 """The independent ground truth for hard shadows: a CPU ray cast with Embree.
 
-It reads nothing but the dump files of CONTRACT.md section 3 (``frame_kkkk.npz`` and
+It reads nothing but the dump files of docs/reference.md section 3 (``frame_kkkk.npz`` and
 ``frame_kkkk.glb``), so it shares no code, no shadow maps and no GL with the renderer it judges:
 a bug in the renderer cannot hide itself by being repeated here.
 
@@ -31,8 +31,9 @@ RAY_OFFSET_DISTANCE = 1e-5
 # Pixels whose N.L is at or below this are left out of the error: at grazing angles the shadow
 # boundary is ill-posed for every method, shadow maps and ray casts alike.
 MIN_NDOTL = 0.1
-# Node-name prefixes of objects that cast no shadow (CONTRACT.md section 1: floors receive, never
-# cast). Pass as ``skip_prefixes`` to ``load_geometry`` to build the occluders the contract means.
+# Node-name prefixes of objects that cast no shadow (docs/reference.md section 1: floors receive,
+# never cast). Pass as ``skip_prefixes`` to ``load_geometry`` to build the occluders the format
+# means.
 NON_CASTER_PREFIXES = ("floor_",)
 
 EMBREE_HINT = (
@@ -119,7 +120,7 @@ def load_geometry(glb_path: str | Path, skip_prefixes: tuple[str, ...] = ()) -> 
 
     Node transforms are applied, so instanced or moved objects land where the frame saw them.
     Nodes whose name starts with one of ``skip_prefixes`` are left out (``NON_CASTER_PREFIXES``
-    drops the floors, which the contract says cast no shadows).
+    drops the floors, which the format says cast no shadows).
     """
     return geometry_from_glb(Path(glb_path).read_bytes(), skip_prefixes)
 

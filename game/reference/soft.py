@@ -1,6 +1,6 @@
 """The independent reference for the linear light: dense stratified Embree shadow rays.
 
-Like game/reference.py it shares no GL and no grid with the tracer it judges: Embree's BVH and
+Like game/reference/hard.py it shares no GL and no grid with the tracer it judges: Embree's BVH and
 ray-triangle test on the CPU. It also builds the tracer's own sample rays (the numpy twin of
 ``sample_t`` in shaders/trace.glsl), so that Embree's any-hit can be timed on the very rays a
 method traced, side by side.

@@ -1,9 +1,9 @@
-"""Checks of the seed's floor assumption: floors receive shadows but cast none.
+"""Checks of the floor assumption: floors receive shadows but cast none.
 
 "The user can identify the floor(s) and not put it as part of any shadow depth map" holds while a
 floor is the lowest thing under it. A floor raised above another object (a platform, a bridge
 deck) should shadow it, but no map holds the floor, so every map-based method misses that
-shadow. These checks find such floors so capture and bench can warn (issue 3).
+shadow. These checks find such floors so capture and bench can warn.
 """
 
 from __future__ import annotations
@@ -16,9 +16,9 @@ FLOOR_CLEARANCE = 1e-3   # share of the floor's height an object may poke below 
 def floor_warnings(scene) -> list[str]:
     """Floors that have another object below their top: they hide a shadow (they cast none).
 
-    The seed leaves floors out of every map: "no self-shadowing on the floor". That holds while a
-    floor is the lowest thing under it. A platform above a static breaks it: the static should be
-    in the platform's shadow but is lit.
+    "Some Ideas on Shadow Algorithms" leaves floors out of every map: "no self-shadowing on the
+    floor". That holds while a floor is the lowest thing under it. A platform above a static breaks
+    it: the static should be in the platform's shadow but is lit.
     """
     notes = []
     others = [*scene.statics, *scene.floors]

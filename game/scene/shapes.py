@@ -1,4 +1,4 @@
-"""The analytic shapes of the scene format (CONTRACT.md section 1), built with trimesh.
+"""The analytic shapes of the scene format (docs/reference.md, section 1), built with trimesh.
 
 Every shape is centred on the origin with its axis along +Y, as the format defines them.
 """

@@ -142,7 +142,7 @@ def outside_cone(points: np.ndarray, eye: np.ndarray, direction: np.ndarray,
     return angle - math.asin(min(1.0, radius / distance)) > half
 
 
-# -- a light inside a caster's bounds (issue 6) ---------------------------------------------------
+# -- a light inside a caster's bounds ------------------------------------------------------------
 # One frustum holds at most MAX_TAN either side of its axis. When a clump's casters surround the
 # light, fit_perspective clips them at the near plane or at MAX_TAN and their shadows would be
 # lost; such a clump gets the six faces of a cube around the light instead, each a 90-degree

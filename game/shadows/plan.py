@@ -15,7 +15,8 @@ from game.shadows.fit import MapFit
 # KIND_CASCADE: keep in sync with shaders/shadow.glsl (the finest cascade holding a fragment wins).
 KIND_CLUMP, KIND_CHARACTER, KIND_ALL, KIND_CASCADE = 0, 1, 2, 3
 
-# Defaults chosen so the accuracy bar of tests/test_accuracy.py holds without per-scene tuning.
+# Defaults chosen so the accuracy bar of tests/shadows/test_accuracy.py holds without per-scene
+# tuning.
 TEXELS_PER_METRE = 64.0        # clump maps' texel-density target
 CLUMP_RESOLUTION = 1024        # texels per side of a clump map (and of the array's layers)
 CHARACTER_RESOLUTION = 512     # texels per side a character's map uses of its layer

@@ -2,7 +2,7 @@
 
 :class:`SoftTracer` owns every GL object of the pass (its programs, one per method, and its
 buffers), creates them explicitly and releases them in :meth:`SoftTracer.release`; its owner (the
-:class:`~game.renderer.Renderer`) releases it. The grid comes from game/trace_grid.py: the
+:class:`~game.renderer.Renderer`) releases it. The grid comes from game/soft/grid.py: the
 statics' lists are uploaded once, the characters' triangles and lists every frame.
 
 The methods (game/soft/methods.py) all live in shaders/trace.comp, picked by ``#define METHOD``.
@@ -27,7 +27,7 @@ COUNTERS = ("ray_triangle_tests", "triangle_triangle_tests", "voxels_visited", "
             "overflows")
 # Ray start offset along the normal (receiver self-occlusion): a share of the grid's diagonal
 # plus a share of the distance from the origin (float32 positions lose absolute precision there).
-# The same rule as the Embree reference (game/reference.py), so both see the same receivers.
+# The same rule as the Embree reference (game/reference/hard.py), so both see the same receivers.
 RAY_OFFSET_SCENE = 1e-4
 RAY_OFFSET_DISTANCE = 1e-5
 LOCAL_SIZE = 8            # invocations per side of a workgroup; keep in sync with trace.comp
@@ -224,7 +224,7 @@ class SoftTracer:
         Parameters
         ----------
         textures
-            (position, normal, colour) textures of the frame (game/renderer.py's G-buffer).
+            (position, normal, colour) textures of the frame (game/render/renderer.py's G-buffer).
         models
             The characters' (4, 4) model matrices of the frame.
         light

@@ -1,6 +1,6 @@
-"""Safe outputs (issue 6): an interrupted run leaves no truncated file.
+"""Safe outputs: an interrupted run leaves no truncated file.
 
-Every file goes through game/outputs.py (temp file beside it, fsync, rename); these tests stop
+Every file goes through game/app/outputs.py (temp file beside it, fsync, rename); these tests stop
 real capture processes at random points, with Ctrl-C (SIGINT) and with SIGKILL, and then read
 every file under its final name: each must be whole. SIGINT also removes the temp file being
 written; SIGKILL cannot, but leaves it only under a hidden ``.name.*.tmp`` name.

@@ -1,10 +1,10 @@
-"""Long runs (issue 6): constant live GL objects and flat memory.
+"""Long runs: constant live GL objects and flat memory.
 
 The default run renders 200 frames in process and checks the GL objects against the driver's own
 count. The full soak, 10,000 frames through the command line, is marked slow and excluded by
 default (pyproject addopts); run it with::
 
-    python -m pytest -m slow tests/test_soak.py
+    python -m pytest -m slow tests/app/test_soak.py
 """
 
 from __future__ import annotations

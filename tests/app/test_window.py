@@ -328,7 +328,7 @@ def test_play_soft_needs_a_linear_light(tmp_path):
 
 
 def _read_png(path: Path) -> np.ndarray:
-    """Decode the PNGs game/outputs.py writes (8-bit RGB, filter 0 on every row)."""
+    """Decode the PNGs game/app/outputs.py writes (8-bit RGB, filter 0 on every row)."""
     data = path.read_bytes()
     assert data[:8] == b"\x89PNG\r\n\x1a\n"
     pos, idat, size = 8, b"", None
@@ -429,3 +429,19 @@ def test_capture_takes_the_cache_debug_view(tmp_path):
         return (rgb[..., 1] > rgb[..., 0] + 40).mean()
 
     assert green(first) == 0 and green(second) > 0.01
+
+
+def test_without_fps_the_scene_clock_follows_real_time(tmp_path):
+    stats = tmp_path / "s.json"
+    result = run_game("play", TINY, "--platform", "null", "--frames", "12", "--no-overlay",
+                      "--size", "160x90", "--stats", stats)
+    if result.returncode == NO_WINDOW:
+        pytest.skip(f"no null-platform EGL window here: {result.stderr.strip()}")
+    assert result.returncode == 0, result.stderr
+    frames = json.loads(stats.read_text())["frames"]
+    assert frames[0]["time"] == 0.0
+    # The last frame shows the real time since the first one started: the frames before it,
+    # each at least as long as its own drawing and at most its whole period.
+    drawn = sum(f["ms"]["total"] for f in frames[:-1]) / 1e3
+    periods = sum(f["frame_ms"] for f in frames[:-1]) / 1e3
+    assert drawn * 0.9 <= frames[-1]["time"] <= periods * 1.5 + 0.05

@@ -1,4 +1,4 @@
-"""Drives the real walkaround window with scripted input, for tests/test_window.py.
+"""Drives the real walkaround window with scripted input, for tests/app/test_window.py.
 
 Runs in its own process (the window's GL context must not meet the test session's headless
 one) on GLFW's null platform with an EGL context, and prints what it saw as one JSON line.

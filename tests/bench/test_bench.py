@@ -6,8 +6,9 @@ import sys
 import numpy as np
 import pytest
 
-from game.bench import charts
+from game.bench import acceptance, charts, measure, runs
 from game.bench import runner as bench
+from game.bench.rows import read_rows
 from game.shadows import registry
 from game.shadows.methods.cascaded import CascadedShadows
 
@@ -15,21 +16,21 @@ pytest.importorskip("matplotlib", reason="bench charts need matplotlib (pip inst
 pytest.importorskip("tqdm", reason="bench needs tqdm (pip install .[bench])")
 
 
-def tiny_options(tmp_path, **kw) -> bench.BenchOptions:
+def tiny_options(tmp_path, **kw) -> runs.BenchOptions:
     base = dict(out=tmp_path / "bench", quick=True, size=(80, 45), frames=2, warmup=1,
                 error_frames=1, flicker_frames=2, scenes=["stab_thin"],
                 methods=["clumped", "single"], progress=False, log=lambda line: None)
     base.update(kw)
-    return bench.BenchOptions(**base)
+    return runs.BenchOptions(**base)
 
 
 def test_bench_writes_rows_and_charts_then_skips_them(ctx, tmp_path):
     pytest.importorskip("embreex")
     opts = tiny_options(tmp_path)
     result = bench.run(opts, ctx)
-    rows = bench.read_rows(opts.out / "bench.csv")
+    rows = read_rows(opts.out / "bench.csv")
     assert [r["method"] for r in rows] == ["clumped", "single"]
-    assert list(rows[0]) == bench.COLUMNS
+    assert list(rows[0]) == runs.COLUMNS
     for r in rows:
         assert r["status"] == "ok"
         assert r["renderer"] and r["version"] and r["clock"] in ("cpu-finish", "gpu-query")
@@ -72,12 +73,12 @@ def test_an_interrupted_bench_keeps_finished_rows(ctx, tmp_path, monkeypatch):
     monkeypatch.setattr(bench, "run_one", interrupt_second)
     with pytest.raises(KeyboardInterrupt):
         bench.run(opts, ctx)
-    rows = bench.read_rows(opts.out / "bench.csv")
+    rows = read_rows(opts.out / "bench.csv")
     assert [r["method"] for r in rows] == ["clumped"]
     assert not list(opts.out.glob("bench-*")), "temp dump folders left behind"
     monkeypatch.setattr(bench, "run_one", original)
     bench.run(opts, ctx)
-    rows = bench.read_rows(opts.out / "bench.csv")
+    rows = read_rows(opts.out / "bench.csv")
     assert [r["method"] for r in rows] == ["clumped", "single"]
     assert rows[0]["error"] == ""  # no reference asked: left empty, not made up
 
@@ -91,7 +92,7 @@ def test_a_failing_method_gives_a_failed_row_not_a_crash(ctx, tmp_path, monkeypa
 
     monkeypatch.setitem(registry.METHODS, "csm", Broken)
     bench.run(opts, ctx)
-    (row,) = bench.read_rows(opts.out / "bench.csv")
+    (row,) = read_rows(opts.out / "bench.csv")
     assert row["status"] == "failed: RuntimeError: no cascades today"
 
 
@@ -118,11 +119,11 @@ def test_flicker_counts_only_the_methods_own_flips():
     both = exact.copy()
     both[:1] = 0.0      # 10 of them also flip in the reference
     b = _frame(flipped, both, view)
-    rates = bench.flicker_rates([a, b])
+    rates = measure.flicker_rates([a, b])
     assert rates["flicker_raw"] == pytest.approx(0.2)
     assert rates["flicker_reference"] == pytest.approx(0.1)
     assert rates["flicker"] == pytest.approx(0.1)
-    assert bench.flicker_rates([a, a])["flicker"] == 0.0
+    assert measure.flicker_rates([a, a])["flicker"] == 0.0
 
 
 def test_pareto_front_and_comparison():
@@ -138,7 +139,7 @@ def test_pareto_front_and_comparison():
         {"run": "s|single|r=3|1x1", "scene": "s", "method": "single", "status": "ok",
          "error": "0.01", "total_ms_median": "400"},
     ]
-    c = bench.compare(rows, "s", "single")
+    c = acceptance.compare(rows, "s", "single")
     # The most accurate baseline run that is still no better than clumped: r=2, not r=1.
     assert c["baseline"] == "s|single|r=2|1x1" and c["speedup"] == pytest.approx(10.0)
     assert c["clumped_error_lower"]
@@ -160,25 +161,25 @@ def test_cli_lists_runs_and_rejects_a_bad_method(tmp_path):
 def test_repeated_timings_are_interleaved_and_combined(ctx, tmp_path, monkeypatch):
     opts = tiny_options(tmp_path, reference=False, repeat=2)
     order = []
-    original = bench.measure_timing
+    original = measure.measure_timing
 
     def spy(ctx_, scene, spec, opts_):
         order.append(spec.method)
         return original(ctx_, scene, spec, opts_)
 
-    monkeypatch.setattr(bench, "measure_timing", spy)
+    monkeypatch.setattr(measure, "measure_timing", spy)
     bench.run(opts, ctx)
     assert order == ["clumped", "single", "clumped", "single"]  # round-robin, not back to back
-    rows = bench.read_rows(opts.out / "bench.csv")
+    rows = read_rows(opts.out / "bench.csv")
     for r in rows:
         assert r["status"] == "ok" and r["repeats"] == "2"
         assert float(r["total_ms_spread"]) >= 0.0
 
 
 def test_combine_takes_the_median_of_repetitions():
-    reps = [{f"{p}_ms_{s}": v for p in bench.PASSES for s in ("median", "p95", "min")}
+    reps = [{f"{p}_ms_{s}": v for p in runs.PASSES for s in ("median", "p95", "min")}
             for v in (10.0, 30.0, 12.0)]
-    row = bench.combine(reps)
+    row = measure.combine(reps)
     assert row["total_ms_median"] == 12.0 and row["repeats"] == 3
     assert row["total_ms_min"] == 10.0
     assert row["total_ms_spread"] == pytest.approx(20.0 / 12.0)

@@ -1,7 +1,7 @@
-"""The stability sweep (game/stability.py): every method on every case, checked against Embree.
+"""The stability sweep (game/bench/stability.py): every method on every case, against Embree.
 
 No NaN, no exception, and the shadow error under the bar wherever the method is meant to hold.
-The raised floor is the documented exception: floors cast no shadow (the seed's assumption), so
+The raised floor is the documented exception: floors cast no shadow (the floor assumption), so
 every method misses the shadow that the platform really casts, and a warning says so.
 """
 
@@ -97,6 +97,6 @@ def test_more_maps_than_the_shading_pass_holds(ctx, method):
     finally:
         renderer.release()
     assert not np.isnan(frame.gbuffer["lit"][frame.covered]).any()
-    # Clumped shares maps between characters once they outnumber the map records (issue 6).
+    # Clumped shares maps between characters once they outnumber the map records.
     assert err["error"] <= MAX_ERROR, f"{method}: error {err['error']:.3f}"
     assert frame.maps_total <= (stability.MANY_CHARACTERS + 1 if method == "clumped" else 4)

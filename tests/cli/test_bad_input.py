@@ -1,9 +1,9 @@
-"""Every bad-input class of issue 6 through the command line: exit non-zero, one line, no traceback.
+"""Every class of bad input through the command line: exit non-zero, one line, no traceback.
 
-tests/test_scene.py checks the loader's messages case by case; this file runs each class of bad
-input end to end through ``game.cli.main`` (in process, so it is quick) and checks what a user
-sees: the exit status and one stderr line naming the file, the line, the key and the problem.
-The table in docs/reliability.md lists the same cases with their messages.
+tests/scene/test_loader.py checks the loader's messages case by case; this file runs each class of
+bad input end to end through ``game.cli.main`` (in process, so it is quick) and checks what a user
+sees: the exit status and one stderr line naming the file, the line, the key and the problem. The
+table in docs/reliability.md lists the same cases with their messages.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The camera pass's triangle culling (game/triangle_cull.py): the same pixels as drawing every
+"""The camera pass's triangle culling (game/render/cull.py): the same pixels as drawing every
 triangle, from every kind of view, and far fewer triangles where they are small."""
 
 

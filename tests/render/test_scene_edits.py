@@ -1,8 +1,8 @@
-"""Cache invalidation through the Python API (issue 6): each change is checked on the image.
+"""Cache invalidation through the Python API: each change is checked on the image.
 
-Every test renders, changes the scene or the light through the Renderer, renders again, and
-compares the new frame's shadows with Embree shadow rays on its G-buffer (tests/shadow_check.py,
-the same reference and 5% bound as tests/test_accuracy.py). A stale cached map shows up there as
+Every test renders, changes the scene or the light through the Renderer, renders again, and compares
+the new frame's shadows with Embree shadow rays on its G-buffer (tests/shadow_check.py, the same
+reference and 5% bound as tests/shadows/test_accuracy.py). A stale cached map shows up there as
 misclassified pixels; the counters only say that no more was re-rendered than needed.
 """
 

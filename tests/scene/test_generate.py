@@ -1,4 +1,4 @@
-"""Procedural towns (game/generate.py) and the town scene files; no GL needed."""
+"""Procedural towns (game/scene/generate.py) and the town scene files; no GL needed."""
 
 from __future__ import annotations
 

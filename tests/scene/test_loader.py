@@ -1,4 +1,4 @@
-"""The scene model and loader (game/scene.py) against CONTRACT.md section 1; no GL needed."""
+"""The scene model and loader (game/scene/loader.py) against docs/reference.md section 1; no GL."""
 
 from __future__ import annotations
 

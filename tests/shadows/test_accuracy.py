@@ -1,7 +1,7 @@
 """Shadow accuracy against an independent reference: Embree shadow rays on the dumped frames.
 
-Each scene is captured headless with dumps (CONTRACT.md section 3); the reference reads only the
-dump files (game/reference.py), never the renderer. The bar (issue 2): misclassified pixels /
+Each scene is captured headless with dumps (docs/reference.md section 3); the reference reads only
+the dump files (game/reference/hard.py), never the renderer. The bar: misclassified pixels /
 shadowed pixels, over pixels with N.L > 0.1, at most 5% at 320x180.
 """
 

@@ -1,4 +1,4 @@
-"""The engine baselines (game/cascaded.py): accuracy against Embree, caching, cascade fitting."""
+"""The engine baselines (game/shadows/methods/): accuracy against Embree, caching, cascades."""
 
 
 import numpy as np

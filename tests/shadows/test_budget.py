@@ -1,4 +1,4 @@
-"""The machine's limits (issue 6): missing EGL, no display, old GL, and shadow maps beyond the GL's
+"""The machine's limits: missing EGL, no display, old GL, and shadow maps beyond the GL's
 limits or the memory budget. Each either stops with one clear line or degrades with a note, and a
 degraded frame still matches Embree (never a silently missing shadow)."""
 

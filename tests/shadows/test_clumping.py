@@ -1,4 +1,4 @@
-"""Clumping of static objects into shadow-map groups (game/clumping.py); plain numpy, no GL."""
+"""Clumping of static objects into shadow-map groups (game/shadows/clumping.py); numpy, no GL."""
 
 import itertools
 

@@ -1,9 +1,9 @@
-"""Numerical robustness of the clumped method (issue 6).
+"""Numerical robustness of the clumped method.
 
 Scenes scaled from 0.01 m to 1000 m, a far plane at 10 km, the camera inside a caster, the light
 exactly along the up axis, and a point light inside a clump's bounds. Each frame must be free of
 NaN (image, G-buffer, map fits) and, where the method is meant to hold, within the foundation's 5%
-shadow-error bound against Embree (tests/test_accuracy.py, tests/shadow_check.py).
+shadow-error bound against Embree (tests/shadows/test_accuracy.py, tests/shadow_check.py).
 """
 
 from __future__ import annotations

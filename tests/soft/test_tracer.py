@@ -1,4 +1,4 @@
-"""The soft-shadow tracer on llvmpipe, checked against brute force and Embree (issue 4)."""
+"""The soft-shadow tracer on llvmpipe, checked against brute force and Embree."""
 
 
 import numpy as np

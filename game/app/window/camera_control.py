@@ -1,6 +1,6 @@
 """The walkaround's free-fly camera: keys and mouse in, a view out. No GL and no glfw here.
 
-The window (game/window.py) turns glfw events into the key names below and calls
+The window (game/app/window/walkaround.py) turns glfw events into the key names below and calls
 :meth:`CameraController.key`, :meth:`CameraController.mouse_move` and
 :meth:`CameraController.update`; tests drive the same methods directly.
 

@@ -1,6 +1,6 @@
 """The overlay's viewer of the shadow-map texture array: one layer drawn as a grey image.
 
-The depth array samples with depth compare on (game/depth_array.py); a sampler object with
+The depth array samples with depth compare on (game/gpu/depth_array.py); a sampler object with
 compare off, bound over it, reads raw depths. The viewer owns its small colour target, program
 and sampler; the overlay owns the viewer and releases it.
 """

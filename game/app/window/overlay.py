@@ -25,9 +25,9 @@ import numpy as np
 from imgui_bundle import imgui, implot
 
 from game.app.window.layer_view import LayerViewer
+from game.app.window.settings_editor import SettingsEditor
 from game.gpu.blocks import DEBUG_VIEWS
 from game.render.renderer import Frame, Renderer
-from game.shadows import clumping, registry
 from game.shadows.plan import ShadowSettings
 
 GLSL_VERSION = "#version 430"
@@ -40,30 +40,15 @@ GRAPH_HEADROOM = 1.25              # ... times this
 GRAPH_MIN_MS = 1.0
 LABELLED_ITEM_WIDTH = 170          # pixels for a control, the rest of the row for its label
 # Passes in display order; any other pass a renderer times follows them. The tracer's passes
-# (game/trace_run.py) are prefixed ``traced_`` (the traced method) or ``soft_`` (soft shadows);
+# (game/app/trace.py) are prefixed ``traced_`` (the traced method) or ``soft_`` (soft shadows);
 # ``composite`` shades the frame again through the traced visibility.
 PASS_ORDER = ("shadow_static", "shadow_dynamic", "cull", "shade", "traced_build", "traced_trace",
               "soft_build", "soft_trace", "composite")
 HIDDEN_PASSES = ("readback", "gbuffer")
 # The tracer's sub-totals and parts: counted in the passes above and in "total".
 HIDDEN_SUFFIXES = ("_total", "_build_static", "_build_dynamic", "_trace_discarded")
-# The methods offered: the map-based ones and the compute tracer's exact hard shadows.
-METHODS = tuple(registry.METHODS)
 # Window work after the scene's passes; shown after "total", which does not include them.
 WINDOW_PASSES = ("present", "overlay")      # CPU copy for files, not part of drawing a frame
-RESOLUTIONS = (128, 256, 512, 1024, 2048, 4096)  # larger layers: GiBs of depth array
-# Settings read only by the shading pass: edited in place, no re-clumping, maps stay cached.
-SHADING_ONLY = {"normal_bias", "depth_bias", "slope_bias", "max_slope", "pcf"}
-SETTING_CHOICES = {"method": lambda: METHODS,
-                   "clumping": lambda: clumping.STRATEGIES,
-                   "grid": lambda: ("auto", "on", "off")}
-MAX_INT_EDIT = 1 << 16           # drag limits of whole-number and real settings
-MAX_FLOAT_EDIT = 1e6
-# Settings whose valid range is narrower than those limits (the command line's bounds): a drag
-# cannot leave them, so the planner never sees a value it refuses.
-EDIT_RANGES = {"texels_per_metre": (0.01, 4096.0), "cascade_lambda": (0.0, 1.0),
-               "max_slope": (0.0, 1000.0), "budget_mib": (1.0, 65536.0), "cascades": (1, 16),
-               "clump_count": (1, 1024)}
 MIN_RENDER_SCALE = 0.25
 TABS = ("view", "shadows", "maps")  # the tabs of controls under the figures
 LAYER_VIEW_PIXELS = 200            # on-screen side of the layer viewer
@@ -165,7 +150,7 @@ class Overlay:
         self.frames_seen = 0
         self.rect = (0, 0, 0, 0)   # x, y, w, h of the panel last drawn, window pixels
         self._azimuth_elevation: tuple[float, float] | None = None
-        self._pending: dict[str, float] = {}   # drags in progress on re-planning fields
+        self._settings = SettingsEditor()
         self._viewer: LayerViewer | None = None
         self._map_index = 0
         self.message = ""   # the last change the renderer refused, shown in the panel
@@ -297,7 +282,7 @@ class Overlay:
             self._draw_view(renderer, paused, render_scale, soft, changes)
             imgui.end_tab_item()
         if self._tab("shadows"):
-            self._draw_settings(renderer.settings, changes)
+            self._settings.draw(renderer.settings, changes)
             for note in renderer.notes[-2:]:
                 imgui.text_wrapped(f"note: {note}")
             imgui.end_tab_item()
@@ -378,69 +363,6 @@ class Overlay:
             self._azimuth_elevation = (azimuth, elevation)
             changes.light = dataclasses.replace(light,
                                                 direction=sun_direction(azimuth, elevation))
-
-    def _draw_settings(self, settings: ShadowSettings, changes: Changes) -> None:
-        """One control per settings field, chosen by the field's name and default's type."""
-        new = {}
-        for field in dataclasses.fields(settings):
-            name, value = field.name, getattr(settings, field.name)
-            label = name.replace("_", " ")
-            if name in SETTING_CHOICES:
-                items = list(SETTING_CHOICES[name]())
-                if value not in items:
-                    items.append(value)
-                changed, index = imgui.combo(label, items.index(value), items)
-                if changed:
-                    new[name] = items[index]
-            elif name.endswith("_resolution"):
-                items = [str(r) for r in RESOLUTIONS]
-                if str(value) not in items:
-                    items.append(str(value))
-                changed, index = imgui.combo(label, items.index(str(value)), items)
-                if changed:
-                    new[name] = int(items[index])
-            elif isinstance(field.default, bool) or isinstance(value, bool):
-                changed, flag = imgui.checkbox(label, value)
-                if changed:
-                    new[name] = flag
-            elif value is None or isinstance(value, int):
-                self._edit_number(label, name, value, field.default is None, new)
-            elif isinstance(value, float):
-                self._edit_number(label, name, value, False, new)
-            else:
-                imgui.text(f"{label}: {value}")
-        shading = {k: v for k, v in new.items() if k in SHADING_ONLY}
-        for key, value in shading.items():
-            setattr(settings, key, value)  # read by the shading pass every frame
-        planned = {k: v for k, v in new.items() if k not in SHADING_ONLY}
-        if planned:
-            changes.settings = dataclasses.replace(settings, **planned)
-
-    def _edit_number(self, label: str, name: str, value, optional: bool, new: dict) -> None:
-        """A drag for a number; fields that need new maps apply when the drag ends."""
-        if optional:
-            changed, auto = imgui.checkbox(f"auto##{name}", value is None)
-            imgui.same_line()
-            if changed:
-                new[name] = None if auto else 1
-                return
-            if auto:
-                imgui.text(label)
-                return
-        shown = self._pending.get(name, value)
-        if isinstance(value, int):
-            lo, hi = EDIT_RANGES.get(name, (1, MAX_INT_EDIT))
-            changed, number = imgui.drag_int(label, int(shown), 0.2, int(lo), int(hi))
-        else:
-            lo, hi = EDIT_RANGES.get(name, (0.0, MAX_FLOAT_EDIT))
-            changed, number = imgui.drag_float(label, float(shown), 0.05, lo, hi, "%.2f")
-            number = min(max(number, lo), hi)  # typed-in values are not clamped by imgui
-        if changed and name in SHADING_ONLY:
-            new[name] = number
-        elif changed:
-            self._pending[name] = number
-        if imgui.is_item_deactivated() and name in self._pending:
-            new[name] = self._pending.pop(name)
 
     def draw_over_frame(self, renderer: Renderer, frame: Frame, dt: float) -> np.ndarray:
         """Headless: draw the panel over the frame in the renderer's target and read it back.

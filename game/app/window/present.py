@@ -5,10 +5,11 @@ to a fill-bound renderer, and Mesa llvmpipe is fill-bound: the shading pass cost
 number of pixels. The overlay is then drawn at the window's full resolution on top.
 
 A full-size frame, and any frame saved as a screenshot, goes through :attr:`Presenter.target`, a
-window-sized colour framebuffer that can be read back (moderngl cannot read the window's own) and
-is then blitted to the window; a smaller frame is otherwise drawn scaled straight into the window
-(game/window.py says which is cheaper when). A :class:`Presenter` owns that framebuffer and the
-scaling program; the window (game/window.py) owns the presenter and releases it.
+window-sized colour framebuffer that can be read back (moderngl cannot read the window's own) and is
+then blitted to the window; a smaller frame is otherwise drawn scaled straight into the window
+(game/app/window/walkaround.py says which is cheaper when). A :class:`Presenter` owns that
+framebuffer and the scaling program; the window (game/app/window/walkaround.py) owns the presenter
+and releases it.
 """
 
 from __future__ import annotations

@@ -1,8 +1,8 @@
 """The walkaround window (``python -m game play``): glfw, the renderer's frame, the overlay.
 
-Each frame: poll input -> move the camera (game/camera_control.py) -> render the scene into the
-renderer's own target -> with the ``traced`` method or soft shadows on, trace over the frame's
-G-buffer and shade it again through the traced visibility (game/trace_run.py) -> draw the
+Each frame: poll input -> move the camera (game/app/window/camera_control.py) -> render the scene
+into the renderer's own target -> with the ``traced`` method or soft shadows on, trace over the
+frame's G-buffer and shade it again through the traced visibility (game/app/trace.py) -> draw the
 overlay over it -> blit to the window -> swap.
 
 Soft shadows (the scene's ``[linear_light]``, overlay checkbox or ``play --soft``) are traced at
@@ -14,9 +14,9 @@ The scene clock runs in real time (or in fixed steps, for scripts) and stops whi
 characters are paused. A minimised window, whose framebuffer is zero-sized, renders nothing
 and waits.
 
-The GL context is the window's, wrapped once by game/context.py. It is always an EGL context
+The GL context is the window's, wrapped once by game/gpu/context.py. It is always an EGL context
 (also on X11 and Wayland), because PyOpenGL finds its functions through EGL
-(game/context.py sets PYOPENGL_PLATFORM); GLFW's null platform gives the same window with no
+(game/gpu/context.py sets PYOPENGL_PLATFORM); GLFW's null platform gives the same window with no
 display at all, for tests.
 """
 
@@ -37,12 +37,13 @@ import glfw
 import numpy as np
 
 from game.app import interrupts, outputs
-from game.app.window.overlay import METHODS, Figures, Overlay
+from game.app.window.overlay import Figures, Overlay
 from game.app.window.present import Presenter
 from game.errors import GameError
 from game.gpu import context
 from game.render.renderer import Renderer, View
 from game.scene import Scene
+from game.shadows import registry
 from game.shadows.plan import ShadowSettings
 from game.soft.tracer import TraceSettings
 
@@ -221,7 +222,7 @@ class Walkaround:
         self.controller.mouse_move(x, y)
 
     def next_method(self) -> None:
-        methods = list(METHODS)
+        methods = list(registry.METHODS)
         current = self.renderer.settings.method
         following = methods[(methods.index(current) + 1) % len(methods)] \
             if current in methods else methods[0]
@@ -268,6 +269,8 @@ class Walkaround:
         if size is None or self.quit:
             return False
         self.controller.update(dt)
+        if not self.paused:  # with fixed steps frame k shows k * dt, as capture's frames do
+            self.scene_time += dt
         self.renderer.set_gbuffer(self.soft)
         self.renderer.resize(self.render_size(size))
         read = self.frames % MPF_EVERY_FRAMES == 0
@@ -336,8 +339,6 @@ class Walkaround:
         if self.keep_stats:
             self.frame_stats.append(self._stats_entry(frame, figures))
         self.frames += 1
-        if not self.paused:  # frame k shows scene time k * dt, as capture's frames do
-            self.scene_time += dt
         if shot:
             self._save_screenshot(size, self.opts.screenshot if last else None)
         glfw.swap_buffers(self.window)
@@ -374,7 +375,7 @@ class Walkaround:
 
         ``script``, when given, is called before every frame (tests drive input with it).
         """
-        start = last = time.perf_counter()
+        start = last = last_start = time.perf_counter()
         first_frame_end = None
         while not self.quit:
             interrupts.check()
@@ -382,12 +383,18 @@ class Walkaround:
                 break
             if script is not None:
                 script(self)
+            # The scene advances by the real time between frame starts (or fixed steps); the
+            # first frame shows the start time.
             now = time.perf_counter()
-            dt = self.opts.time_step if self.opts.time_step is not None else now - last
+            if self.frames == 0:
+                dt = 0.0
+            else:
+                dt = self.opts.time_step if self.opts.time_step is not None else now - last_start
+            last_start = now
             if not self.step(dt):
                 if not self.quit:
                     glfw.wait_events_timeout(MINIMISED_WAIT_S)
-                last = time.perf_counter()
+                last = last_start = time.perf_counter()  # no jump for the time minimised
                 continue
             end = time.perf_counter()
             self._frame_times.append(end - last)

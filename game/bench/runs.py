@@ -1,0 +1,211 @@
+"""The benchmark's sweep: its scenes, and the methods x parameters run on each.
+
+A run is one scene with one method and one parameter set (:class:`RunSpec`); the sweep is the
+list :func:`plan_runs` makes from the options.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from game.bench import stability
+from game.scene import default_scene_path
+from game.shadows import registry
+from game.shadows.plan import ShadowSettings
+
+FPS = 30.0                  # scene seconds per timing frame: 1 / FPS
+ORBIT_DEG = 1.0             # camera yaw per timing frame about the scene camera's target
+FLICKER_DEG = 0.25          # camera yaw per flicker frame (time frozen)
+ERROR_SPACING_S = 0.75      # scene seconds between error frames (characters move between them)
+PASSES = ("shadow_static", "shadow_dynamic", "cull", "shade", "total")
+PARAM_KEYS = ("clumping", "clump_count", "texels_per_metre", "clump_resolution",
+              "character_resolution", "single_resolution", "cascades", "cascade_lambda",
+              "cascade_resolution")
+# Bench-only parameter: re-render every cached map every frame, to measure the cost of many
+# small maps (framebuffer and layer switches, clears) against one map at equal triangles.
+RERENDER = "rerender_static"
+# (clump count, clump map resolution) of that experiment: the same statics and the same texels
+# (4096^2) in 1 to 64 maps, so what grows with the count is the per-map cost.
+SWITCH_SERIES = ((1, 4096), (4, 2048), (16, 1024), (64, 512))
+COLUMNS = (
+    ["run", "scene", "group", "factor", "value", "method", *PARAM_KEYS, RERENDER, "width",
+     "height",
+     "frames", "warmup", "renderer", "version", "clock", "static_triangles", "characters"]
+    + [f"{p}_ms_{stat}" for p in PASSES for stat in ("median", "p95", "min")]
+    + ["repeats", "total_ms_spread"]
+    + ["maps_total", "maps_rendered", "triangles_to_maps", "texels_to_maps",
+       "camera_triangles", "shadow_memory_mib", "maps_per_fragment", "static_maps",
+       "footprint_overlap", "static_texels_per_metre", "error", "misclassified", "shadowed",
+       "error_frames", "flicker", "flicker_raw", "flicker_reference", "nan_pixels", "notes",
+       "status", "seconds"]
+)
+
+
+@dataclass(frozen=True)
+class BenchScene:
+    """One scene of the sweep."""
+
+    key: str
+    group: str               # main | town | stability
+    text: str                # the scene file's text (written to OUT/scenes/KEY.toml)
+    factor: str = ""         # stability factor, or the scaling axis of a town
+    value: float = 0.0
+    accuracy_expected: bool = True
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    scene: str
+    method: str
+    params: tuple[tuple[str, object], ...] = ()
+
+    def settings(self) -> ShadowSettings:
+        params = {k: v for k, v in self.params if k != RERENDER}
+        return ShadowSettings(method=self.method, **params)
+
+    @property
+    def rerender(self) -> bool:
+        return bool(dict(self.params).get(RERENDER, False))
+
+    def run_id(self, size: tuple[int, int]) -> str:
+        p = ",".join(f"{k}={v}" for k, v in self.params) or "defaults"
+        return f"{self.scene}|{self.method}|{p}|{size[0]}x{size[1]}"
+
+
+@dataclass
+class BenchOptions:
+    out: Path
+    quick: bool = False
+    size: tuple[int, int] = (320, 180)
+    frames: int = 8
+    warmup: int = 2
+    error_frames: int = 2
+    flicker_frames: int = 3
+    repeat: int = 1                      # timings per run, interleaved within a scene
+    scenes: list[str] | None = None      # only these scene keys (fnmatch patterns)
+    methods: list[str] | None = None
+    reference: bool = True
+    progress: bool = True
+    log: Callable[[str], None] = field(default=lambda line: print(line, file=sys.stderr))
+
+
+def town_text(blocks: int, characters: int, name: str) -> str:
+    """A town like assets/town_1m.toml with ``blocks`` per side; the camera keeps its framing."""
+    span = blocks * 50.0 + 10.0
+    k = span / 410.0
+    return f"""name = "{name}"
+
+[camera]
+position = [0.0, {190.0 * k:.4g}, {330.0 * k:.4g}]
+target   = [0.0, 0.0, {20.0 * k:.4g}]
+fov      = 55.0
+near     = {max(0.1, 1.0 * k):.4g}
+far      = {1000.0 * k:.4g}
+
+[light]
+kind      = "directional"
+direction = [-0.4, -1.0, -0.3]
+
+[generate]
+seed                = 1
+blocks              = {blocks}
+block_size          = 40.0
+street_width        = 10.0
+buildings_per_block = 4
+trees_per_block     = 8
+max_storeys         = 8
+detail              = 2
+characters          = {characters}
+"""
+
+
+def bench_scenes(quick: bool) -> list[BenchScene]:
+    """The default scene, towns at three sizes (and three walker counts), stability scenes."""
+    out = [BenchScene("default", "main", default_scene_path().read_text())]
+    if quick:
+        out.append(BenchScene("town_2x2", "town", town_text(2, 16, "town_2x2"), "size", 2))
+    else:
+        # Town sizes with 16 walkers (the 8 x 8 one is assets/town_1m.toml: 1.06 M triangles),
+        # and the 4 x 4 town with 4, 16 and 64 walkers, plus the 1 M town with 64.
+        for blocks in (2, 4, 8):
+            out.append(BenchScene(f"town_{blocks}x{blocks}", "town",
+                                  town_text(blocks, 16, f"town_{blocks}x{blocks}"), "size",
+                                  blocks))
+        for n in (4, 64):
+            out.append(BenchScene(f"town_4x4_c{n}", "town", town_text(4, n, f"town_4x4_c{n}"),
+                                  "characters", n))
+        out.append(BenchScene("town_8x8_c64", "town", town_text(8, 64, "town_8x8_c64"),
+                              "characters", 64))
+    for case in stability.cases(quick):
+        out.append(BenchScene(f"stab_{case.name}", "stability", case.text, case.factor,
+                              case.value, case.accuracy_expected))
+    return out
+
+
+def _p(**kw) -> tuple[tuple[str, object], ...]:
+    return tuple(sorted(kw.items()))
+
+
+def method_grid(scene: BenchScene, quick: bool, max_texture: int) -> list[RunSpec]:
+    """Methods x parameters for one scene; the full grid on the default scene and the 1 M town."""
+    k = scene.key
+    defaults = [RunSpec(k, method) for method in registry.MAP_METHODS]
+    if scene.group == "stability":
+        if scene.factor == "maps":  # hundreds of character maps: keep their memory small
+            small = _p(clump_resolution=256, character_resolution=256)
+            return [RunSpec(k, "clumped", small), *(s for s in defaults if s.method != "clumped")]
+        return defaults
+    if quick:
+        specs = [*defaults, RunSpec(k, "clumped", _p(clumping="world")),
+                 RunSpec(k, "single", _p(single_resolution=1024)),
+                 RunSpec(k, "csm", _p(cascade_resolution=1024))]
+        if scene.group == "town":
+            specs += [RunSpec(k, "clumped", _p(clump_count=n, clump_resolution=r,
+                                               **{RERENDER: True})) for n, r in SWITCH_SERIES]
+        return specs
+    if k == "town_4x4":
+        return [*defaults, RunSpec(k, "clumped", _p(clumping="world"))] + [
+            RunSpec(k, "clumped", _p(clump_count=n, clump_resolution=r, **{RERENDER: True}))
+            for n, r in SWITCH_SERIES]
+    if k not in ("default", "town_8x8"):
+        return [*defaults, RunSpec(k, "clumped", _p(clumping="world"))]
+    specs = list(defaults)
+    for clumping in ("light", "world"):
+        for count in (4, 16, 64):
+            specs.append(RunSpec(k, "clumped", _p(clumping=clumping, clump_count=count)))
+    specs.append(RunSpec(k, "clumped", _p(clumping="world")))
+    for res in (256, 1024):
+        specs.append(RunSpec(k, "clumped", _p(character_resolution=res)))
+    specs.append(RunSpec(k, "clumped", _p(clump_resolution=2048)))
+    for res in (512, 1024, 2048, 8192, 16384):
+        if res <= max_texture:
+            specs.append(RunSpec(k, "single", _p(single_resolution=res)))
+    for res in (2048, 8192):
+        specs.append(RunSpec(k, "static-dynamic", _p(single_resolution=res)))
+    for res in (1024, 4096):
+        specs.append(RunSpec(k, "csm", _p(cascade_resolution=res)))
+    for lam in (0.5, 0.95):
+        specs.append(RunSpec(k, "csm", _p(cascade_lambda=lam)))
+    return specs
+
+
+def selected(key: str, patterns: Iterable[str] | None) -> bool:
+    from fnmatch import fnmatch
+
+    return patterns is None or any(fnmatch(key, p) for p in patterns)
+
+
+def plan_runs(opts: BenchOptions, max_texture: int) -> list[tuple[BenchScene, RunSpec]]:
+    runs = []
+    for bscene in bench_scenes(opts.quick):
+        if not selected(bscene.key, opts.scenes):
+            continue
+        for spec in method_grid(bscene, opts.quick, max_texture):
+            if opts.methods is None or spec.method in opts.methods:
+                runs.append((bscene, spec))
+    return runs
+
+
