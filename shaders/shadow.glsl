@@ -6,7 +6,7 @@
 // What is fixed for a whole frame arrives as #defines, and the renderer picks the program made
 // for it (game/render/shading_pass.py): LIGHT_KIND (LIGHT_DIRECTIONAL, LIGHT_SPOT, LIGHT_POINT),
 // PCF (0 or 1) and GRID (GRID_NONE, GRID_ORTHO, GRID_OCTAHEDRAL). Branching on uniforms instead
-// cost 2.5 times as much on llvmpipe, which runs both sides of a branch under a lane mask.
+// costs more on llvmpipe, which runs both sides of a branch under a lane mask.
 
 uniform sampler2DArrayShadow u_shadow_maps;
 

@@ -1,11 +1,11 @@
 """The soft-shadow sweep: error versus milliseconds for every method and N, Embree beside it.
 
 ``python -m game.bench.soft_sweep [SCENE] --size 160x90 --out docs/images`` renders one G-buffer,
-traces it with every method for N = 1, 2, 4, ..., 256 samples, and writes
-``soft_sweep.csv`` and ``soft_sweep.png`` (error versus ms, log-log). Errors are RMSE over the
-shaded points against ``analytic`` and against 1024 stratified Embree samples. For every N the
-same run casts the tracer's very rays (``soft_reference.tracer_samples``) with Embree's any-hit
-query on the same CPU, so the GPU-pass-on-llvmpipe to Embree ratio is measured side by side.
+traces it with every method for N = 1, 2, 4, ..., 256 samples, and writes ``soft_sweep.csv`` and
+``soft_sweep.png`` (error versus ms, log-log). Errors are RMSE over the shaded points against
+``analytic`` and against 1024 stratified Embree samples. For every N the same run casts the tracer's
+very rays (``game.reference.soft.tracer_samples``) with Embree's any-hit query on the same CPU, so
+the GPU-pass-on-llvmpipe to Embree ratio is measured side by side.
 """
 
 from __future__ import annotations
@@ -25,10 +25,11 @@ from game.gpu import context
 from game.reference import soft as sr
 from game.render.renderer import Renderer, View
 from game.scene import default_scene_path, load_scene
+from game.soft.methods import SAMPLED_METHODS
 from game.soft.tracer import COUNTERS, RAY_OFFSET_DISTANCE, RAY_OFFSET_SCENE, TraceSettings
 
 SAMPLES = (1, 2, 4, 8, 16, 32, 64, 128, 256)
-METHODS = ("brute", "grid", "tri-cache", "voxel-cache")
+METHODS = SAMPLED_METHODS  # the analytic reference runs once, beside them
 BRUTE_MAX_SAMPLES = 8     # brute force beyond this takes minutes per point set on llvmpipe
 REPEATS = 3               # trace timings: the median of this many runs
 REFERENCE_SAMPLES = 1024

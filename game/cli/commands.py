@@ -204,12 +204,13 @@ def cmd_verify(args) -> int:
 def cmd_default() -> int:
     """``python -m game``: the walkaround; with no display, one headless frame and a line."""
     from game.app import capture
+    from game.app.window import glfw_setup
     from game.app.window import walkaround as window
     from game.gpu import context
     from game.scene import default_scene_path
 
     scene = _load(None)
-    if window.display_available():
+    if glfw_setup.display_available():
         window.play(scene, window.PlayOptions())
         return 0
     out = DEFAULT_OUT / "default"

@@ -25,13 +25,18 @@ GRID_NONE, GRID_ORTHO, GRID_OCTAHEDRAL = 0, 1, 2
 DEBUG_VIEWS = {"none": 0, "map": 1, "map-count": 2, "cache": 3}
 TRACE_LIGHT_SEGMENT, TRACE_LIGHT_POINT, TRACE_LIGHT_DIRECTIONAL = 0, 1, 2
 
-# Binding points of every block, uniform and storage (GL numbers them apart; we never reuse one).
-BINDINGS = {
-    "Frame": 0, "ShadowMaps": 1, "MapGrid": 2, "Models": 3, "CharacterMaps": 4,
-    "TraceParams": 5, "Triangles": 6, "StaticCells": 7, "DynamicCells": 8, "TriState": 9,
-    "Results": 10,
-    "Corners": 11, "Indices": 12, "Chunks": 13, "Culled": 14, "Commands": 15, "CullParams": 16,
+# Binding points of every block. Uniform and storage blocks are numbered apart, as GL numbers
+# them, and each kind stays below the GL 4.3 minimum of its binding points (36 uniform, 8
+# storage). The frame's storage buffers keep 0-2 for the whole frame; the tracer's and the
+# culler's take 3-7 in turn, each binding its own before it dispatches.
+UNIFORM_BINDINGS = {"Frame": 0, "ShadowMaps": 1, "TraceParams": 2, "CullParams": 3}
+STORAGE_BINDINGS = {
+    "MapGrid": 0, "Models": 1, "CharacterMaps": 2,
+    "Triangles": 3, "StaticCells": 4, "DynamicCells": 5, "TriState": 6, "Results": 7,
+    "Corners": 3, "Indices": 4, "Chunks": 5, "Culled": 6, "Commands": 7,
 }
+BINDINGS = {**UNIFORM_BINDINGS, **STORAGE_BINDINGS}
+MIN_GL_BINDINGS = {"uniform": 36, "buffer": 8}  # GL_MAX_*_BUFFER_BINDINGS of any GL 4.3
 
 # Texture units. Passes that never run together may share a unit.
 TEXTURE_UNITS = {

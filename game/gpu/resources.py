@@ -1,9 +1,9 @@
 """What a long run holds: live GL objects, counted by their owners, and the process's memory.
 
-A long capture must keep the number of live GL objects constant and its memory
-flat. Every owner counts what it holds (:meth:`game.renderer.Renderer.gl_objects`); ``--stats``
-records those counts and the resident set size per frame. :func:`live_gl_names` is the
-independent check the tests use: it asks the driver which object names are alive.
+A long capture must keep the number of live GL objects constant and its memory flat. Every owner
+counts what it holds (:meth:`game.render.renderer.Renderer.gl_objects`); ``--stats`` records those
+counts and the resident set size per frame. :func:`live_gl_names` is the independent check the tests
+use: it asks the driver which object names are alive.
 """
 
 from __future__ import annotations

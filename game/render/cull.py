@@ -1,10 +1,11 @@
 """Triangle culling for the camera pass, in compute: only triangles that can cover a pixel
 centre reach the rasteriser, in their original order.
 
-Why: at 320x180 the 1 M-triangle town puts about 18 triangles on each pixel, and 92% of them
-lie between pixel centres. llvmpipe transforms, clips and sets up every triangle on the
-application's one thread (a pass-through fragment shader still took 42 to 48 ms), so that pass
-cost every method the same 45 ms. A compute pass runs on llvmpipe's worker threads instead.
+Why: on a large scene seen at a small image size most triangles lie between pixel centres,
+and llvmpipe transforms, clips and sets up every triangle on the application's one thread, so
+drawing them all cost every method the same large share of its frame, whatever the fragment
+shader did. A compute pass runs on llvmpipe's worker threads instead
+(docs/design/triangle-culling.md).
 
 The technique is the one GPU-driven renderers use (G. Wihlidal, "Optimizing the Graphics
 Pipeline with Compute", GDC 2016): per triangle, frustum, back-face (closed volumes only) and

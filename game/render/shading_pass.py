@@ -3,8 +3,8 @@
 One program per variant. What a frame fixes (the G-buffer outputs, the light's kind, PCF, the
 map grid's mode and the debug view) is a ``#define``, and the pass keeps one compiled program
 per combination it meets. llvmpipe runs both sides of a branch under a lane mask, so one program
-that branched on uniforms paid for code that no fragment of the frame could reach: about 2.5
-times the cost of the shading pass on the built-in scene (docs/design/shading-variants.md).
+that branched on uniforms paid for code that no fragment of the frame could reach
+(docs/design/shading-variants.md).
 """
 
 from __future__ import annotations

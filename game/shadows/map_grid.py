@@ -19,7 +19,7 @@ import numpy as np
 from game.gpu.blocks import GRID_NONE, GRID_OCTAHEDRAL, GRID_ORTHO
 from game.shadows.fit import MapFit
 
-LOOP_MAX_MAPS = 2         # measured: with 12 maps the grid made shading 2.8x faster than the loop
+LOOP_MAX_MAPS = 2         # beyond this many maps the grid is cheaper than looping over all
 MAX_GRID = 128
 GRID_CELLS_PER_MAP = 8  # cells per side per sqrt(map count): short lists, small grid
 OCTAHEDRAL_GRID = 32      # even, so that no cell straddles an octant boundary
@@ -90,8 +90,8 @@ def build_ortho(fits: list[MapFit], covers: list[np.ndarray | None] | None = Non
     k = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
     cx = lo[which, 0] + k % width[which]
     cy = lo[which, 1] + k // width[which]
-    # Pairs, not a dense (cells, maps) table: 128 maps on a 96x96 grid made that table 1.2 M
-    # entries, 2.7 ms of every frame on the 1 M-triangle town.
+    # Pairs, not a dense (cells, maps) table: with a hundred maps on a large grid that table
+    # holds over a million entries to fill every frame.
     return _pack(cy * size + cx, owner[which], len(fits), size, GRID_ORTHO, rect)
 
 

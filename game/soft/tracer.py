@@ -2,8 +2,9 @@
 
 :class:`SoftTracer` owns every GL object of the pass (its programs, one per method, and its
 buffers), creates them explicitly and releases them in :meth:`SoftTracer.release`; its owner (the
-:class:`~game.renderer.Renderer`) releases it. The grid comes from game/soft/grid.py: the
-statics' lists are uploaded once, the characters' triangles and lists every frame.
+:class:`~game.render.traced_lighting.TracedLighting`) releases it. The grid comes from
+game/soft/grid.py: the statics' lists are uploaded once, the characters' triangles and lists every
+frame.
 
 The methods (game/soft/methods.py) all live in shaders/trace.comp, picked by ``#define METHOD``.
 """
@@ -224,7 +225,7 @@ class SoftTracer:
         Parameters
         ----------
         textures
-            (position, normal, colour) textures of the frame (game/render/renderer.py's G-buffer).
+            (position, normal, colour) textures of the frame's G-buffer (game/render/target.py).
         models
             The characters' (4, 4) model matrices of the frame.
         light

@@ -9,10 +9,10 @@ from __future__ import annotations
 
 import moderngl
 
-from game.gpu import glsl
+from game.gpu import blocks, glsl
 
 VIEW_SIZE = 256          # texels per side of the viewer's image
-MAPS_UNIT = 0
+MAPS_UNIT = blocks.TEXTURE_UNITS["layer_view"]
 
 
 class LayerViewer:

@@ -16,9 +16,9 @@ from __future__ import annotations
 
 import moderngl
 
-from game.gpu import glsl
+from game.gpu import blocks, glsl
 
-FRAME_UNIT = 0
+FRAME_UNIT = blocks.TEXTURE_UNITS["present_frame"]
 
 
 class Presenter:

@@ -22,7 +22,6 @@ display at all, for tests.
 
 from __future__ import annotations
 
-import ctypes
 import dataclasses
 import time
 from collections import deque
@@ -37,6 +36,7 @@ import glfw
 import numpy as np
 
 from game.app import interrupts, outputs
+from game.app.window.glfw_setup import KEY_NAMES, open_window
 from game.app.window.overlay import Figures, Overlay
 from game.app.window.present import Presenter
 from game.errors import GameError
@@ -47,57 +47,15 @@ from game.shadows import registry
 from game.shadows.plan import ShadowSettings
 from game.soft.tracer import TraceSettings
 
-TITLE = "shadowgame"
 DEFAULT_SIZE = (960, 540)
 MPF_EVERY_FRAMES = 30        # read the frame back to count maps per fragment this often
 FPS_WINDOW_FRAMES = 60       # frames in the rolling frame-rate average
 MINIMISED_WAIT_S = 0.1
 SCREENSHOT_DIR = Path("screenshots")
-GL_VERSION = (4, 3)
 # Soft shadows in the window: a quarter of the window's size per side, and the fastest sampled
-# method on llvmpipe (grid; docs/soft.md) at 8 samples per point: interactive, not converged.
+# method on llvmpipe (grid; docs/results.md) at 8 samples per point: interactive, not converged.
 SOFT_RENDER_SCALE = 0.25
 SOFT_SETTINGS = TraceSettings(method="grid", samples=8)
-
-KEY_NAMES = {
-    glfw.KEY_W: "w", glfw.KEY_A: "a", glfw.KEY_S: "s", glfw.KEY_D: "d", glfw.KEY_Q: "q",
-    glfw.KEY_E: "e", glfw.KEY_R: "r", glfw.KEY_P: "p", glfw.KEY_M: "m", glfw.KEY_TAB: "tab",
-    glfw.KEY_ESCAPE: "escape", glfw.KEY_F12: "f12",
-    glfw.KEY_LEFT_SHIFT: "shift", glfw.KEY_RIGHT_SHIFT: "shift",
-}
-
-
-def _window_pointer(window) -> int:
-    return ctypes.cast(window, ctypes.c_void_p).value
-
-
-def init_glfw(platform: str = "auto") -> None:
-    """Start GLFW on the display (``auto``) or with no display at all (``null``).
-
-    Raises GameError with one line when no display can be opened.
-    """
-    glfw.ERROR_REPORTING = "ignore"  # failures are reported by the return values below
-    if platform == "null":
-        glfw.init_hint(glfw.PLATFORM, glfw.PLATFORM_NULL)
-    else:
-        glfw.init_hint(glfw.PLATFORM, glfw.ANY_PLATFORM)
-    if not glfw.init():
-        description = glfw.get_error()[1] or b"unknown reason"
-        raise GameError(f"cannot open a window ({description.decode(errors='replace')}); "
-                        "play --platform null runs it without a display, capture renders "
-                        "headless")
-
-
-def display_available() -> bool:
-    """True where GLFW can start on a real display (X11 or Wayland)."""
-    try:
-        init_glfw("auto")
-    except GameError:
-        return False
-    ok = glfw.get_platform() != glfw.PLATFORM_NULL
-    glfw.terminate()
-    return ok
-
 
 @dataclass
 class PlayOptions:
@@ -128,19 +86,7 @@ class Walkaround:
         self.scene = scene
         self.opts = opts
         self.soft = opts.soft
-        init_glfw(opts.platform)
-        glfw.window_hint(glfw.CONTEXT_CREATION_API, glfw.EGL_CONTEXT_API)
-        glfw.window_hint(glfw.CONTEXT_VERSION_MAJOR, GL_VERSION[0])
-        glfw.window_hint(glfw.CONTEXT_VERSION_MINOR, GL_VERSION[1])
-        glfw.window_hint(glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE)
-        glfw.window_hint(glfw.OPENGL_FORWARD_COMPAT, True)
-        glfw.window_hint(glfw.RESIZABLE, True)
-        self.window = glfw.create_window(opts.size[0], opts.size[1], TITLE, None, None)
-        if not self.window:
-            description = glfw.get_error()[1] or b"unknown reason"
-            glfw.terminate()
-            raise GameError(f"cannot open a GL {GL_VERSION[0]}.{GL_VERSION[1]} core window "
-                            f"({description.decode(errors='replace')})")
+        self.window = open_window(opts.size, opts.platform)
         glfw.make_context_current(self.window)
         # Scripted runs are measured: never wait for the display's refresh.
         glfw.swap_interval(0 if opts.frames else 1)
@@ -293,13 +239,12 @@ class Walkaround:
         figures = Figures.of(frame, self.renderer.timer.clock, fps, self._mpf)
         figures.ms.update(self._window_ms)  # the panel shows the last frame's window passes
         timer = self.renderer.timer
-        # Scene, then overlay, into a canvas that is shown in the window. Cheapest on llvmpipe
-        # at 960x540 (medians, one interleaved run): a full-size frame is copied into the
-        # presenter's colour-only canvas and blitted to the window, 1.1 ms (a blit straight
-        # from the renderer's target, which has a depth attachment, 3.7 ms; a textured draw
-        # into the window 2.4 ms); a smaller frame is drawn scaled straight into the window,
-        # 2.3 ms (into the canvas and then blitted, 4.0 ms). A frame saved as a screenshot
-        # always goes through the readable canvas, so the file holds what the window shows.
+        # Scene, then overlay, into a canvas that is shown in the window, by the route that
+        # was cheapest on llvmpipe: a full-size frame is copied into the presenter's
+        # colour-only canvas and blitted to the window (a blit straight from a target with a
+        # depth attachment, or a textured draw, cost more); a smaller frame is drawn scaled
+        # straight into the window. A frame saved as a screenshot always goes through the
+        # readable canvas, so the file holds what the window shows.
         last = self.opts.frames is not None and self.frames + 1 >= self.opts.frames
         shot = self._screenshot_next or (last and self.opts.screenshot is not None)
         screen = self.ctx.detect_framebuffer(0)
