@@ -36,7 +36,7 @@ def write_dump(stem: Path, scene: Scene, view: View, size: tuple[int, int], t: f
         "view": view.view.astype(np.float64), "proj": view.proj.astype(np.float64),
         "size": np.array(size, dtype=np.int64), "time": np.float64(t),
     }
-    if "soft" in g:  # the linear light's traced visibility (game/app/trace.py)
+    if "soft" in g:  # the linear light's traced visibility (trace, capture --soft)
         arrays["soft"] = g["soft"]
     outputs.write_npz(stem.with_suffix(".npz"), arrays)
     glb = frame_geometry(scene, t).export(file_type="glb")

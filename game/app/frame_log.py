@@ -1,9 +1,9 @@
 """Per-frame stats kept on disk, not in memory, so that a long capture's memory stays flat.
 
-A 10,000-frame capture held 10,000 small dicts: about 1.1 KiB each, 11 MiB in all, 5% growth of
-the process's memory over the run. The log appends each frame's stats
-as one JSON line to an anonymous temp file and keeps only the line offsets; the stats file is then
-streamed from it through :func:`game.app.outputs.atomic_file` (temp file, then rename).
+Kept in a list, a frame's stats (about a kilobyte) would grow the process with every frame of a
+long run. The log appends each frame's stats as one JSON line to an anonymous temp file and keeps
+only the line offsets; the stats file is then streamed from it through
+:func:`game.app.outputs.atomic_file` (temp file, then rename).
 """
 
 from __future__ import annotations

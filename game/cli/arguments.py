@@ -89,6 +89,14 @@ def unit(text: str) -> float:
     return value
 
 
+def _add_method_option(parser) -> None:
+    """``--method``: the hard-shadow methods of the registry, each with its summary."""
+    parser.add_argument("--method", choices=list(registry.METHODS),
+                        default=registry.DEFAULT_METHOD,
+                        help="; ".join(f"{name}: {cls.summary}"
+                                       for name, cls in registry.METHODS.items()))
+
+
 def _add_shadow_options(p: argparse.ArgumentParser) -> None:
     d = ShadowSettings()
     g = p.add_argument_group("hard-shadow parameters")
@@ -160,8 +168,7 @@ def _add_play_parser(sub) -> None:
                       help="write per-frame stats JSON and the frame rate")
     play.add_argument("--size", type=size_value, default=(960, 540), metavar="WxH",
                       help="window size in pixels")
-    play.add_argument("--method", choices=list(registry.METHODS),
-                      default=registry.DEFAULT_METHOD)
+    _add_method_option(play)
     play.add_argument("--fps", type=positive, default=None,
                       help="scene seconds advance 1/F per frame (default: real time)")
     play.add_argument("--render-scale", type=render_scale, default=1.0, metavar="S",
@@ -201,7 +208,9 @@ def _add_trace_parser(sub) -> None:
     trace = sub.add_parser("trace", help="soft shadows of the linear light (compute pass)")
     trace.add_argument("scene", nargs="?", help="scene file (default: the built-in scene)")
     trace.add_argument("--method", choices=list(trace_methods.METHODS),
-                       default=trace_methods.DEFAULT_METHOD)
+                       default=trace_methods.DEFAULT_METHOD,
+                       help="; ".join(f"{name}: {m.summary}"
+                                      for name, m in trace_methods.METHODS.items()))
     trace.add_argument("--samples", type=positive_int, default=d.samples, metavar="N",
                        help="stratified samples along the segment per shaded point")
     _add_frame_options(trace, dump_help="write npz (with soft) + glb")
@@ -260,8 +269,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_play_parser(sub)
     cap = sub.add_parser("capture", help="render frames headless through EGL")
     cap.add_argument("scene", nargs="?", help="scene file (default: the built-in scene)")
-    cap.add_argument("--method", choices=list(registry.METHODS),
-                     default=registry.DEFAULT_METHOD)
+    _add_method_option(cap)
     _add_frame_options(cap, dump_help="write npz + glb beside each frame")
     cap.add_argument("--overlay", action="store_true", help="draw the timing overlay")
     _add_cull_option(cap)

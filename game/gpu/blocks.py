@@ -104,8 +104,7 @@ TRACE_DTYPE = np.dtype([
     ("ray_offset_per_metre", "<f4"),  # ... plus this much per metre from the origin
     ("directional_far", "<f4"),    # length of a directional light's rays
     ("samples", "<i4"),            # samples per shaded point
-    ("triangles", "<i4"),          # triangles in all
-    ("static_triangles", "<i4"),   # of which static (the first ones)
+    ("triangles", "<i4"),          # triangles in all: statics, then the posed characters
     ("ray_id_base", "<i4"),        # tri-cache: ray id of pixel 0
     ("width", "<i4"),              # G-buffer size
     ("height", "<i4"),
@@ -113,9 +112,8 @@ TRACE_DTYPE = np.dtype([
     ("sample_count", "<i4"),
     ("accumulate", "<i4"),         # 1: add to the stored results (a later dispatch)
     ("loop_probe_trips", "<i4"),   # 2: the loop that detects llvmpipe's loop limit
-    ("_pad4", "<i4", 3),
 ])
-assert TRACE_DTYPE.itemsize == 144
+assert TRACE_DTYPE.itemsize == 128
 
 # One shaded point's result (struct PointResult, an element of the Results buffer).
 TRACE_RESULT_DTYPE = np.dtype([
@@ -160,7 +158,7 @@ assert DRAW_COMMAND_DTYPE.itemsize == 20
 
 # -- GLSL from the dtypes --------------------------------------------------------------------------
 
-# (kind, components) -> GLSL type, base alignment in std140/std430 (bytes), size.
+# A dtype's kind -> its GLSL scalar type and vector prefix.
 _VECTORS = {"f": ("float", "vec"), "i": ("int", "ivec"), "u": ("uint", "uvec")}
 
 

@@ -59,14 +59,6 @@ def egl_failure_message(exc: BaseException) -> str:
             "(apt-get install libgl1-mesa-dri; llvmpipe needs no GPU)")
 
 
-def require_display() -> None:
-    """Raise the one-line error for a window where no display can be opened."""
-    if os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"):
-        return
-    raise GameError("no display (DISPLAY and WAYLAND_DISPLAY are unset): use python -m game "
-                    "capture for headless frames through EGL, or run under Xvfb (xvfb-run)")
-
-
 def wrap_current():
     """Wrap the context a window made current (glfw), checking its version."""
     import moderngl

@@ -9,7 +9,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-from game.gpu import blocks as gpu_blocks
+from game.gpu import blocks
 
 
 @dataclass(frozen=True)
@@ -18,14 +18,14 @@ class GLLimits:
 
     max_texture_size: int      # GL_MAX_TEXTURE_SIZE: texels per side of one layer
     max_array_layers: int      # GL_MAX_ARRAY_TEXTURE_LAYERS
-    max_maps: int              # map records that fit the uniform block (gpu_blocks.max_maps)
+    max_maps: int              # map records that fit the uniform block (blocks.max_maps)
 
     @classmethod
     def of(cls, ctx) -> GLLimits:
         """The limits the context reports."""
         return cls(max_texture_size=int(ctx.info["GL_MAX_TEXTURE_SIZE"]),
                    max_array_layers=int(ctx.info["GL_MAX_ARRAY_TEXTURE_LAYERS"]),
-                   max_maps=gpu_blocks.max_maps(ctx))
+                   max_maps=blocks.max_maps(ctx))
 
     def tightened(self, **smaller: int) -> GLLimits:
         """These limits with some made smaller (never larger): to simulate a weaker GL."""

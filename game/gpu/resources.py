@@ -23,16 +23,6 @@ def rss_bytes() -> int:
         return 0
 
 
-def peak_rss_bytes() -> int:
-    """Peak resident set size of this process so far (0 where unavailable)."""
-    try:
-        import resource
-
-        return int(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss) * 1024
-    except (ImportError, OSError):
-        return 0
-
-
 def attached_shaders(programs) -> int:
     """Shader objects attached to these moderngl programs: moderngl keeps them attached (and
     alive) until the program is released, so an owner counts them with its programs."""

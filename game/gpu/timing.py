@@ -1,7 +1,8 @@
 """Per-pass timing with the clock that tells the truth on this renderer.
 
-GPU timer queries read wrong on Mesa llvmpipe (28 ms of work read as 0.003 ms; the first query
-read 4294.97 ms), so there the clock is the CPU's, around ``ctx.finish()``: ``cpu-finish``. On
+GPU timer queries read wrong values on Mesa llvmpipe (work of many milliseconds reads as a few
+microseconds, or as a wrapped-around counter), so there the clock is the CPU's, around
+``ctx.finish()``: ``cpu-finish``. On
 real GPUs the passes are timed with GL_TIME_ELAPSED queries: ``gpu-query``. Stats files record
 which clock was used (docs/reference.md, section 4).
 """

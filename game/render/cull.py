@@ -31,7 +31,6 @@ CHUNK = 32                # triangles per mask word; keep in sync with shaders/c
 LOCAL_SIZE = 64           # invocations per workgroup of the mask and write stages
 MAX_GROUPS = 65535        # GL_MAX_COMPUTE_WORK_GROUP_COUNT's guaranteed minimum
 STAGES = {"STAGE_MASK": 0, "STAGE_SCAN": 1, "STAGE_WRITE": 2}
-BUFFERS = ("corners", "indices", "chunks", "output", "commands")  # in BINDINGS order
 BINDING_NAMES = ("Corners", "Indices", "Chunks", "Culled", "Commands")
 
 
@@ -56,7 +55,11 @@ class TriangleCuller:
         self.commands = ctx.buffer(reserve=2 * DRAW_COMMAND_DTYPE.itemsize)
         self._params = np.zeros(1, CULL_DTYPE)
         self.groups = 0  # workgroups of the mask and write stages
-        self.set_layout()
+        try:
+            self.set_layout()
+        except BaseException:
+            self.release()
+            raise
 
     @staticmethod
     def fits(n_indices: int) -> bool:

@@ -17,28 +17,20 @@ from game.gpu.blocks import FRAME_DTYPE, MAP_DTYPE
 from game.render.frame import View
 from game.scene.geometry import PackedGeometry
 from game.scene.model import Light
+from game.shadows.fit import light_rotation_of
 from game.shadows.map_grid import MapGrid
 from game.shadows.plan import KIND_CASCADE, KIND_CHARACTER, ShadowPlan, ShadowSettings
 
 
-def shader_defines(ctx, extra: dict | None = None) -> dict:
-    """The #defines every shader of the frame is built with, plus ``extra``."""
+def shader_defines(ctx) -> dict:
+    """The #defines every shader of the frame is built with."""
     d = {"MAX_MAPS": blocks.max_maps(ctx), "GRID_NONE": blocks.GRID_NONE,
          "GRID_ORTHO": blocks.GRID_ORTHO, "GRID_OCTAHEDRAL": blocks.GRID_OCTAHEDRAL,
          "KIND_CASCADE": KIND_CASCADE}
     d.update({f"DEBUG_{name.upper().replace('-', '_')}": value
               for name, value in blocks.DEBUG_VIEWS.items() if name != "none"})
     d.update({f"LIGHT_{kind.upper()}": value for kind, value in blocks.LIGHT_KINDS.items()})
-    d.update(extra or {})
     return d
-
-
-def light_rotation(light: Light) -> np.ndarray:
-    """4x4 world-to-light rotation of a directional light (the identity for others)."""
-    rot = np.eye(4)
-    if light.kind == "directional":
-        rot[:3, :3] = transforms.light_rotation(light.direction)
-    return rot
 
 
 class FrameBlocks:
@@ -51,8 +43,6 @@ class FrameBlocks:
         self.grid = ctx.buffer(reserve=4 * 1024)
         self.models = ctx.buffer(reserve=64 * max(1, n_characters))
         self.character_maps = ctx.buffer(reserve=4 * max(1, n_characters))
-        self._light: Light | None = None
-        self._light_rot = np.eye(4)
 
     def upload(self, plan: ShadowPlan, view: View, grid: MapGrid, models: np.ndarray,
                geom: PackedGeometry, light: Light, settings: ShadowSettings) -> None:
@@ -94,11 +84,13 @@ class FrameBlocks:
 
     def _frame(self, view: View, n_maps: int, grid: MapGrid, geom: PackedGeometry,
                light: Light, s: ShadowSettings) -> np.ndarray:
-        if light is not self._light:
-            self._light, self._light_rot = light, light_rotation(light)
+        light_rot = np.eye(4)  # directional lights only; the identity for others
+        rotation = light_rotation_of(light)
+        if rotation is not None:
+            light_rot[:3, :3] = rotation
         f = np.zeros(1, FRAME_DTYPE)
         f["view_proj"] = (view.proj @ view.view).T
-        f["light_rot"] = self._light_rot.T
+        f["light_rot"] = light_rot.T
         f["camera_pos"] = np.linalg.inv(view.view)[:3, 3]
         f["map_count"] = n_maps
         f["light_dir"] = light.direction if light.direction is not None else np.zeros(3)

@@ -30,7 +30,7 @@ from game.shadows import map_grid, registry
 from game.shadows.budget import fit_settings
 from game.shadows.method import VISIBILITY_TRACED
 from game.shadows.plan import ShadowPlan, ShadowSettings
-from game.soft.methods import EXACT_HARD, TraceSettings, hard_light
+from game.soft.methods import TraceSettings
 from game.soft.tracer import TraceResult
 
 
@@ -49,20 +49,26 @@ class Renderer(SceneEdits):
         # (game/render/cull.py); ``cull = False`` draws them all, with the same pixels.
         self.cull = cull
         self.last_plan: ShadowPlan | None = None  # for the overlay's map list
-        self.buffers = SceneBuffers(ctx, scene)
-        self.blocks = FrameBlocks(ctx, self.geom.n_characters)
-        defines = shader_defines(ctx)
-        self.shadow_pass = ShadowMapPass(ctx, self.buffers, defines)
-        self.culler = (TriangleCuller(ctx, defines, self.buffers)
-                       if TriangleCuller.fits(len(self.buffers.layout.indices)) else None)
-        self.shading = ShadingPass(ctx, self.buffers, defines)
-        self.traced = TracedLighting(ctx, defines, self.timer.clock)
         # The G-buffer is kept when the caller asks (dumps, soft shadows) and while the method
         # traces its visibility from it.
         self._gbuffer_asked = gbuffer
-        self._set_method(settings or ShadowSettings())
-        self.target = FrameTarget(ctx, size, self._gbuffer_needed())
         self._composited = False  # whether the last frame's picture is the composite's
+        self.buffers = self.blocks = self.shadow_pass = self.culler = None
+        self.shading = self.traced = self.target = None
+        try:  # a part that fails (a refused setting, a driver limit) leaves none behind
+            self.buffers = SceneBuffers(ctx, scene)
+            self.blocks = FrameBlocks(ctx, self.geom.n_characters)
+            defines = shader_defines(ctx)
+            self.shadow_pass = ShadowMapPass(ctx, self.buffers, defines)
+            if TriangleCuller.fits(len(self.buffers.layout.indices)):
+                self.culler = TriangleCuller(ctx, defines, self.buffers)
+            self.shading = ShadingPass(ctx, self.buffers, defines)
+            self.traced = TracedLighting(ctx, defines, scene, self.timer)
+            self._set_method(settings or ShadowSettings())
+            self.target = FrameTarget(ctx, size, self._gbuffer_needed())
+        except BaseException:
+            self.release()
+            raise
 
     # -- what it renders --------------------------------------------------------------------
     @property
@@ -144,15 +150,15 @@ class Renderer(SceneEdits):
         frame = self._frame(plan, triangles, culled, read)
         self._composited = False
         if self.method.visibility == VISIBILITY_TRACED:
-            result = self._light_by_trace(frame, models, EXACT_HARD,
-                                          hard_light(self.scene.light), None, "traced", read)
+            result = self.traced.light_frame(frame, self.target, self.geom, models, None, read)
+            self._composited = True
             if frame.gbuffer is not None:
                 frame.gbuffer["lit"] = result.visibility
         if soft is not None:
-            segment = self._segment()
             gbuffer_ms = frame.ms.get("total", 0.0)
-            frame.soft = self._light_by_trace(frame, models, soft, segment,
-                                              (segment[1] + segment[2]) / 2, "soft", read)
+            frame.soft = self.traced.light_frame(frame, self.target, self.geom, models, soft,
+                                                 read)
+            self._composited = True
             frame.ms["gbuffer"] = gbuffer_ms
             if frame.gbuffer is not None:
                 frame.gbuffer["soft"] = frame.soft.visibility
@@ -197,36 +203,10 @@ class Renderer(SceneEdits):
                               else len(self.buffers.layout.indices) // 3),
             texels_to_maps=sum(plan.maps[i].viewport ** 2 for i in drawn), **counts)
 
-    def _light_by_trace(self, frame: Frame, models: np.ndarray, settings: TraceSettings,
-                        light: tuple, soft_light: np.ndarray | None, prefix: str,
-                        read: bool) -> TraceResult:
-        """Trace ``light`` over the frame's G-buffer and light the frame through it; the
-        tracer's passes join the frame's times under ``prefix``, and ``total`` grows by them
-        and the composite."""
-        result = self.traced.trace(self.target, self.geom, self.scene, models, settings, light)
-        before = self.timer.ms.get("composite", 0.0)
-        with self.timer.measure("composite"):
-            self.traced.light(self.target, result, self.scene.light.kind, soft_light)
-        self._composited = True
-        if read:
-            frame.image = self.traced.composite.read()
-        frame.ms.update({f"{prefix}_{k}": v for k, v in result.ms.items()})
-        frame.ms["composite"] = self.timer.ms["composite"]
-        frame.ms["total"] = (frame.ms.get("total", 0.0) + result.ms["total"]
-                             + frame.ms["composite"] - before)
-        return result
-
-    def _segment(self) -> tuple:
-        segment = self.scene.linear_light
-        if segment is None:
-            raise RuntimeError("the scene has no [linear_light]")
-        return (blocks.TRACE_LIGHT_SEGMENT, segment.a, segment.b)
-
     def trace(self, t: float, settings: TraceSettings, light=None) -> TraceResult:
         """Trace over the last frame's G-buffer: ``light`` is a tracer light tuple, by default
         the scene's linear light. The frame's picture is left as it was."""
-        return self.traced.trace(self.target, self.geom, self.scene, self.models(t), settings,
-                                 light or self._segment())
+        return self.traced.trace(self.target, self.geom, self.models(t), settings, light)
 
     # -- what it holds ----------------------------------------------------------------------
     @property
@@ -247,7 +227,8 @@ class Renderer(SceneEdits):
 
     @property
     def soft_tracer(self):
-        return self.traced.tracer
+        """The compute tracer, once a frame has been traced (None after :meth:`release`)."""
+        return self.traced.tracer if self.traced is not None else None
 
     def gl_objects(self) -> dict[str, int]:
         """Live GL objects by owner: every pass and buffer set this renderer holds."""
@@ -279,5 +260,6 @@ class Renderer(SceneEdits):
                      self.blocks, self.buffers):
             if part is not None:
                 part.release()
-        self.culler = None
+        self.traced = self.shading = self.culler = self.shadow_pass = None
+        self.target = self.blocks = self.buffers = None
         self.timer.release()

@@ -9,46 +9,77 @@ from __future__ import annotations
 
 import numpy as np
 
+from game.errors import GameError
 from game.gpu import blocks
+from game.gpu.timing import PassTimer
+from game.render.frame import Frame
 from game.render.target import FrameTarget
 from game.scene.geometry import PackedGeometry
 from game.scene.model import Scene
 from game.soft.composite import SoftComposite
-from game.soft.methods import TraceSettings
+from game.soft.methods import EXACT_HARD, TraceSettings, hard_light
 from game.soft.tracer import SoftTracer, TraceResult
 
 
 class TracedLighting:
     """Owns the tracer (made on first use and kept, its static grid cached; a new
-    ``cells_per_triangle`` makes a new one) and the composite."""
+    ``cells_per_triangle`` makes a new one) and the composite. Times its passes with the
+    renderer's ``timer``."""
 
-    def __init__(self, ctx, defines: dict, clock: str):
+    def __init__(self, ctx, defines: dict, scene: Scene, timer: PassTimer):
         self.ctx = ctx
-        self.clock = clock
+        self.scene = scene
+        self.timer = timer
         self.tracer: SoftTracer | None = None
         self.composite = SoftComposite(ctx, defines)
 
-    def trace(self, target: FrameTarget, geom: PackedGeometry, scene: Scene, models: np.ndarray,
-              settings: TraceSettings, light: tuple[int, np.ndarray, np.ndarray]) -> TraceResult:
-        """Trace ``light`` (a tracer light tuple) from every G-buffer pixel of ``target``."""
+    def segment(self) -> tuple[int, np.ndarray, np.ndarray]:
+        """The tracer's light tuple for the scene's linear light."""
+        segment = self.scene.linear_light
+        if segment is None:
+            raise GameError("the scene has no [linear_light] to trace")
+        return (blocks.TRACE_LIGHT_SEGMENT, segment.a, segment.b)
+
+    def trace(self, target: FrameTarget, geom: PackedGeometry, models: np.ndarray,
+              settings: TraceSettings, light: tuple | None = None) -> TraceResult:
+        """Trace ``light`` (a tracer light tuple; default the linear light) from every G-buffer
+        pixel of ``target``."""
         if not target.gbuffer:
             raise RuntimeError("the soft-shadow pass needs a renderer made with gbuffer=True")
         tracer = self.tracer
         if tracer is None or tracer.grid.cells_per_triangle != settings.cells_per_triangle:
             if tracer is not None:
                 tracer.release()
-            tracer = self.tracer = SoftTracer(self.ctx, geom, scene, settings.cells_per_triangle,
-                                              self.clock)
+            tracer = self.tracer = SoftTracer(self.ctx, geom, self.scene,
+                                              settings.cells_per_triangle, self.timer.clock)
         textures = (target.position, target.normal, target.colour)
-        return tracer.trace(textures, target.size, models, settings, light)
+        return tracer.trace(textures, target.size, models, settings, light or self.segment())
 
-    def light(self, target: FrameTarget, result: TraceResult, light_kind: str,
-              soft_light: np.ndarray | None) -> None:
-        """Light the frame in ``target`` through ``result``: by the linear light from
-        ``soft_light`` (its midpoint), or with ``soft_light`` None by the hard light."""
-        self.composite.draw((target.position, target.normal, target.colour), target.size,
-                            result.visibility, blocks.LIGHT_KINDS[light_kind],
-                            hard=soft_light is None, soft_light=soft_light)
+    def light_frame(self, frame: Frame, target: FrameTarget, geom: PackedGeometry,
+                    models: np.ndarray, soft: TraceSettings | None, read: bool) -> TraceResult:
+        """Trace and light ``frame`` again: by the linear light through ``soft`` samples, or
+        with ``soft`` None by the hard light's exact visibility (the ``traced`` method). The
+        tracer's passes join the frame's times as ``soft_*`` or ``traced_*``; ``total`` grows
+        by them and by the composite."""
+        if soft is None:
+            settings, light, soft_light, prefix = EXACT_HARD, hard_light(self.scene.light), None, \
+                "traced"
+        else:
+            light = self.segment()
+            settings, soft_light, prefix = soft, (light[1] + light[2]) / 2, "soft"
+        result = self.trace(target, geom, models, settings, light)
+        before = self.timer.ms.get("composite", 0.0)
+        with self.timer.measure("composite"):
+            self.composite.draw((target.position, target.normal, target.colour), target.size,
+                                result.visibility, blocks.LIGHT_KINDS[self.scene.light.kind],
+                                hard=soft_light is None, soft_light=soft_light)
+        if read:
+            frame.image = self.composite.read()
+        frame.ms.update({f"{prefix}_{k}": v for k, v in result.ms.items()})
+        frame.ms["composite"] = self.timer.ms["composite"]
+        frame.ms["total"] = (frame.ms.get("total", 0.0) + result.ms["total"]
+                             + frame.ms["composite"] - before)
+        return result
 
     def invalidate(self) -> None:
         """The geometry changed: the next trace builds its grid anew."""

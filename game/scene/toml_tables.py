@@ -209,3 +209,4 @@ class Table:
             return np.full(3, self._check_number(key, value, positive=True))
         if isinstance(value, list):
             return self._check_vec3(key, value, positive=True)
+        self.fail(key, f"must be a number or a list of 3 numbers, got {describe(value)}")

@@ -33,7 +33,7 @@ CASCADE_RESOLUTION = 2048      # csm: texels per side of each cascade
 
 @dataclass
 class ShadowSettings:
-    """Everything a user can change about the hard shadows (CLI flags, later the overlay)."""
+    """Everything a user can change about the hard shadows (command-line flags, the overlay)."""
 
     method: str = "clumped"
     clumping: str = "light"

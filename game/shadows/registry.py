@@ -16,7 +16,7 @@ from game.shadows.plan import ShadowSettings
 METHODS: dict[str, type[ShadowMethod]] = {
     cls.name: cls for cls in (ClumpedShadows, SingleShadows, StaticDynamicShadows,
                               CascadedShadows, TracedShadows)}
-DEFAULT_METHOD = ClumpedShadows.name
+DEFAULT_METHOD = ShadowSettings.method  # the settings' default
 # The methods that draw shadow maps (the benchmark's subjects; ``traced`` is their reference).
 MAP_METHODS = tuple(name for name, cls in METHODS.items() if cls.visibility == VISIBILITY_MAPS)
 

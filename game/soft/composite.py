@@ -11,11 +11,10 @@ import moderngl
 import numpy as np
 
 from game.gpu import blocks, glsl, resources
+from game.soft.tracer import TEXTURE_UNITS
 
-UNITS = {"u_position": blocks.TEXTURE_UNITS["trace_position"],
-         "u_normal": blocks.TEXTURE_UNITS["trace_normal"],
-         "u_colour": blocks.TEXTURE_UNITS["trace_colour"],
-         "u_visibility": blocks.TEXTURE_UNITS["soft_visibility"]}
+# The G-buffer on the tracer's units, and the traced visibility.
+UNITS = {**TEXTURE_UNITS, "u_visibility": blocks.TEXTURE_UNITS["soft_visibility"]}
 
 
 class SoftComposite:

@@ -120,9 +120,8 @@ class SoftTracer:
                settings.max_intervals)
         prog = self._programs.get(key)
         if prog is None:
-            defines = {}
-            defines.update({f"METHOD_{name.upper().replace('-', '_')}": method.shader_id
-                            for name, method in METHODS.items()})
+            defines = {f"METHOD_{name.upper().replace('-', '_')}": method.shader_id
+                       for name, method in METHODS.items()}
             defines.update(
                 METHOD=METHODS[settings.method].shader_id, MAILBOX_SIZE=settings.mailbox,
                 VC_SLOTS=settings.vc_slots, VC_POOL=settings.vc_pool,
@@ -188,7 +187,7 @@ class SoftTracer:
         p["ray_offset_per_metre"] = RAY_OFFSET_DISTANCE
         p["directional_far"] = 4.0 * (spec.diagonal + float(np.linalg.norm(spec.origin)))
         p["samples"], p["triangles"] = samples, self.n_triangles
-        p["static_triangles"], p["ray_id_base"] = self.grid.n_static, self._ray_id_base
+        p["ray_id_base"] = self._ray_id_base
         p["width"], p["height"] = size
         p["first_sample"] = first
         p["sample_count"] = samples if count is None else count

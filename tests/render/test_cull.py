@@ -10,8 +10,7 @@ from game import transforms
 from game.render.renderer import Renderer, View
 from game.scene import Body, load_scene, parse_scene
 from tests.conftest import SCENES
-
-SIZE = (160, 90)
+from tests.conftest import SMALL_SIZE as SIZE
 
 # A small town with fine detail: at 160x90 most of its triangles fall between pixel centres.
 TOWN = """

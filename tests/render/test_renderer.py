@@ -9,10 +9,7 @@ from game.render.renderer import Renderer, View
 from game.scene import Light, load_scene, parse_scene
 from game.shadows.plan import ShadowSettings
 from tests.conftest import SCENES
-
-SIZE = (160, 90)
-
-
+from tests.conftest import SMALL_SIZE as SIZE
 
 
 def render(ctx, scene, settings=None, t=0.0, frames=1, gbuffer=True, debug="none"):
@@ -201,6 +198,15 @@ def test_release_returns_every_gl_object(ctx, tiny):
     assert after["Texture"] > before["Texture"]  # the renderers did make objects
     assert all(not names for names in live_names(before, after).values())
 
+
+
+def test_a_renderer_that_cannot_start_leaves_no_gl_objects(ctx, tiny):
+    before = next_gl_names()
+    with pytest.raises(ValueError, match="unknown shadow method"):
+        Renderer(ctx, tiny, SIZE, ShadowSettings(method="nope"))
+    after = next_gl_names()
+    assert after["Buffer"] > before["Buffer"]  # it had made objects before it failed
+    assert all(not names for names in live_names(before, after).values())
 
 TOWN = """
 [camera]

@@ -16,7 +16,7 @@ import trimesh
 
 from game import transforms
 from game.render.renderer import Renderer, View
-from game.scene import Body, Character, Light, default_scene_path, load_scene
+from game.scene import Body, Character, Light
 from game.shadows.plan import ShadowSettings
 from tests.conftest import ACCURACY_SIZE as SIZE
 from tests.conftest import MAX_ERROR
@@ -28,8 +28,8 @@ T = 3.0
 
 
 @pytest.fixture
-def renderer(ctx):
-    r = Renderer(ctx, load_scene(default_scene_path()), SIZE, gbuffer=True)
+def renderer(ctx, default_scene):
+    r = Renderer(ctx, default_scene, SIZE, gbuffer=True)
     yield r
     r.release()
 
@@ -140,8 +140,8 @@ def test_removing_a_character_frees_its_layer_and_its_shadow(renderer):
     assert renderer.gl_objects() == objects
 
 
-def test_layers_are_reused_by_new_clumps(ctx):
-    scene = load_scene(default_scene_path())
+def test_layers_are_reused_by_new_clumps(ctx, default_scene):
+    scene = default_scene
     settings = ShadowSettings(clump_count=3)
     r = Renderer(ctx, scene, SIZE, settings, gbuffer=True)
     try:
@@ -168,10 +168,10 @@ def test_layers_are_reused_by_new_clumps(ctx):
         r.release()
 
 
-def test_the_tracer_sees_run_time_edits(ctx):
+def test_the_tracer_sees_run_time_edits(ctx, default_scene):
     # The traced method's grid holds the scene's triangles: after an edit it must be rebuilt,
     # or the new static casts no traced shadow while Embree (on the new geometry) sees one.
-    r = Renderer(ctx, load_scene(default_scene_path()), SIZE, gbuffer=True)
+    r = Renderer(ctx, default_scene, SIZE, gbuffer=True)
     try:
         r.set_settings(dataclasses.replace(r.settings, method="traced"))
         view = View.from_camera(r.scene.camera, SIZE)

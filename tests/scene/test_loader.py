@@ -369,6 +369,8 @@ STATIC_ERRORS = [
     ('shape = "box"\nsize = [1, 1] ' + MARK, "static[0].size", ["3 numbers"]),
     ('shape = "box"\nsize = [1, 1, 1]\nscale = -1.0 ' + MARK, "static[0].scale",
      ["must be positive, got -1.0"]),
+    ('shape = "box"\nsize = [1, 1, 1]\nscale = "big" ' + MARK, "static[0].scale",
+     ["must be a number or a list of 3 numbers, got 'big'"]),
     ('shape = "box"\nsize = [1, 1, 1]\nposition = [0, true, 0] ' + MARK,
      "static[0].position", ["3 numbers"]),
     ('shape = "boxx" ' + MARK, "static[0].shape", ["did you mean 'box'"]),

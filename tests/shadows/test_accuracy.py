@@ -12,7 +12,7 @@ import pytest
 
 from game.app import capture, outputs
 from game.reference import hard as reference
-from game.scene import default_scene_path, load_scene
+from game.scene import load_scene
 from game.shadows.plan import ShadowSettings
 from tests.conftest import ACCURACY_SCENES, MAX_ERROR
 from tests.conftest import ACCURACY_SIZE as SIZE
@@ -54,10 +54,10 @@ def test_clumped_matches_the_ray_traced_reference(ctx, name, tmp_path):
             f"{err['shadowed']} shadowed pixels); diff image in {tmp_path}")
 
 
-def test_the_reference_tells_a_coarse_map_from_a_tight_one(ctx, tmp_path):
+def test_the_reference_tells_a_coarse_map_from_a_tight_one(ctx, tmp_path, default_scene):
     # The check above could pass vacuously if the reference agreed with anything; a 256-texel
     # single map over the whole default scene must score clearly worse than clumped.
-    scene = load_scene(default_scene_path())
+    scene = default_scene
     coarse = ShadowSettings(method="single", single_resolution=256)
     coarse_err = capture_errors(ctx, scene, coarse, tmp_path / "single", frames=1)[0]
     tight_err = capture_errors(ctx, scene, ShadowSettings(), tmp_path / "clumped",

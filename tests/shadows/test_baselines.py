@@ -7,7 +7,7 @@ import pytest
 from game import transforms
 from game.app import capture
 from game.render.renderer import View
-from game.scene import Camera, default_scene_path, load_scene
+from game.scene import Camera, load_scene
 from game.shadows.methods import cascaded
 from game.shadows.plan import ShadowSettings
 from tests.conftest import ACCURACY_SCENES
@@ -32,11 +32,11 @@ def test_baseline_matches_the_ray_traced_reference(ctx, method, name, tmp_path):
             f"{method} on {name} frame {k}: error {err['error']:.3f}; diff in {tmp_path}")
 
 
-def test_coarse_cascades_score_worse_than_fine_ones(ctx, tmp_path):
+def test_coarse_cascades_score_worse_than_fine_ones(ctx, tmp_path, default_scene):
     pytest.importorskip("embreex")
     from tests.shadows.test_accuracy import capture_errors
 
-    scene = load_scene(default_scene_path())
+    scene = default_scene
     coarse = capture_errors(ctx, scene, ShadowSettings(
         method="csm", cascade_resolution=256), tmp_path / "coarse", frames=1)[0]
     fine = capture_errors(ctx, scene, ShadowSettings(
@@ -44,8 +44,8 @@ def test_coarse_cascades_score_worse_than_fine_ones(ctx, tmp_path):
     assert coarse["error"] > 2 * fine["error"]
 
 
-def test_static_dynamic_caches_the_static_map(ctx, tmp_path):
-    scene = load_scene(default_scene_path())
+def test_static_dynamic_caches_the_static_map(ctx, tmp_path, default_scene):
+    scene = default_scene
     stats = capture.run(ctx, scene, capture.CaptureOptions(
         out=tmp_path, frames=3, size=(160, 90),
         settings=ShadowSettings(method="static-dynamic",
@@ -60,8 +60,8 @@ def test_static_dynamic_caches_the_static_map(ctx, tmp_path):
     assert stats["shadow_memory_mib"] == pytest.approx(2 * 4 * 1024 ** 2 / 2 ** 20)
 
 
-def test_csm_renders_every_cascade_every_frame(ctx, tmp_path):
-    scene = load_scene(default_scene_path())
+def test_csm_renders_every_cascade_every_frame(ctx, tmp_path, default_scene):
+    scene = default_scene
     stats = capture.run(ctx, scene, capture.CaptureOptions(
         out=tmp_path, frames=2, size=(160, 90),
         settings=ShadowSettings(method="csm", cascades=3,

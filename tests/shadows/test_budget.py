@@ -81,15 +81,6 @@ def test_gl_below_4_3_says_what_to_use(capsys, monkeypatch, tmp_path):
     assert old.released
 
 
-def test_no_display_points_to_capture(monkeypatch):
-    monkeypatch.delenv("DISPLAY", raising=False)
-    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
-    with pytest.raises(GameError, match="no display.*python -m game capture"):
-        context.require_display()
-    monkeypatch.setenv("DISPLAY", ":0")
-    context.require_display()
-
-
 # -- settings inside the limits ------------------------------------------------------------------
 LIMITS = GLLimits(max_texture_size=16384, max_array_layers=2048, max_maps=128)
 

@@ -73,8 +73,8 @@ def test_scaled_scenes(ctx, path, s):
     check(ctx, scaled(load_scene(path), s), min_shadowed=100)
 
 
-def test_far_plane_at_10_km(ctx):
-    scene = load_scene(default_scene_path())
+def test_far_plane_at_10_km(ctx, default_scene):
+    scene = default_scene
     scene.camera = dataclasses.replace(scene.camera, far=10_000.0)
     check(ctx, scene)
 
@@ -91,8 +91,8 @@ def test_camera_inside_a_caster(ctx):
 
 
 @pytest.mark.parametrize("direction", [[0.0, -1.0, 0.0], [0.0, -3.0, 0.0]])
-def test_light_exactly_along_the_up_axis(ctx, direction):
-    scene = load_scene(default_scene_path())
+def test_light_exactly_along_the_up_axis(ctx, direction, default_scene):
+    scene = default_scene
     d = np.array(direction) / np.linalg.norm(direction)
     scene.light = Light("directional", d, None, None)
     check(ctx, scene)

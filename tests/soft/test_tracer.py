@@ -335,7 +335,7 @@ def test_frames_do_not_grow_gl_objects_and_characters_move(ctx, tiny):
         for k in range(4):
             r.render(k * 0.7, view)
             res = r.trace(k * 0.7, TraceSettings(samples=4))
-            counts.append(r.soft_tracer.gl_objects)
+            counts.append(r.soft_tracer.gl_objects())
             images.append(res.visibility)
             assert res.ms["build_dynamic"] > 0.0
             assert res.ms["build_static"] == (res.ms["build_static"] if k == 0 else 0.0)

@@ -39,9 +39,9 @@ GRAPH_PERCENTILE = 98              # the y axis spans this percentile of the plo
 GRAPH_HEADROOM = 1.25              # ... times this
 GRAPH_MIN_MS = 1.0
 LABELLED_ITEM_WIDTH = 170          # pixels for a control, the rest of the row for its label
-# Passes in display order; any other pass a renderer times follows them. The tracer's passes
-# (game/app/trace.py) are prefixed ``traced_`` (the traced method) or ``soft_`` (soft shadows);
-# ``composite`` shades the frame again through the traced visibility.
+# Passes in display order; any other pass a renderer times follows them. The tracer's passes are
+# prefixed ``traced_`` (the traced method) or ``soft_`` (soft shadows); ``composite`` lights the
+# frame again through the traced visibility (game/render/traced_lighting.py).
 PASS_ORDER = ("shadow_static", "shadow_dynamic", "cull", "shade", "traced_build", "traced_trace",
               "soft_build", "soft_trace", "composite")
 HIDDEN_PASSES = ("readback", "gbuffer")
@@ -90,7 +90,7 @@ class Changes:
     debug_view: str | None = None
     paused: bool | None = None
     render_scale: float | None = None
-    soft: bool | None = None   # the window applies this one (it runs the soft trace)
+    soft: bool | None = None   # the window applies this one (it asks the renderer for it)
 
     def apply(self, renderer: Renderer) -> None:
         if self.settings is not None:
@@ -365,7 +365,8 @@ class Overlay:
                                                 direction=sun_direction(azimuth, elevation))
 
     def draw_over_frame(self, renderer: Renderer, frame: Frame, dt: float) -> np.ndarray:
-        """Headless: draw the panel over the frame in the renderer's target and read it back.
+        """Headless: draw the panel over the frame's picture (``renderer.display``) and read it
+        back.
 
         The frame rate shown is ``1000 / total`` ms, the rate this frame's work alone would allow.
         """

@@ -1,8 +1,8 @@
 """The walkaround window (``python -m game play``): glfw, the renderer's frame, the overlay.
 
 Each frame: poll input -> move the camera (game/app/window/camera_control.py) -> render the scene
-into the renderer's own target -> with the ``traced`` method or soft shadows on, trace over the
-frame's G-buffer and shade it again through the traced visibility (game/app/trace.py) -> draw the
+into the renderer's own target (with the ``traced`` method or soft shadows on, the renderer
+traces over the frame's G-buffer and lights it again through the traced visibility) -> draw the
 overlay over it -> blit to the window -> swap.
 
 Soft shadows (the scene's ``[linear_light]``, overlay checkbox or ``play --soft``) are traced at

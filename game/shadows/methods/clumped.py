@@ -316,9 +316,7 @@ class ClumpedShadows(ShadowMethod):
 
     # -- frame ------------------------------------------------------------------------------
     def plan(self, models: np.ndarray, view=None) -> ShadowPlan:
-        """The maps for this frame; ``models`` are the characters' (n, 4, 4) matrices.
-
-        """
+        """The maps for this frame; ``models`` are the characters' (n, 4, 4) matrices."""
         s = self.settings
         maps = list(self.static_maps)
         render_static = sorted(i for k in self._dirty for i in self._map_of_clump.get(k, []))
