@@ -122,8 +122,8 @@ class Walkaround:
         self.shots = 0
         self.last_figures: Figures | None = None
         self.frame_stats: list[dict] = []
-        # Per-frame entries only for runs that end by themselves or write them: an open-ended
-        # session must not grow.
+        # Per-frame entries only for runs that end by themselves or write them: an open-ended run
+        # must not grow.
         self.keep_stats = opts.frames is not None or opts.stats is not None
         self._frame_times: deque[float] = deque(maxlen=FPS_WINDOW_FRAMES)
         self._mpf: float | None = None
