@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
@@ -21,16 +20,8 @@ from game.soft.methods import TraceSettings
 
 
 @dataclass
-class CaptureOptions:
-    out: Path
-    frames: int = 1
-    size: tuple[int, int] = (960, 540)
-    time: float = 0.0
-    fps: float = 30.0
-    dump: bool = False
-    stats: Path | None = None
+class CaptureOptions(outputs.HeadlessRun):
     debug_view: str = "none"
-    clock: str = "auto"
     overlay: bool = False       # draw the timing overlay (game/app/window/overlay.py) in frames
     settings: ShadowSettings = field(default_factory=ShadowSettings)
     soft: TraceSettings | None = None  # light the frames by the linear light, soft shadows
@@ -69,9 +60,9 @@ def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
     try:
         for k in range(opts.frames):
             interrupts.check()
-            t = opts.time + k / opts.fps
+            t = opts.frame_time(k)
             frame = renderer.render(t, view, soft=opts.soft)
-            stem = opts.out / f"frame_{k:04d}"
+            stem = opts.frame_stem(k)
             if hud is not None:
                 frame.image = hud.draw_over_frame(renderer, frame, 1.0 / opts.fps)
             outputs.write_png(stem.with_suffix(".png"), frame.image)

@@ -12,6 +12,7 @@ import struct
 import zlib
 from collections.abc import Callable
 from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 from typing import BinaryIO
 
@@ -24,6 +25,27 @@ def _umask() -> int:
     mask = os.umask(0)
     os.umask(mask)
     return mask
+
+
+@dataclass
+class HeadlessRun:
+    """What every headless run writes and when its frames are: frame k is at scene time
+    ``time + k / fps``, written as ``out/frame_kkkk.*``."""
+
+    out: Path
+    frames: int = 1
+    size: tuple[int, int] = (960, 540)
+    time: float = 0.0
+    fps: float = 30.0
+    dump: bool = False
+    stats: Path | None = None
+    clock: str = "auto"
+
+    def frame_time(self, k: int) -> float:
+        return self.time + k / self.fps
+
+    def frame_stem(self, k: int) -> Path:
+        return self.out / f"frame_{k:04d}"
 
 
 # Temp files are made readable by the owner only; outputs get the usual permissions.

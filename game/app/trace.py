@@ -8,7 +8,6 @@ section 3 plus ``soft``, with ``--stats`` the JSON of section 4 plus the tracer'
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
-from pathlib import Path
 
 import numpy as np
 
@@ -21,15 +20,7 @@ from game.soft.tracer import COUNTERS, TraceResult, TraceSettings
 
 
 @dataclass
-class TraceOptions:
-    out: Path
-    frames: int = 1
-    size: tuple[int, int] = (960, 540)
-    time: float = 0.0
-    fps: float = 30.0
-    dump: bool = False
-    stats: Path | None = None
-    clock: str = "auto"
+class TraceOptions(outputs.HeadlessRun):
     settings: TraceSettings = field(default_factory=TraceSettings)
 
 
@@ -62,10 +53,10 @@ def run(ctx, scene: Scene, opts: TraceOptions) -> dict:
     try:
         for k in range(opts.frames):
             interrupts.check()
-            t = opts.time + k / opts.fps
+            t = opts.frame_time(k)
             frame = renderer.render(t, view, soft=opts.settings)
             result = frame.soft
-            stem = opts.out / f"frame_{k:04d}"
+            stem = opts.frame_stem(k)
             outputs.write_png(stem.with_suffix(".png"), frame.image)
             if opts.dump:
                 dumps.write_dump(stem, scene, view, opts.size, t, frame)
