@@ -1,12 +1,13 @@
 """Build the small models of the default scene: assets/models/arch.obj and house.glb.
 
-Run ``python assets/make_models.py`` to rebuild them; the outputs are committed so that loading the
-default scene never depends on this script. Both models stand on y = 0 in their own coordinates,
-so a scene places them with ``position = [x, 0, z]``.
+Run ``python assets/make_models.py`` to rebuild them (``--out DIR`` writes them elsewhere); the
+outputs are committed so that loading the default scene never depends on this script. Both models
+stand on y = 0 in their own coordinates, so a scene places them with ``position = [x, 0, z]``.
 """
 
 from __future__ import annotations
 
+import argparse
 from pathlib import Path
 
 import numpy as np
@@ -19,6 +20,14 @@ ARCH_INNER_RADIUS = 1.2  # metres, half the opening
 ARCH_RING_WIDTH = 0.8  # metres, also the pillars' side
 ARCH_DEPTH = 0.8  # metres along z
 ARCH_SEGMENTS = 16
+
+
+def _checked(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
+    """The mesh, once it is closed and consistently wound; the faces are wound by hand because
+    trimesh's ``fix_normals`` needs scipy and networkx, which are not dependencies."""
+    if not (mesh.is_watertight and mesh.is_winding_consistent):
+        raise ValueError("model is not closed and consistently wound")
+    return mesh
 
 
 def _outward(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
@@ -44,12 +53,14 @@ def half_ring(inner: float, outer: float, depth: float, segments: int) -> trimes
         for a, b in ((ib, i_f), (of, ob), (i_f, of), (ob, ib)):  # inner, outer, front, back
             faces.append([a + k, b + k, b + k + 1])
             faces.append([a + k, b + k + 1, a + k + 1])
-    for k in (0, segments):  # the two ends, resting on the pillars
-        faces.append([ib + k, ob + k, of + k])
-        faces.append([ib + k, of + k, i_f + k])
+    # The two ends rest on the pillars and face down; at angle pi the inner-to-outer direction is
+    # -x instead of +x, so that end's triangles are wound the other way round.
+    faces.append([ib, ob, of])
+    faces.append([ib, of, i_f])
+    faces.append([of + segments, ob + segments, ib + segments])
+    faces.append([i_f + segments, of + segments, ib + segments])
     mesh = trimesh.Trimesh(vertices=vertices, faces=np.array(faces), process=True)
-    mesh.fix_normals()
-    return _outward(mesh)
+    return _outward(_checked(mesh))
 
 
 def arch() -> trimesh.Trimesh:
@@ -79,8 +90,7 @@ def gable_roof(length: float, width: float, rise: float) -> trimesh.Trimesh:
                       [1, 4, 5], [1, 5, 2],  # front slope
                       [0, 3, 4], [0, 4, 1]])  # underside
     mesh = trimesh.Trimesh(vertices=vertices, faces=faces, process=True)
-    mesh.fix_normals()
-    return _outward(mesh)
+    return _outward(_checked(mesh))
 
 
 def house() -> trimesh.Scene:
@@ -99,10 +109,14 @@ def house() -> trimesh.Scene:
     return scene
 
 
-def main() -> None:
-    MODELS.mkdir(exist_ok=True)
-    arch().export(MODELS / "arch.obj")
-    house().export(MODELS / "house.glb")
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, default=MODELS, metavar="DIR",
+                        help="folder to write arch.obj and house.glb to (default: assets/models)")
+    out = parser.parse_args(argv).out
+    out.mkdir(parents=True, exist_ok=True)
+    arch().export(out / "arch.obj")
+    house().export(out / "house.glb")
 
 
 if __name__ == "__main__":

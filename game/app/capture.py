@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from game.app import dumps, frame_log, interrupts, outputs
+from game.app import frame_log, headless, interrupts
 from game.gpu import context, resources
 from game.render.renderer import Frame, Renderer, View
 from game.scene import Scene, floors
@@ -20,7 +20,7 @@ from game.soft.methods import TraceSettings
 
 
 @dataclass
-class CaptureOptions(outputs.HeadlessRun):
+class CaptureOptions(headless.HeadlessRun):
     debug_view: str = "none"
     overlay: bool = False       # draw the timing overlay (game/app/window/overlay.py) in frames
     settings: ShadowSettings = field(default_factory=ShadowSettings)
@@ -47,7 +47,12 @@ def _resource_stats(frame: Frame) -> dict:
 
 
 def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
-    """Render ``opts.frames`` frames and write them; returns the stats document."""
+    """Render ``opts.frames`` frames and write them; returns the stats document.
+
+    Ctrl-C ends the run after the frame being written (its files and its stats entry are kept
+    whole), writes the stats of the finished frames with ``"interrupted": true``, and raises
+    KeyboardInterrupt.
+    """
     opts.out.mkdir(parents=True, exist_ok=True)
 
     renderer = Renderer(ctx, scene, opts.size, opts.settings,
@@ -58,20 +63,20 @@ def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
     view = View.from_camera(scene.camera, opts.size)
     frames = frame_log.FrameLog()  # on disk: a long run's memory stays flat
     try:
-        for k in range(opts.frames):
-            interrupts.check()
-            t = opts.frame_time(k)
-            frame = renderer.render(t, view, soft=opts.soft)
-            stem = opts.frame_stem(k)
-            if hud is not None:
-                frame.image = hud.draw_over_frame(renderer, frame, 1.0 / opts.fps)
-            outputs.write_png(stem.with_suffix(".png"), frame.image)
-            if opts.dump:
-                dumps.write_dump(stem, scene, view, opts.size, t, frame)
-            frames.append(frame_stats(k, t, frame))
+        with interrupts.caught() as interrupted:
+            for k in range(opts.frames):
+                interrupts.check()
+                t = opts.frame_time(k)
+                frame = renderer.render(t, view, soft=opts.soft)
+                if hud is not None:
+                    frame.image = hud.draw_over_frame(renderer, frame, 1.0 / opts.fps)
+                with interrupts.deferred():  # the frame's files and its stats entry, or none
+                    opts.write_frame(k, t, frame, scene, view)
+                    frames.append(frame_stats(k, t, frame))
         stats = {
             **context.describe(ctx), "clock": renderer.timer.clock,
             "scene": str(scene.source) if scene.source else scene.name,
+            "scene_sha256": scene.sha256,
             "method": opts.settings.method, "size": list(opts.size),
             # What ran: the settings after the GL limits and the budget (see ``notes``), and
             # what was asked for.
@@ -82,14 +87,14 @@ def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
                 range(renderer.geom.first_static, renderer.geom.first_character)),
             "characters": renderer.geom.n_characters,
             "notes": renderer.notes + floors.floor_warnings(scene),
+            "interrupted": interrupted.happened,
             "frames": frames,
         }
     finally:
         if hud is not None:
             hud.release()
         renderer.release()
-    if opts.stats is not None:
-        frames.write_json(opts.stats, stats)
+    opts.finish(stats, frames)
     return stats
 
 

@@ -35,6 +35,9 @@ def write_dump(stem: Path, scene: Scene, view: View, size: tuple[int, int], t: f
         "names": np.array(scene.object_names()), "lit": g["lit"],
         "view": view.view.astype(np.float64), "proj": view.proj.astype(np.float64),
         "size": np.array(size, dtype=np.int64), "time": np.float64(t),
+        # Which scene made the frame, so that verify scores it against that scene's light.
+        "scene": np.array(str(scene.source) if scene.source else scene.name),
+        "scene_sha256": np.array(scene.sha256),
     }
     if "soft" in g:  # the linear light's traced visibility (trace, capture --soft)
         arrays["soft"] = g["soft"]

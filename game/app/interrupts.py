@@ -17,6 +17,7 @@ import signal
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass
 
 _pending = False
 _deferring = 0
@@ -58,3 +59,22 @@ def deferred() -> Iterator[None]:
     finally:
         _deferring -= 1
     check()
+
+
+@dataclass
+class Caught:
+    happened: bool = False
+
+
+@contextmanager
+def caught() -> Iterator[Caught]:
+    """End the block at Ctrl-C instead of unwinding further; ``.happened`` says whether it did.
+
+    For runs that still have work to do after an interrupt (the stats of the finished frames);
+    they raise KeyboardInterrupt again themselves once that is done.
+    """
+    result = Caught()
+    try:
+        yield result
+    except KeyboardInterrupt:
+        result.happened = True

@@ -12,7 +12,6 @@ import struct
 import zlib
 from collections.abc import Callable
 from contextlib import contextmanager
-from dataclasses import dataclass
 from pathlib import Path
 from typing import BinaryIO
 
@@ -27,34 +26,43 @@ def _umask() -> int:
     return mask
 
 
-@dataclass
-class HeadlessRun:
-    """What every headless run writes and when its frames are: frame k is at scene time
-    ``time + k / fps``, written as ``out/frame_kkkk.*``."""
-
-    out: Path
-    frames: int = 1
-    size: tuple[int, int] = (960, 540)
-    time: float = 0.0
-    fps: float = 30.0
-    dump: bool = False
-    stats: Path | None = None
-    clock: str = "auto"
-
-    def frame_time(self, k: int) -> float:
-        return self.time + k / self.fps
-
-    def frame_stem(self, k: int) -> Path:
-        return self.out / f"frame_{k:04d}"
-
-
 # Temp files are made readable by the owner only; outputs get the usual permissions.
 FILE_MODE = 0o666 & ~_umask()
 
 
+# The open :func:`together` block's (temp, final) pairs; None outside one.
+_group: list[tuple[Path, Path]] | None = None
+
+
+@contextmanager
+def together():
+    """Files written inside the block appear together or not at all.
+
+    Each file goes to its temp name as usual, but the renames wait for the end of the block and
+    run with Ctrl-C held; if anything fails first, every temp file of the block is removed. A
+    frame's PNG, NPZ and GLB are written this way, so a frame is whole or absent.
+    """
+    global _group
+    if _group is not None:
+        raise RuntimeError("together() blocks do not nest")
+    _group = []
+    try:
+        yield
+        with interrupts.deferred():
+            for tmp, path in _group:
+                os.replace(tmp, path)
+    except BaseException:
+        for tmp, _path in _group:
+            tmp.unlink(missing_ok=True)
+        raise
+    finally:
+        _group = None
+
+
 @contextmanager
 def atomic_file(path: str | Path):
-    """Open a temp file beside ``path`` for binary writing; rename it over ``path`` on success."""
+    """Open a temp file beside ``path`` for binary writing; rename it over ``path`` on success
+    (at the end of the :func:`together` block, inside one)."""
     path = Path(path)
     # The temp name is chosen before the file exists, so an interrupt that lands anywhere after
     # this line (even inside the open) still finds the name to remove. Ctrl-C itself waits for
@@ -68,7 +76,10 @@ def atomic_file(path: str | Path):
                 f.flush()
                 os.fsync(f.fileno())
             os.chmod(tmp, FILE_MODE)
-            os.replace(tmp, path)
+            if _group is not None:
+                _group.append((tmp, path))
+            else:
+                os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise

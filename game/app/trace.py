@@ -11,7 +11,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from game.app import dumps, interrupts, outputs
+from game.app import frame_log, headless, interrupts
 from game.errors import GameError
 from game.gpu import context
 from game.render.renderer import Frame, Renderer, View
@@ -20,7 +20,7 @@ from game.soft.tracer import COUNTERS, TraceResult, TraceSettings
 
 
 @dataclass
-class TraceOptions(outputs.HeadlessRun):
+class TraceOptions(headless.HeadlessRun):
     settings: TraceSettings = field(default_factory=TraceSettings)
 
 
@@ -43,30 +43,30 @@ def frame_stats(index: int, t: float, frame: Frame, result: TraceResult) -> dict
 
 
 def run(ctx, scene: Scene, opts: TraceOptions) -> dict:
-    """Trace ``opts.frames`` frames and write them; returns the stats document."""
+    """Trace ``opts.frames`` frames and write them; returns the stats document (Ctrl-C as in
+    :func:`game.app.capture.run`)."""
     if scene.linear_light is None:
         raise GameError("the scene has no [linear_light] to trace")
     opts.out.mkdir(parents=True, exist_ok=True)
     renderer = Renderer(ctx, scene, opts.size, gbuffer=True, clock=opts.clock)
     view = View.from_camera(scene.camera, opts.size)
-    frames = []
+    frames = frame_log.FrameLog()
     try:
-        for k in range(opts.frames):
-            interrupts.check()
-            t = opts.frame_time(k)
-            frame = renderer.render(t, view, soft=opts.settings)
-            result = frame.soft
-            stem = opts.frame_stem(k)
-            outputs.write_png(stem.with_suffix(".png"), frame.image)
-            if opts.dump:
-                dumps.write_dump(stem, scene, view, opts.size, t, frame)
-            frames.append(frame_stats(k, t, frame, result))
+        with interrupts.caught() as interrupted:
+            for k in range(opts.frames):
+                interrupts.check()
+                t = opts.frame_time(k)
+                frame = renderer.render(t, view, soft=opts.settings)
+                with interrupts.deferred():  # the frame's files and its stats entry, or none
+                    opts.write_frame(k, t, frame, scene, view)
+                    frames.append(frame_stats(k, t, frame, frame.soft))
         tracer = renderer.soft_tracer
         spec = tracer.grid.spec
         counts = tracer.grid.static.counts()
         stats = {
             **context.describe(ctx), "clock": tracer.timer.clock,
             "scene": str(scene.source) if scene.source else scene.name,
+            "scene_sha256": scene.sha256,
             "method": opts.settings.method, "samples": opts.settings.samples,
             "size": list(opts.size), "settings": asdict(opts.settings),
             "grid": {"dims": [int(x) for x in spec.dims], "cells": spec.n_cells,
@@ -79,12 +79,12 @@ def run(ctx, scene: Scene, opts: TraceOptions) -> dict:
             "memory_bytes": {**tracer.memory_bytes(),
                              "voxel_cache_per_point": opts.settings.voxel_cache_bytes_per_point},
             "counters": list(COUNTERS),
+            "interrupted": interrupted.happened,
             "frames": frames,
         }
     finally:
         renderer.release()
-    if opts.stats is not None:
-        outputs.write_json(opts.stats, stats)
+    opts.finish(stats, frames)
     return stats
 
 

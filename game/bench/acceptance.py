@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 from game.bench.rows import row_number
+from game.bench.runs import COMPARED_GROUPS
 
 
 def is_default(row: dict) -> bool:
@@ -53,7 +54,7 @@ def acceptance(rows: list[dict]) -> dict:
         out["renderer"] = rows[-1].get("renderer")
         out["version"] = rows[-1].get("version")
         out["clock"] = rows[-1].get("clock")
-    for scene in sorted({r["scene"] for r in rows if r["group"] in ("main", "town")}):
+    for scene in sorted({r["scene"] for r in rows if r["group"] in COMPARED_GROUPS}):
         for baseline in ("single", "csm", "static-dynamic"):
             c = compare(rows, scene, baseline)
             if c is not None:

@@ -6,21 +6,48 @@ game/bench/runner.py.
 - ``scaling_triangles`` / ``scaling_characters``: total ms against static triangles (towns with
   16 walkers) and against walkers (the 4 x 4 town, and the 8 x 8 town), methods at defaults;
 - ``maps_per_fragment`` and ``flicker``: per scene, methods at defaults;
-- ``stability_FACTOR``: error (and failures) against the factor's value, per method.
+- ``stability_FACTOR``: error (and failures) against the factor's value, per method; a factor
+  with a single value is drawn as one bar per method.
+
+Every chart names what it compares in its title and its units in the axis labels, and labels at
+least two ticks on each axis. A chart whose data has a single x value shows no trend, so it is
+skipped (:func:`figures` says which were).
 """
 
 from __future__ import annotations
 
 import math
 from collections import defaultdict
+from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from game.app import outputs
 from game.bench.rows import row_number
+from game.bench.runs import COMPARED_GROUPS
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 COLOURS = {"clumped": "#d62728", "single": "#1f77b4", "static-dynamic": "#2ca02c",
            "csm": "#9467bd"}
 MARKERS = {"clumped": "o", "single": "s", "static-dynamic": "^", "csm": "D"}
+ERROR_LABEL = "shadow error vs Embree, % of pixels shadowed by either"
+# Stability factors: what the value is, and its unit.
+FACTORS = {"elevation": ("light elevation", "degrees"), "scale": ("scene scale", "metres"),
+           "overlap": ("walkers overlapping each other and the statics", ""),
+           "out-of-bounds": ("walker's distance out of the scene", "metres"),
+           "thin": ("caster thickness", "metres"), "raised-floor": ("floor height", "metres"),
+           "maps": ("characters, one map each", "")}
+# How a point's label shows a parameter (clump counts aside): the label must fit beside the point.
+SHORT = {"clumping": "{}", "clump_resolution": "res {}", "character_resolution": "char res {}",
+         "single_resolution": "{}", "cascades": "{} cascades", "cascade_lambda": "lambda {}",
+         "cascade_resolution": "res {}", "texels_per_metre": "{} texels/m",
+         "rerender_static": "rerender"}
+
+
+class OnePoint(ValueError):
+    """The chart's data has a single x value: there is nothing to compare along x."""
 
 
 def pareto_front(points: list[tuple[float, float]]) -> list[int]:
@@ -43,10 +70,30 @@ def _default(row: dict) -> bool:
 
 def _label(row: dict) -> str:
     params = row["run"].split("|")[2]
-    return row["method"] if params == "defaults" else f"{row['method']} {params}"
+    if params == "defaults":
+        return row["method"]
+    parts = []
+    for item in params.split(","):
+        key, _, value = item.partition("=")
+        if key == "clump_count":
+            parts.append(f"{value} clump" + ("" if value == "1" else "s"))
+        else:
+            parts.append(SHORT[key].format(value) if key in SHORT else item)
+    return f"{row['method']} {' '.join(parts)}"
 
 
-def _figure():
+def _size(rows: list[dict]) -> str:
+    """The frame sizes of the rows, e.g. ``320x180``."""
+    sizes = sorted({f"{r.get('width', '')}x{r.get('height', '')}" for r in rows} - {"x"})
+    return ", ".join(sizes) if sizes else "unknown size"
+
+
+def _need_two(xs) -> None:
+    if len({x for x in xs if not (isinstance(x, float) and math.isnan(x))}) < 2:
+        raise OnePoint("only one x value, so one point per method and no trend")
+
+
+def _pyplot():
     import matplotlib
 
     matplotlib.use("Agg")
@@ -55,35 +102,52 @@ def _figure():
     return plt
 
 
-def _plain_log_ticks(axis) -> None:
-    """Plain numbers (20, 50, 100) on a log axis instead of 2x10^1."""
-    from matplotlib.ticker import LogLocator, NullFormatter, ScalarFormatter
+def _plain(value: float) -> str:
+    """A tick value as a plain number: 20, 0.5, 50k, 1M."""
+    if abs(value) >= 1e6:
+        return f"{value / 1e6:g}M"
+    if abs(value) >= 1e4:
+        return f"{value / 1e3:g}k"
+    return f"{value:g}"
 
-    axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
-    axis.set_major_formatter(ScalarFormatter())
+
+def _plain_log_ticks(axis) -> None:
+    """Plain numbers on a log axis (20, 50, 100 rather than 2x10^1), at least two of them in view
+    even where the axis spans less than a decade."""
+    from matplotlib.ticker import FuncFormatter, Locator, LogLocator, MaxNLocator, NullFormatter
+
+    class PlainLogLocator(Locator):
+        """1, 2 and 5 per decade; round, evenly spaced values where fewer than three of those
+        are in view; decades only over more than three decades."""
+
+        def __call__(self):
+            return self.tick_values(*self.axis.get_view_interval())
+
+        def tick_values(self, vmin, vmax):
+            lo, hi = sorted((vmin, vmax))
+            if lo > 0 and math.log10(hi / lo) > 3:  # decades only, or the labels collide
+                return LogLocator(subs=(1.0,)).tick_values(lo, hi)
+            ticks = LogLocator(subs=(1.0, 2.0, 5.0)).tick_values(lo, hi)
+            if sum(lo <= t <= hi for t in ticks) >= 3:
+                return ticks
+            fine = MaxNLocator(nbins=6, steps=[1, 2, 5, 10]).tick_values(lo, hi)
+            return [t for t in fine if t > 0]
+
+    axis.set_major_locator(PlainLogLocator())
+    axis.set_major_formatter(FuncFormatter(lambda v, _pos: _plain(v)))
     axis.set_minor_formatter(NullFormatter())
 
 
-def _save(plt, fig, folder: Path, stem: str, renderer: str) -> list[Path]:
-    fig.text(0.99, 0.005, renderer, ha="right", va="bottom", fontsize=6, color="#666666")
-    fig.tight_layout()
-    paths = []
-    for fmt in ("png", "svg"):
-        path = folder / f"{stem}.{fmt}"
-        outputs.write_figure(path, fig, fmt)
-        paths.append(path)
-    plt.close(fig)
-    return paths
-
-
-def pareto(plt, rows: list[dict], scene: str, folder: Path, renderer: str) -> list[Path]:
-
+def pareto_figure(plt, rows: list[dict], scene: str) -> Figure | None:
+    """Error against total ms of every run on ``scene``; None where it has no finished run."""
     pts = [r for r in rows if r["scene"] == scene and _ok(r)
            and math.isfinite(row_number(r, "error"))
            and math.isfinite(row_number(r, "total_ms_median"))]
     if not pts:
-        return []
+        return None
+    _need_two(row_number(r, "total_ms_median") for r in pts)
     fig, ax = plt.subplots(figsize=(7, 4.6))
+    notes = []
     for r in pts:
         m = r["method"]
         x, y = row_number(r, "total_ms_median"), 100 * row_number(r, "error")
@@ -91,10 +155,7 @@ def pareto(plt, rows: list[dict], scene: str, folder: Path, renderer: str) -> li
                    s=70 if _default(r) else 28, edgecolors="k" if _default(r) else "none",
                    zorder=3)
         if _default(r) or len(pts) <= 12:
-            ax.annotate(_label(r).replace("single_resolution=", "")
-                        .replace("cascade_resolution=", "res=")
-                        .replace("single_resolution", ""), (x, y), fontsize=6,
-                        xytext=(4, 3), textcoords="offset points")
+            notes.append((x, y, _label(r)))
     front = sorted((pts[i] for i in pareto_front(
         [(row_number(r, "total_ms_median"), row_number(r, "error")) for r in pts])),
         key=lambda r: row_number(r, "total_ms_median"))
@@ -105,26 +166,85 @@ def pareto(plt, rows: list[dict], scene: str, folder: Path, renderer: str) -> li
         ax.scatter([], [], color=c, marker=MARKERS[m], label=m)
     ax.set_xscale("log")
     _plain_log_ticks(ax.xaxis)
-    ax.set_xlabel("per-frame total, ms (median after warm-up)")
-    ax.set_ylabel("shadow error vs Embree, %")
-    ax.set_title(f"{scene}: error against cost (large, outlined: defaults)")
+    ax.set_xlabel("per-frame total, ms (median after warm-up, log scale)")
+    ax.set_ylabel(ERROR_LABEL)
+    ax.set_title(f"{scene} at {_size(pts)}: shadow error against per-frame cost\n"
+                 f"one point per method and parameter set ({len(pts)} runs; large, outlined: "
+                 "defaults)", fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
-    return _save(plt, fig, folder, f"pareto_{scene}", renderer)
+    _place_labels(ax, notes)
+    return fig
 
 
-def scaling(plt, rows: list[dict], axis: str, folder: Path, renderer: str) -> list[Path]:
-    """Total ms of methods at defaults against static triangles or characters."""
+# Heights (points) tried for a point's label, nearest first.
+LABEL_OFFSETS = (3, *(d for k in range(1, 10) for d in (3 - 10 * k, 3 + 10 * k)))
+
+
+def _place_labels(ax, notes: list[tuple[float, float, str]]) -> None:
+    """Label points beside them, each moved up or down (with a leader line), or to the other
+    side, until it lies inside the axes and clear of the legend, the other points and the labels
+    placed before it."""
+    from matplotlib.transforms import Bbox
+
+    fig = ax.figure
+    fig.canvas.draw()  # fixes the limits the labels are placed against
+    renderer = fig.canvas.get_renderer()
+    frame = ax.get_window_extent(renderer)
+    lo, hi = (math.log(v) for v in ax.get_xlim())
+    marks = {}
+    for x, y, _text in notes:
+        px, py = ax.transData.transform((x, y))
+        marks[(x, y)] = Bbox.from_extents(px - 6, py - 6, px + 6, py + 6)
+    placed = [ax.get_legend().get_window_extent(renderer)] if ax.get_legend() else []
+    for x, y, text in sorted(notes, key=lambda n: (-n[1], n[0])):
+        # The costliest points' labels go first to their left, where there is room.
+        first = math.log(x) > lo + 0.65 * (hi - lo)
+        blocked = placed + [b for k, b in marks.items() if k != (x, y)]
+        for dy, left in [(dy, side) for dy in LABEL_OFFSETS for side in (first, not first)]:
+            label = _note(ax, x, y, text, left, dy)
+            box = label.get_window_extent(renderer)
+            inside = frame.x0 <= box.x0 and box.x1 <= frame.x1 and frame.y0 <= box.y0 \
+                and box.y1 <= frame.y1
+            if inside and not any(box.overlaps(b) for b in blocked):
+                break
+            label.remove()
+        else:  # no free place near the point: beside it after all
+            dy, left = 3, first
+            label = _note(ax, x, y, text, left, dy)
+            box = label.get_window_extent(renderer)
+        if dy != 3:  # the text alone decided the overlap; now link it to its point
+            label.remove()
+            label = _note(ax, x, y, text, left, dy, leader=True)
+        label.set_in_layout(False)
+        placed.append(box)
+
+
+def _note(ax, x: float, y: float, text: str, left: bool, dy: float, leader: bool = False):
+    return ax.annotate(text, (x, y), fontsize=6, xytext=(-5 if left else 5, dy),
+                       textcoords="offset points", ha="right" if left else "left", va="center",
+                       arrowprops=dict(arrowstyle="-", linewidth=0.4, color="#888888")
+                       if leader else None)
+
+
+def scaling_figure(plt, rows: list[dict], axis: str) -> Figure | None:
+    """Total ms of methods at defaults against static triangles or characters; None where no
+    run fits."""
     if axis == "triangles":
         picked = [r for r in rows if r["group"] == "town" and _ok(r) and _default(r)
                   and row_number(r, "characters") == 16]
-        key, label = "static_triangles", "static triangles (towns, 16 walkers)"
+        key, label = "static_triangles", "static triangles in the town (log scale)"
+        what = "static triangles: towns of different sizes, 16 walkers each"
     else:
         picked = [r for r in rows if r["group"] == "town" and _ok(r) and _default(r)
                   and r["scene"].startswith(("town_4x4", "town_8x8"))]
-        key, label = "characters", "walkers (4 x 4 and 8 x 8 towns)"
+        key, label = "characters", "walkers in the town (log scale)"
+        what = "walkers: 4 x 4 town (solid) and 8 x 8 town (dotted)"
+    picked = [r for r in picked if math.isfinite(row_number(r, key))
+              and math.isfinite(row_number(r, "total_ms_median"))]
     if not picked:
-        return []
+        return None
+    _need_two(row_number(r, key) for r in picked)
     fig, ax = plt.subplots(figsize=(6.5, 4.2))
     groups: dict[tuple[str, str], list] = defaultdict(list)
     for r in picked:
@@ -140,19 +260,24 @@ def scaling(plt, rows: list[dict], axis: str, folder: Path, renderer: str) -> li
     _plain_log_ticks(ax.xaxis)
     _plain_log_ticks(ax.yaxis)
     ax.set_xlabel(label)
-    ax.set_ylabel("per-frame total, ms")
+    ax.set_ylabel("per-frame total, ms (median, log scale)")
+    ax.set_title(f"per-frame cost against {what}\nmethods at defaults, {_size(picked)}",
+                 fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
-    return _save(plt, fig, folder, f"scaling_{axis}", renderer)
+    return fig
 
 
-def per_scene_bars(plt, rows: list[dict], column: str, ylabel: str, stem: str, folder: Path,
-                   renderer: str) -> list[Path]:
-    picked = [r for r in rows if _ok(r) and _default(r) and r["group"] in ("main", "town")
+def per_scene_bars_figure(plt, rows: list[dict], column: str, ylabel: str, what: str,
+                          scale: float = 1.0) -> Figure | None:
+    """``column`` (times ``scale``) of the methods at defaults, one group of bars per scene;
+    None where no run has it."""
+    picked = [r for r in rows if _ok(r) and _default(r) and r["group"] in COMPARED_GROUPS
               and math.isfinite(row_number(r, column))]
     if not picked:
-        return []
+        return None
     scenes = sorted({r["scene"] for r in picked}, key=lambda s: (s != "default", s))
+    _need_two(scenes)
     methods = [m for m in COLOURS if any(r["method"] == m for r in picked)]
     fig, ax = plt.subplots(figsize=(max(6.0, 1.3 * len(scenes)), 4.0))
     width = 0.8 / max(1, len(methods))
@@ -162,22 +287,28 @@ def per_scene_bars(plt, rows: list[dict], column: str, ylabel: str, stem: str, f
             for r in picked:
                 if r["scene"] == s and r["method"] == m:
                     xs.append(i + (j - (len(methods) - 1) / 2) * width)
-                    ys.append(row_number(r, column))
+                    ys.append(scale * row_number(r, column))
         ax.bar(xs, ys, width=width, color=COLOURS[m], label=m)
     ax.set_xticks(range(len(scenes)), scenes, rotation=20, fontsize=7)
+    ax.set_xlabel("scene")
     ax.set_ylabel(ylabel)
+    ax.set_title(f"{what}, per scene\nmethods at defaults, {_size(picked)}", fontsize=10)
     ax.grid(True, axis="y", alpha=0.3)
     ax.legend(fontsize=7)
-    return _save(plt, fig, folder, stem, renderer)
+    return fig
 
 
-def stability_chart(plt, rows: list[dict], factor: str, folder: Path, renderer: str
-                    ) -> list[Path]:
+def stability_figure(plt, rows: list[dict], factor: str) -> Figure | None:
+    """Error of every method against the factor's value (failures as crosses above the rest);
+    one bar per method where the factor has a single value. None where no run has it."""
     picked = [r for r in rows if r["group"] == "stability" and r["factor"] == factor]
     if not picked:
-        return []
-    fig, ax = plt.subplots(figsize=(6.5, 4.0))
+        return None
+    what, unit = FACTORS.get(factor, (factor, ""))
     values = sorted({row_number(r, "value") for r in picked})
+    if len(values) == 1:
+        return _stability_bars(plt, picked, factor, what, unit, values[0])
+    fig, ax = plt.subplots(figsize=(6.5, 4.0))
     numeric = factor in ("elevation", "scale")
     pos = {v: (v if numeric else i) for i, v in enumerate(values)}
     top = max([100 * row_number(r, "error") for r in picked
@@ -194,33 +325,95 @@ def stability_chart(plt, rows: list[dict], factor: str, folder: Path, renderer: 
                        marker="x", color=COLOURS[m], s=80, label=f"{m} failed")
     if factor == "scale":
         ax.set_xscale("log")
-    ax.set_xlabel({"elevation": "light elevation, degrees", "scale": "scene scale, metres",
-                   }.get(factor, factor))
+        _plain_log_ticks(ax.xaxis)
     if not numeric:
         ax.set_xticks(list(pos.values()), [f"{v:g}" for v in values])
-    ax.set_ylabel("shadow error vs Embree, %")
-    ax.set_title(f"stability: {factor}")
+    ax.set_xlabel(f"{what}, {unit}" if unit else what)
+    if factor == "scale":
+        ax.set_xlabel(f"{ax.get_xlabel()} (log scale)")
+    ax.set_ylabel(ERROR_LABEL)
+    ax.set_title(f"stability, {factor}: shadow error of each method against {what}\n"
+                 f"methods at defaults, {_size(picked)}", fontsize=10)
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=7)
-    return _save(plt, fig, folder, f"stability_{factor}", renderer)
+    return fig
 
 
-def write_all(rows: list[dict], folder: Path) -> list[Path]:
-    """Every chart the rows allow; returns the files written."""
+def _stability_bars(plt, picked: list[dict], factor: str, what: str, unit: str,
+                    value: float) -> Figure:
+    methods = [m for m in COLOURS if any(r["method"] == m for r in picked)]
+    methods += sorted({r["method"] for r in picked} - set(methods))
+    _need_two(methods)
+    fig, ax = plt.subplots(figsize=(6.5, 4.0))
+    heights, notes = [], []
+    for m in methods:
+        mine = [r for r in picked if r["method"] == m]
+        good = [r for r in mine if _ok(r) and math.isfinite(row_number(r, "error"))]
+        heights.append(100 * row_number(good[0], "error") if good else 0.0)
+        failed = any(not _ok(r) for r in mine)
+        notes.append(f"{heights[-1]:.2f}%" if good else "failed" if failed else "not measured")
+    bars = ax.bar(range(len(methods)), heights, color=[COLOURS.get(m, "k") for m in methods])
+    ax.bar_label(bars, notes, fontsize=7, padding=2)
+    ax.set_xticks(range(len(methods)), methods)
+    ax.set_ylim(0, 1.15 * max(heights + [1.0]))
+    ax.set_xlabel("method (at defaults)")
+    ax.set_ylabel(ERROR_LABEL)
+    ax.set_title(f"stability, {factor}: shadow error of each method\n{what} = {value:g}"
+                 f"{' ' + unit if unit else ''}, {_size(picked)}", fontsize=10)
+    ax.grid(True, axis="y", alpha=0.3)
+    return fig
+
+
+def figures(rows: list[dict]) -> tuple[list[tuple[str, Figure]], dict[str, str]]:
+    """Every chart the rows allow, as (file stem, figure), and the charts skipped, as
+    {stem: why}. The caller closes the figures."""
     if not rows:
+        return [], {}
+    plt = _pyplot()
+    builders: list[tuple[str, Callable[[], Figure | None]]] = []
+    for scene in sorted({r["scene"] for r in rows if r["group"] in COMPARED_GROUPS}):
+        builders.append((f"pareto_{scene}", lambda s=scene: pareto_figure(plt, rows, s)))
+    for axis in ("triangles", "characters"):
+        builders.append((f"scaling_{axis}", lambda a=axis: scaling_figure(plt, rows, a)))
+    builders.append(("maps_per_fragment", lambda: per_scene_bars_figure(
+        plt, rows, "maps_per_fragment", "maps read per shaded pixel, count",
+        "shadow maps read per shaded pixel")))
+    builders.append(("flicker", lambda: per_scene_bars_figure(
+        plt, rows, "flicker", "pixel pairs flipping, %\n(where the reference does not)",
+        "flicker under a slowly turning camera", scale=100.0)))
+    for factor in sorted({r["factor"] for r in rows if r["group"] == "stability"}):
+        builders.append((f"stability_{factor}", lambda f=factor: stability_figure(plt, rows, f)))
+    built, skipped = [], {}
+    for stem, build in builders:
+        try:
+            fig = build()
+        except OnePoint as exc:
+            skipped[stem] = f"skipped: {exc}"
+            continue
+        if fig is not None:
+            built.append((stem, fig))
+    return built, skipped
+
+
+def write_all(rows: list[dict], folder: Path,
+              log: Callable[[str], None] | None = None) -> list[Path]:
+    """Every chart the rows allow; returns the files written. ``log`` hears of skipped charts."""
+    built, skipped = figures(rows)
+    if not built and not skipped:
         return []
-    plt = _figure()
+    plt = _pyplot()
     folder.mkdir(parents=True, exist_ok=True)
     renderer = f"{rows[-1].get('renderer', '')}, {rows[-1].get('clock', '')} clock"
     out: list[Path] = []
-    for scene in sorted({r["scene"] for r in rows if r["group"] in ("main", "town")}):
-        out += pareto(plt, rows, scene, folder, renderer)
-    out += scaling(plt, rows, "triangles", folder, renderer)
-    out += scaling(plt, rows, "characters", folder, renderer)
-    out += per_scene_bars(plt, rows, "maps_per_fragment", "maps read per shaded pixel",
-                          "maps_per_fragment", folder, renderer)
-    out += per_scene_bars(plt, rows, "flicker", "share of pixel pairs flipping\n(where the "
-                          "reference does not)", "flicker", folder, renderer)
-    for factor in sorted({r["factor"] for r in rows if r["group"] == "stability"}):
-        out += stability_chart(plt, rows, factor, folder, renderer)
+    for stem, fig in built:
+        fig.text(0.99, 0.005, renderer, ha="right", va="bottom", fontsize=6, color="#666666")
+        fig.tight_layout()
+        for fmt in ("png", "svg"):
+            path = folder / f"{stem}.{fmt}"
+            outputs.write_figure(path, fig, fmt)
+            out.append(path)
+        plt.close(fig)
+    if log is not None:
+        for stem, why in skipped.items():
+            log(f"charts: {stem} {why}")
     return out

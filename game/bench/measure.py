@@ -135,7 +135,7 @@ def _score(ctx, scene: Scene, spec: RunSpec, opts: BenchOptions, tmp: Path) -> d
     renderer = Renderer(ctx, scene, opts.size, spec.settings(), gbuffer=True)
     result = {"nan_pixels": 0}
     try:
-        errors, mis, shadowed = [], 0, 0
+        errors, mis, shadowed, either = [], 0, 0, 0
         for j in range(opts.error_frames):
             t = j * ERROR_SPACING_S
             view = orbit_view(scene, opts.size, 10.0 * j)
@@ -150,9 +150,10 @@ def _score(ctx, scene: Scene, spec: RunSpec, opts: BenchOptions, tmp: Path) -> d
             errors.append(err["error"])
             mis += err["misclassified"]
             shadowed += err["shadowed"]
+            either += err["shadowed_either"]
         if errors:
-            # Pooled over the frames: misclassified pixels over shadowed pixels.
-            result.update(error=mis / max(1, shadowed), misclassified=mis, shadowed=shadowed,
+            # Pooled over the frames: misclassified pixels over pixels either side shadows.
+            result.update(error=mis / max(1, either), misclassified=mis, shadowed=shadowed,
                           error_frames=len(errors))
         flicker_frames = []
         mesh = None

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import shutil
 import sys
+import time
 from pathlib import Path
 
 from game.app import interrupts, outputs
@@ -47,8 +48,11 @@ def run(opts: BenchOptions, ctx=None) -> dict:
         loaded: tuple[str, Scene] | None = None
         timings: dict = {}
         try:
-            for bscene, spec in todo:
+            for i, (bscene, spec) in enumerate(todo):
                 interrupts.check()
+                if opts.deadline is not None and time.monotonic() > opts.deadline:
+                    opts.log(f"bench: time budget spent; {len(todo) - i} run(s) not made")
+                    break
                 bar.set_description(f"{bscene.key} {spec.method}")
                 if loaded is None or loaded[0] != bscene.key:
                     loaded = (bscene.key, _load(bscene, opts.out / "scenes"))
@@ -68,7 +72,7 @@ def run(opts: BenchOptions, ctx=None) -> dict:
     finally:
         if own:
             ctx.release()
-    written = charts.write_all(rows, opts.out / "charts")
+    written = charts.write_all(rows, opts.out / "charts", log=opts.log)
     summary = acceptance(rows)
     outputs.write_json(opts.out / "summary.json", summary)
     return {"csv": str(csv_path), "rows": len(rows), "charts": [str(p) for p in written],
@@ -77,6 +81,8 @@ def run(opts: BenchOptions, ctx=None) -> dict:
 
 def _load(bscene: BenchScene, folder: Path) -> Scene:
     """Parse a bench scene; generated ones are also written to ``folder`` for ``capture``."""
+    if bscene.path is not None:  # a user's file: its meshes lie beside it
+        return parse_scene(bscene.text, source=bscene.path, base_dir=bscene.path.parent)
     if bscene.key == "default":
         return parse_scene(bscene.text, source=default_scene_path(),
                            base_dir=default_scene_path().parent)

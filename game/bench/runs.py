@@ -6,6 +6,7 @@ list :func:`plan_runs` makes from the options.
 
 from __future__ import annotations
 
+import math
 import sys
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
@@ -13,7 +14,7 @@ from pathlib import Path
 
 from game.bench import stability
 from game.scene import default_scene_path
-from game.shadows import registry
+from game.shadows import clumping, registry
 from game.shadows.plan import ShadowSettings
 
 FPS = 30.0                  # scene seconds per timing frame: 1 / FPS
@@ -44,16 +45,22 @@ COLUMNS = (
 )
 
 
+# The scene groups whose methods are compared head to head (acceptance, Pareto charts): the
+# built-in main scene, the towns, and the user's own scene files.
+COMPARED_GROUPS = ("main", "town", "user")
+
+
 @dataclass(frozen=True)
 class BenchScene:
     """One scene of the sweep."""
 
     key: str
-    group: str               # main | town | stability
+    group: str               # main | town | stability | user
     text: str                # the scene file's text (written to OUT/scenes/KEY.toml)
     factor: str = ""         # stability factor, or the scaling axis of a town
     value: float = 0.0
     accuracy_expected: bool = True
+    path: Path | None = None  # a user's scene file (group "user"), loaded where it lies
 
 
 @dataclass(frozen=True)
@@ -86,9 +93,13 @@ class BenchOptions:
     flicker_frames: int = 3
     repeat: int = 1                      # timings per run, interleaved within a scene
     scenes: list[str] | None = None      # only these scene keys (fnmatch patterns)
+    user_scenes: list[BenchScene] = field(default_factory=list)  # scene files: user_scene()
     methods: list[str] | None = None
+    # --param: each value of each parameter, as its own run of every method that reads it
+    params: dict[str, tuple] = field(default_factory=dict)
     reference: bool = True
     progress: bool = True
+    deadline: float | None = None        # time.monotonic() after which no new run starts
     log: Callable[[str], None] = field(default=lambda line: print(line, file=sys.stderr))
 
 
@@ -145,6 +156,57 @@ def bench_scenes(quick: bool) -> list[BenchScene]:
     return out
 
 
+def user_scene(path: Path, taken: Iterable[str]) -> BenchScene:
+    """A user's scene file as a bench scene, keyed by its folder name (unique among ``taken``)."""
+    from game.scene import load_scene
+
+    scene = load_scene(path)  # a bad file fails here, in one line, before any run
+    key = base = scene.folder_name
+    taken = set(taken)
+    n = 1
+    while key in taken:
+        n += 1
+        key = f"{base}_{n}"
+    return BenchScene(key, "user", path.read_text(encoding="utf-8"), path=path)
+
+
+def parse_param(text: str) -> tuple[str, tuple]:
+    """``KEY=V1,V2,...`` of :data:`PARAM_KEYS`, each value of the setting's own type."""
+    key, sep, values = text.partition("=")
+    key = key.strip().replace("-", "_")
+    if not sep or not values.strip():
+        raise ValueError(f"{text!r}: write KEY=VALUE[,VALUE...], for example "
+                         "clump_resolution=512,2048")
+    if key not in PARAM_KEYS:
+        raise ValueError(f"{key!r}: not a swept parameter; valid: {', '.join(PARAM_KEYS)}")
+    kind = {"clumping": str, "clump_count": int, "texels_per_metre": float,
+            "cascade_lambda": float}.get(key, int)
+    out = []
+    for v in (v.strip() for v in values.split(",")):
+        try:
+            value = kind(v)
+        except ValueError:
+            what = "a whole number" if kind is int else "a number"
+            raise ValueError(f"{key}: {v!r} is not {what}") from None
+        if kind is str and value not in clumping.STRATEGIES:
+            raise ValueError(f"{key}: {v!r} is not one of {', '.join(clumping.STRATEGIES)}")
+        if kind is not str and not (math.isfinite(value) and value > 0):
+            raise ValueError(f"{key}: must be positive, got {v!r}")
+        out.append(value)
+    return key, tuple(out)
+
+
+def param_grid(key: str, methods: Iterable[str], params: dict[str, tuple]) -> list[RunSpec]:
+    """Every method at its defaults, then one run per value of each ``--param`` of the methods
+    that read that parameter."""
+    specs = [RunSpec(key, m) for m in methods]
+    for name, values in params.items():
+        for m in methods:
+            if name in registry.METHODS[m].parameters:
+                specs += [RunSpec(key, m, _p(**{name: v})) for v in values]
+    return specs
+
+
 def _p(**kw) -> tuple[tuple[str, object], ...]:
     return tuple(sorted(kw.items()))
 
@@ -173,9 +235,9 @@ def method_grid(scene: BenchScene, quick: bool, max_texture: int) -> list[RunSpe
     if k not in ("default", "town_8x8"):
         return [*defaults, RunSpec(k, "clumped", _p(clumping="world"))]
     specs = list(defaults)
-    for clumping in ("light", "world"):
+    for space in clumping.STRATEGIES:
         for count in (4, 16, 64):
-            specs.append(RunSpec(k, "clumped", _p(clumping=clumping, clump_count=count)))
+            specs.append(RunSpec(k, "clumped", _p(clumping=space, clump_count=count)))
     specs.append(RunSpec(k, "clumped", _p(clumping="world")))
     for res in (256, 1024):
         specs.append(RunSpec(k, "clumped", _p(character_resolution=res)))
@@ -199,13 +261,22 @@ def selected(key: str, patterns: Iterable[str] | None) -> bool:
 
 
 def plan_runs(opts: BenchOptions, max_texture: int) -> list[tuple[BenchScene, RunSpec]]:
+    """The runs of the sweep: the built-in scenes the patterns select (all without patterns or
+    scene files), then the user's scene files. A scene file, or ``--param``, gets every method
+    at its defaults plus the ``--param`` values instead of the built-in grid."""
+    if opts.user_scenes and not opts.scenes:
+        scenes = []  # only the user's files
+    else:
+        scenes = [b for b in bench_scenes(opts.quick) if selected(b.key, opts.scenes)]
+    methods = [m for m in registry.MAP_METHODS if opts.methods is None or m in opts.methods]
     runs = []
-    for bscene in bench_scenes(opts.quick):
-        if not selected(bscene.key, opts.scenes):
-            continue
-        for spec in method_grid(bscene, opts.quick, max_texture):
-            if opts.methods is None or spec.method in opts.methods:
-                runs.append((bscene, spec))
+    for bscene in scenes + opts.user_scenes:
+        if bscene.group == "user" or opts.params:
+            specs = param_grid(bscene.key, methods, opts.params)
+        else:
+            specs = [s for s in method_grid(bscene, opts.quick, max_texture)
+                     if s.method in methods]
+        runs += [(bscene, spec) for spec in specs]
     return runs
 
 

@@ -8,6 +8,7 @@ game/soft/methods.py).
 from __future__ import annotations
 
 import argparse
+import difflib
 import math
 from pathlib import Path
 
@@ -20,21 +21,66 @@ from game.soft import methods as trace_methods
 from game.soft.methods import TraceSettings
 
 MAX_SIZE = 16384
-DEFAULT_OUT = Path("captures")
+DEFAULT_OUT = Path("captures")  # runs write to DEFAULT_OUT/<scene folder name>/ by default
 
 
 class ArgumentError(GameError):
     """A bad command-line value."""
 
 
+def _shown(value) -> str:
+    if isinstance(value, tuple) and len(value) == 2 and all(isinstance(v, int) for v in value):
+        return f"{value[0]}x{value[1]}"  # a --size
+    return str(value)
+
+
+class HelpFormatter(argparse.HelpFormatter):
+    """Each option's help ends with its default, where there is one to show."""
+
+    def _get_help_string(self, action) -> str:
+        text = action.help or ""
+        default = action.default
+        if (not action.option_strings or default in (None, False, argparse.SUPPRESS)
+                or "default" in text):
+            return text
+        shown = _shown(default).replace("%", "%%")
+        return f"{text} (default: {shown})" if text else f"default: {shown}"
+
+
 class Parser(argparse.ArgumentParser):
-    """argparse that reports a bad argument in one line instead of usage plus message."""
+    """argparse that reports a bad argument in one line instead of usage plus message, shows
+    defaults in ``--help``, and suggests the nearest flag for a mistyped one."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("formatter_class", HelpFormatter)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str):
         if message.endswith("expected one argument"):
             # argparse reads a value such as -5x10 as an option and reports the value missing.
             message += " (write a value that starts with '-' as --option=VALUE)"
         raise ArgumentError(f"{self.prog}: {message}")
+
+    def parse_args(self, args=None, namespace=None):
+        namespace, extras = self.parse_known_args(args, namespace)
+        if extras:
+            parser = self._command_parser(getattr(namespace, "command", None))
+            flags = [f for f in parser._option_string_actions if f.startswith("--")]
+            hint = ""
+            for extra in extras:
+                close = difflib.get_close_matches(extra.split("=", 1)[0], flags, n=1)
+                if extra.startswith("-") and close:
+                    hint = f" (did you mean {close[0]}?)"
+                    break
+            parser.error(f"unrecognized arguments: {' '.join(extras)}{hint}")
+        return namespace
+
+    def _command_parser(self, command: str | None) -> argparse.ArgumentParser:
+        """The subcommand's parser (its flags, its prog in messages), else this one."""
+        for action in self._actions:
+            if isinstance(action, argparse._SubParsersAction) and command in action.choices:
+                return action.choices[command]
+        return self
 
 
 def size_value(text: str) -> tuple[int, int]:
@@ -193,12 +239,16 @@ def _add_cull_option(parser) -> None:
 
 def _add_frame_options(parser, dump_help: str) -> None:
     """Which frames to render and where they go: the same for capture and trace."""
-    parser.add_argument("--frames", type=positive_int, default=1)
-    parser.add_argument("--size", type=size_value, default=(960, 540), metavar="WxH")
-    parser.add_argument("--time", type=finite, default=0.0,
-                        help="scene time of the first frame")
-    parser.add_argument("--fps", type=positive, default=30.0, help="frames per scene second")
-    parser.add_argument("--out", type=Path, default=DEFAULT_OUT, metavar="DIR")
+    parser.add_argument("--frames", type=positive_int, default=1, metavar="N",
+                        help="number of frames")
+    parser.add_argument("--size", type=size_value, default=(960, 540), metavar="WxH",
+                        help="image size in pixels")
+    parser.add_argument("--time", type=finite, default=0.0, metavar="T",
+                        help="scene time of the first frame, in seconds")
+    parser.add_argument("--fps", type=positive, default=30.0, metavar="F",
+                        help="frames per scene second: frame k is at T + k/F")
+    parser.add_argument("--out", type=Path, default=None, metavar="DIR",
+                        help=f"output folder (default: {DEFAULT_OUT}/<scene name>/)")
     parser.add_argument("--dump", action="store_true", help=dump_help)
     parser.add_argument("--stats", type=Path, metavar="FILE", help="write per-frame stats JSON")
 
@@ -240,9 +290,16 @@ def _add_bench_parser(sub) -> None:
         description="Sweep methods x parameters x scenes along a fixed camera path; write "
                     "OUT/bench.csv (one row per run; finished rows are kept and skipped on a "
                     "rerun), OUT/charts/*.png|svg and OUT/summary.json. See docs/results.md.")
+    bench.add_argument("--suite", choices=("gpu",),
+                       help="gpu: the checks meant for a real GPU in one command, within 8 "
+                            "minutes: hard shadows on the default scene, the 1 M-triangle town "
+                            "and a real level; the window's frame rate; the soft-shadow sweep "
+                            "(see docs/results.md)")
     bench.add_argument("--quick", action="store_true",
-                       help="the short sweep (default scene, a small town, stability scenes)")
-    bench.add_argument("--out", type=Path, default=Path("bench"), metavar="DIR")
+                       help="the short sweep (default scene, a small town, stability scenes), "
+                            "or the GPU suite made small")
+    bench.add_argument("--out", type=Path, default=None, metavar="DIR",
+                       help="output folder (default: bench, or bench_gpu for --suite gpu)")
     bench.add_argument("--size", type=size_value, default=(320, 180), metavar="WxH")
     bench.add_argument("--frames", type=positive_int, default=None,
                        help="timed frames per run (default 8, quick 4)")
@@ -255,8 +312,15 @@ def _add_bench_parser(sub) -> None:
     bench.add_argument("--repeat", type=positive_int, default=1,
                        help="time each run N times, round-robin over the scene's runs, and "
                             "keep the median (steadier ratios on a loaded machine)")
-    bench.add_argument("--scenes", help="comma-separated scene keys or patterns (town_*)")
-    bench.add_argument("--methods", help="comma-separated methods")
+    bench.add_argument("--scenes",
+                       help="comma-separated built-in scene keys, patterns (town_*) or paths of "
+                            "scene files (.toml); a scene file gets every method at its "
+                            "defaults plus the --param values (default: the built-in sweep)")
+    bench.add_argument("--methods", help="comma-separated methods (default: all map methods)")
+    bench.add_argument("--param", action="append", default=[], metavar="KEY=V1,V2",
+                       help="also run each value of a method parameter (clump_resolution, "
+                            "single_resolution, clump_count, clumping, ...) with every method "
+                            "that reads it; repeatable; replaces the built-in parameter grid")
     bench.add_argument("--list", action="store_true", help="print the runs and exit")
     bench.add_argument("--no-progress", action="store_true", help="no progress bar")
 
@@ -284,7 +348,9 @@ def build_parser() -> argparse.ArgumentParser:
     verify = sub.add_parser(
         "verify", help="shadow error of dumped frames against Embree shadow rays")
     verify.add_argument("dumps", type=Path, metavar="DIR", help="a capture --dump folder")
-    verify.add_argument("scene", nargs="?", help="the scene captured (default: built-in)")
+    verify.add_argument("scene", nargs="?",
+                        help="the scene captured (default: the one the dumps record); a "
+                             "different scene is refused")
     verify.add_argument("--out", type=Path, metavar="FILE",
                         help="write the per-frame errors as JSON")
     return parser

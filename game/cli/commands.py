@@ -26,9 +26,8 @@ from game.shadows.method import VISIBILITY_TRACED
 def cmd_play(args) -> int:
     from game.app.window import walkaround as window
 
-    for flag, path in (("--screenshot", args.screenshot), ("--stats", args.stats)):
-        if path is not None and (path.is_dir() or not path.parent.is_dir()):
-            raise ArgumentError(f"{flag} {path}: not a file in an existing folder")
+    _check_file("--screenshot", args.screenshot)
+    _check_file("--stats", args.stats)
     if args.screenshot is not None and args.frames is None:
         raise ArgumentError("--screenshot needs --frames (F12 saves screenshots interactively)")
     scene = _load(args.scene)
@@ -51,16 +50,16 @@ def cmd_trace(args) -> int:
     from game.gpu import context
 
     _check_out(args.out)
-    if args.stats is not None and args.stats.is_dir():
-        raise ArgumentError(f"--stats {args.stats}: is a folder")
+    _check_file("--stats", args.stats)
     settings = trace_settings(args)
     scene = _load(args.scene)
+    out = _out_folder(args.out, scene)
     if scene.linear_light is None:
         raise GameError(f"{args.scene or 'the built-in scene'}: has no [linear_light] to trace")
     ctx = context.create_headless()
     try:
         opts = trace_run.TraceOptions(
-            out=args.out, frames=args.frames, size=args.size, time=args.time, fps=args.fps,
+            out=out, frames=args.frames, size=args.size, time=args.time, fps=args.fps,
             dump=args.dump, stats=args.stats, clock=args.clock, settings=settings)
         stats = trace_run.run(ctx, scene, opts)
     finally:
@@ -69,7 +68,7 @@ def cmd_trace(args) -> int:
     if cut:
         print(f"warning: {cut} point(s) ran out of the GL driver's loop budget even at one "
               "sample per dispatch; their visibility is incomplete", file=sys.stderr)
-    print(f"wrote {args.frames} frame(s) to {args.out}/: {trace_run.summary(stats)}")
+    print(f"wrote {args.frames} frame(s) to {out}/: {trace_run.summary(stats)}")
     return 0
 
 
@@ -77,6 +76,9 @@ def cmd_bench(args) -> int:
     from game.bench import runner as bench
     from game.bench import runs
 
+    if args.suite == "gpu":
+        return _gpu_suite(args)
+    args.out = args.out or Path("bench")
     _check_out(args.out)
     quick = args.quick
     counts = {"frames": (8, 4), "warmup": (2, 1), "error_frames": (2, 1),
@@ -92,15 +94,26 @@ def cmd_bench(args) -> int:
         if m not in registry.MAP_METHODS:
             raise ArgumentError(f"--methods: unknown method {m!r}; valid: "
                                 f"{', '.join(registry.MAP_METHODS)}")
-    if args.scenes:
-        keys = [s.key for s in runs.bench_scenes(quick)]
-        for pattern in args.scenes.split(","):
-            if not any(runs.selected(k, [pattern]) for k in keys):
-                raise ArgumentError(f"--scenes: {pattern!r} matches no scene; valid: "
-                                    f"{', '.join(keys)}")
+    keys = [s.key for s in runs.bench_scenes(quick)]
+    patterns, files = [], []
+    for entry in args.scenes.split(",") if args.scenes else []:
+        if entry.endswith(".toml") or os.sep in entry or Path(entry).is_file():
+            files.append(runs.user_scene(Path(entry), keys + [f.key for f in files]))
+        elif any(runs.selected(k, [entry]) for k in keys):
+            patterns.append(entry)
+        else:
+            raise ArgumentError(f"--scenes: {entry!r} matches no scene and is no scene file; "
+                                f"built-in: {', '.join(keys)}")
+    params = {}
+    for text in args.param:
+        try:
+            key, swept = runs.parse_param(text)
+        except ValueError as exc:
+            raise ArgumentError(f"--param {exc}") from None
+        params[key] = params.get(key, ()) + swept
     opts = runs.BenchOptions(
         out=args.out, quick=quick, size=args.size, repeat=args.repeat,
-        scenes=args.scenes.split(",") if args.scenes else None, methods=methods,
+        scenes=patterns or None, user_scenes=files, methods=methods, params=params,
         progress=not args.no_progress, **values)
     if args.list:
         for _scene, spec in runs.plan_runs(opts, MAX_SIZE):
@@ -122,15 +135,59 @@ def cmd_bench(args) -> int:
     return 0
 
 
+def _gpu_suite(args) -> int:
+    from game.bench import gpu_suite
+
+    given = [flag for flag, value in (("--scenes", args.scenes), ("--methods", args.methods),
+                                      ("--param", args.param), ("--list", args.list),
+                                      ("--frames", args.frames), ("--repeat", args.repeat > 1))
+             if value]
+    if given:
+        raise ArgumentError(f"--suite gpu runs a fixed set of checks; {', '.join(given)} "
+                            "belong to the sweep")
+    out = args.out or Path("bench_gpu")
+    _check_out(out)
+    summary = gpu_suite.run(gpu_suite.Suite(out=out, quick=args.quick,
+                                            progress=not args.no_progress))
+    done = [p["part"] for p in summary["parts"] if p["status"] == "ok"]
+    print(f"bench --suite gpu: {', '.join(done) or 'nothing'} done in {summary['wall_s']} s; "
+          f"{out / 'summary.md'}")
+    return 0
+
+
 def _load(scene_arg: str | None):
     from game.scene import default_scene_path, load_scene
 
     return load_scene(Path(scene_arg) if scene_arg else default_scene_path())
 
 
-def _check_out(path: Path) -> None:
+def _check_out(path: Path | None) -> None:
+    """An output folder: a folder, or a path where one can be made (checked before any work)."""
+    if path is None:
+        return
     if path.exists() and not path.is_dir():
         raise ArgumentError(f"--out {path}: exists and is not a folder")
+    existing = next((p for p in (path, *path.parents) if p.exists()), Path("."))
+    if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
+        raise ArgumentError(f"--out {path}: cannot make or write a folder in {existing}")
+
+
+def _check_file(flag: str, path: Path | None) -> None:
+    """An output file: in an existing folder that can be written (checked before any work)."""
+    if path is None:
+        return
+    if path.is_dir():
+        raise ArgumentError(f"{flag} {path}: is a folder")
+    folder = path.parent
+    if not folder.is_dir():
+        raise ArgumentError(f"{flag} {path}: folder {folder} does not exist")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise ArgumentError(f"{flag} {path}: cannot write in {folder}")
+
+
+def _out_folder(out: Path | None, scene) -> Path:
+    """``--out``, else captures/<scene name>/: runs of different scenes never mix."""
+    return out if out is not None else DEFAULT_OUT / scene.folder_name
 
 
 def _soft_settings(args, scene):
@@ -154,13 +211,13 @@ def cmd_capture(args) -> int:
                             f"{'--soft' if args.soft else '--method traced'} frames are shaded "
                             "by the tracer instead")
     _check_out(args.out)
-    if args.stats is not None and args.stats.is_dir():
-        raise ArgumentError(f"--stats {args.stats}: is a folder")
+    _check_file("--stats", args.stats)
     scene = _load(args.scene)
+    out = _out_folder(args.out, scene)
     ctx = context.create_headless()
     try:
         opts = capture.CaptureOptions(
-            out=args.out, frames=args.frames, size=args.size, time=args.time, fps=args.fps,
+            out=out, frames=args.frames, size=args.size, time=args.time, fps=args.fps,
             dump=args.dump, stats=args.stats, debug_view=args.debug_view, clock=args.clock,
             overlay=args.overlay, settings=shadow_settings(args), soft=_soft_settings(args, scene),
             cull=not args.no_cull)
@@ -169,7 +226,7 @@ def cmd_capture(args) -> int:
         ctx.release()
     for note in stats["notes"]:
         print(f"note: {note}", file=sys.stderr)
-    print(f"wrote {args.frames} frame(s) to {args.out}/: {capture.summary(stats)}")
+    print(f"wrote {args.frames} frame(s) to {out}/: {capture.summary(stats)}")
     return 0
 
 
@@ -182,23 +239,57 @@ def cmd_verify(args) -> int:
     frames = sorted(args.dumps.glob("frame_*.npz")) if args.dumps.is_dir() else []
     if not frames:
         raise ArgumentError(f"{args.dumps}: no frame_*.npz dumps (capture with --dump)")
-    light = _load(args.scene).light
+    _check_file("--out", args.out)
     try:
+        scene = _scene_of_dumps(args.dumps, frames, args.scene)
         results = []
         for npz in frames:
-            err = score_dump(npz, light)
+            err = score_dump(npz, scene.light)
             results.append({"frame": npz.stem, **{k: v for k, v in err.items()
                                                   if k not in ("mask", "exact")}})
             print(f"{npz.stem}: error {err['error']:.4f} ({err['misclassified']} misclassified "
-                  f"of {err['shadowed']} shadowed, {err['considered']} pixels with N.L > "
+                  f"of {err['shadowed_either']} pixels shadowed by the method or the reference; "
+                  f"{err['shadowed']} by the reference; {err['considered']} pixels with N.L > "
                   f"{MIN_NDOTL})")
     except (OSError, KeyError, ValueError) as exc:
         raise GameError(f"{args.dumps}: cannot read the dumps ({exc})") from None
     except RuntimeError as exc:  # Embree missing
         raise GameError(str(exc)) from None
     if args.out is not None:
-        outputs.write_json(args.out, {"dumps": str(args.dumps), "frames": results})
+        outputs.write_json(args.out, {"dumps": str(args.dumps),
+                                      "scene": str(scene.source) if scene.source else scene.name,
+                                      "scene_sha256": scene.sha256, "frames": results})
     return 0
+
+
+def _scene_of_dumps(folder: Path, frames: list[Path], scene_arg: str | None):
+    """The scene the dumps were captured from: ``SCENE`` if it is that scene, else the one the
+    dumps record (read again, and checked against the recorded hash)."""
+    from game.reference.score import recorded_scene
+
+    recorded = {recorded_scene(npz) for npz in frames}
+    if len(recorded) > 1:
+        raise GameError(f"{folder}: the dumps come from {len(recorded)} different scenes; "
+                        "verify one capture at a time")
+    record = recorded.pop()
+    if scene_arg is not None:
+        scene = _load(scene_arg)
+        if record is not None and record[1] != scene.sha256:
+            raise GameError(f"{scene_arg}: not the scene these dumps were captured from (they "
+                            f"record {record[0]!r} with sha256 {record[1][:12]}...)")
+        return scene
+    if record is None:
+        raise GameError(f"{folder}: the dumps do not record their scene; name it: "
+                        f"python -m game verify {folder} SCENE")
+    path = Path(record[0])
+    if not path.is_file():
+        raise GameError(f"{folder}: the recorded scene {record[0]!r} is not found from here; "
+                        f"name it: python -m game verify {folder} SCENE")
+    scene = _load(str(path))
+    if scene.sha256 != record[1]:
+        raise GameError(f"{record[0]}: has changed since the capture (its sha256 is not the one "
+                        "the dumps record); name the scene that was captured")
+    return scene
 
 
 def cmd_default() -> int:
@@ -213,7 +304,7 @@ def cmd_default() -> int:
     if glfw_setup.display_available():
         window.play(scene, window.PlayOptions())
         return 0
-    out = DEFAULT_OUT / "default"
+    out = _out_folder(None, scene)
     ctx = context.create_headless()
     try:
         opts = capture.CaptureOptions(out=out, frames=1, size=(960, 540))

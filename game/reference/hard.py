@@ -255,16 +255,19 @@ def shadow_error(
     light: Light | Mapping[str, Any] | Any,
     min_ndotl: float = MIN_NDOTL,
 ) -> dict[str, Any]:
-    """The accuracy metric: misclassified pixels per shadowed reference pixel.
+    """The accuracy metric: misclassified pixels per pixel that either side shadows.
 
     Only pixels with geometry, with N.L > ``min_ndotl`` and, for a spot light with a ``cone``,
     inside the cone are considered: elsewhere the light does not reach and a method's ``lit`` is
     free to say anything. A pixel is misclassified when the method and the reference disagree about
     ``lit >= 0.5``; a NaN in ``lit_method`` where there is geometry reads as shadowed.
 
-    Returns ``{"error", "misclassified", "shadowed", "considered", "mask"}``: ``error`` is
-    ``misclassified / max(1, shadowed)``, ``mask`` the (H, W) bool image of misclassified pixels
-    (for a diff image).
+    Returns ``{"error", "misclassified", "shadowed", "shadowed_either", "considered", "mask"}``:
+    ``shadowed`` counts the pixels the reference shadows, ``shadowed_either`` those that the
+    method or the reference shadows, and ``error`` is ``misclassified / max(1, shadowed_either)``.
+    Every misclassified pixel is shadowed on one side, so the error lies in [0, 1] whatever the
+    method says: 1 - the intersection over union of the two shadow masks. ``mask`` is the (H, W)
+    bool image of misclassified pixels (for a diff image).
     """
     light = _as_light(light)
     has_geometry = np.isfinite(position).all(axis=-1) & np.isfinite(normal).all(axis=-1)
@@ -278,10 +281,12 @@ def shadow_error(
     mask = considered & (method_lit != reference_lit)
     misclassified = int(mask.sum())
     shadowed = int((considered & ~reference_lit).sum())
+    shadowed_either = int((considered & ~(reference_lit & method_lit)).sum())
     return {
-        "error": misclassified / max(1, shadowed),
+        "error": misclassified / max(1, shadowed_either),
         "misclassified": misclassified,
         "shadowed": shadowed,
+        "shadowed_either": shadowed_either,
         "considered": int(considered.sum()),
         "mask": mask,
     }

@@ -32,3 +32,11 @@ def score_dump(npz_path: str | Path, light) -> dict[str, Any]:
     frame = load_frame(npz_path)
     occluders = load_geometry(npz_path.with_suffix(".glb"))
     return score_frame(frame["lit"], frame["position"], frame["normal"], occluders, light)
+
+
+def recorded_scene(npz_path: str | Path) -> tuple[str, str] | None:
+    """The ``(scene, scene_sha256)`` a dump records, or None for a dump that records none."""
+    with np.load(npz_path, allow_pickle=False) as data:
+        if "scene" not in data.files or "scene_sha256" not in data.files:
+            return None
+        return str(data["scene"]), str(data["scene_sha256"])

@@ -10,6 +10,7 @@ procedural town (:mod:`game.scene.generate`) after the objects listed in the fil
 
 from __future__ import annotations
 
+import hashlib
 import re
 import tomllib
 from collections.abc import Iterable
@@ -287,7 +288,8 @@ def parse_scene(text: str, source: Path | None = None, base_dir: Path | None = N
     if "generate" in data:
         _add_generated(ctx, data["generate"], floors, statics, characters)
     return Scene(name=name, source=source, camera=camera, light=light, linear_light=linear_light,
-                 floors=floors, statics=statics, characters=characters)
+                 floors=floors, statics=statics, characters=characters,
+                 sha256=hashlib.sha256(text.encode("utf-8")).hexdigest())
 
 
 def load_scene(path: str | Path) -> Scene:

@@ -7,6 +7,7 @@ characters keep a local mesh and are placed every frame by :meth:`Character.mode
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -128,6 +129,20 @@ class Scene:
     floors: list[Body]
     statics: list[Body]
     characters: list[Character]
+    sha256: str = ""  # of the scene file's bytes (of the text, for a scene given as text)
+
+    @property
+    def folder_name(self) -> str:
+        """The scene's name as one safe path component: ``captures/<folder_name>/``.
+
+        A name is free text, so anything but letters, digits, ``.``, ``_`` and ``-`` becomes
+        ``_``, and leading dots go: a name such as ``../x`` cannot leave ``captures/``.
+        """
+        for candidate in (self.name, self.source.stem if self.source else ""):
+            safe = re.sub(r"[^A-Za-z0-9._-]", "_", candidate).lstrip(".")[:100]
+            if safe.strip("_"):
+                return safe
+        return "scene"
 
     def object_names(self) -> list[str]:
         """Floors, then statics, then characters: the global object index used everywhere."""

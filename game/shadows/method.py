@@ -35,6 +35,9 @@ class ShadowMethod(ABC):
     # The ShadowSettings fields that size this method's maps; each is clamped to the GL's
     # GL_MAX_TEXTURE_SIZE (game/shadows/budget.py).
     resolution_fields: ClassVar[tuple[str, ...]] = ()
+    # The ShadowSettings fields only this method reads (resolution_fields among them); the bias,
+    # PCF and grid fields apply to every method. ``bench --param`` sweeps them per method.
+    parameters: ClassVar[tuple[str, ...]] = ()
     # Whether the shadow memory budget bounds the array (else the resolution asked is used).
     budgeted: ClassVar[bool] = False
 

@@ -1,4 +1,4 @@
-"""Safe outputs: an interrupted run leaves no truncated file.
+"""Safe outputs: an interrupted run leaves no truncated file and no half frame.
 
 Every file goes through game/app/outputs.py (temp file beside it, fsync, rename); these tests stop
 real capture processes at random points, with Ctrl-C (SIGINT) and with SIGKILL, and then read
@@ -64,9 +64,43 @@ def test_ctrl_c_leaves_whole_files_and_no_temp(tmp_path, delay):
     _, err = proc.communicate(timeout=120)
     assert proc.returncode == 130
     assert err.strip().splitlines() == ["interrupted"]
-    assert check_whole(out) >= 3
+    frames = check_whole(out)
+    assert frames >= 3
     assert not [p.name for p in out.iterdir() if p.name.startswith(".")]
-    assert not stats.exists()  # written only for a finished run, never half
+    # A frame is whole or absent: its PNG, NPZ and GLB appear together.
+    stems = {kind: sorted(p.stem for p in out.glob(f"frame_*.{kind}"))
+             for kind in ("png", "npz", "glb")}
+    assert stems["png"] == stems["npz"] == stems["glb"]
+    # The stats of exactly the frames on disk, marked as interrupted.
+    document = json.loads(stats.read_text())
+    assert document["interrupted"] is True
+    assert [f"frame_{f['frame']:04d}" for f in document["frames"]] == stems["png"]
+
+
+@pytest.mark.parametrize("command", [
+    ["trace", str(TINY), "--size", "32x18", "--samples", "2", "--frames", "100000", "--dump"],
+    ["play", str(TINY), "--size", "64x36", "--frames", "100000", "--platform", "null"],
+])
+def test_ctrl_c_keeps_the_stats_of_trace_and_play(tmp_path, command):
+    out, stats = tmp_path / "out", tmp_path / "stats.json"
+    extra = ["--out", str(out)] if command[0] == "trace" else []
+    proc = subprocess.Popen([sys.executable, "-m", "game", *command, *extra, "--stats",
+                             str(stats)], cwd=ROOT, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    # trace: wait for frames on disk; play: give the window time to show a few frames.
+    while (len(list(out.glob("frame_*.glb"))) < 2 if command[0] == "trace"
+           else time.monotonic() < deadline - 110):
+        assert proc.poll() is None, proc.stderr.read()
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130 and err.strip().splitlines() == ["interrupted"]
+    document = json.loads(stats.read_text())
+    assert document["interrupted"] is True and len(document["frames"]) >= 1
+    if command[0] == "trace":
+        assert len(document["frames"]) == len(list(out.glob("frame_*.glb")))
 
 
 @pytest.mark.parametrize("delay", [0.0, 0.017])

@@ -198,11 +198,13 @@ def test_shadow_error_counts_by_hand() -> None:
     # Considered: all but (0, 3) (no geometry) and (1, 3) (grazing) -> 6 pixels.
     # Shadowed in the reference: (0, 0), (0, 1), (1, 0) -> 3.
     # Misclassified: (0, 1) 1 vs 0 and (1, 1) 0.2 vs 1 -> 2; (1, 3) disagrees but is grazing.
+    # Shadowed by either: the reference's 3 and the method's (1, 1) -> 4.
     result = shadow_error(method, reference, position, normal, light)
     assert result["considered"] == 6
     assert result["shadowed"] == 3
+    assert result["shadowed_either"] == 4
     assert result["misclassified"] == 2
-    assert result["error"] == pytest.approx(2 / 3)
+    assert result["error"] == pytest.approx(2 / 4)
     expected_mask = np.zeros((2, 4), dtype=bool)
     expected_mask[0, 1] = expected_mask[1, 1] = True
     np.testing.assert_array_equal(result["mask"], expected_mask)
@@ -212,12 +214,14 @@ def test_shadow_error_counts_by_hand() -> None:
     assert (loose["considered"], loose["shadowed"], loose["misclassified"]) == (7, 4, 3)
 
 
-def test_shadow_error_without_shadows_divides_by_one() -> None:
+def test_shadow_error_without_shadows() -> None:
     position, normal = small_frame()
     light = {"kind": "directional", "direction": [0.0, -1.0, 0.0]}
     reference = np.ones((2, 4), dtype=np.float32)
+    result = shadow_error(reference.copy(), reference, position, normal, light)
+    assert (result["shadowed_either"], result["misclassified"], result["error"]) == (0, 0, 0.0)
     method = reference.copy()
-    method[0, 0] = 0.0
+    method[0, 0] = 0.0  # a shadow where the reference has none: wrong on every shadowed pixel
     result = shadow_error(method, reference, position, normal, light)
     assert (result["shadowed"], result["misclassified"], result["error"]) == (0, 1, 1.0)
 

@@ -2,7 +2,8 @@
 
 Each scene is captured headless with dumps (docs/reference.md section 3); the reference reads only
 the dump files (game/reference/hard.py), never the renderer. The bar: misclassified pixels /
-shadowed pixels, over pixels with N.L > 0.1, at most 5% at 320x180.
+pixels shadowed by the method or the reference, over pixels with N.L > 0.1, at most 5% at
+320x180.
 """
 
 from pathlib import Path

@@ -373,7 +373,14 @@ class Overlay:
         total = frame.ms.get("total")
         figures = Figures.of(frame, renderer.timer.clock, 1e3 / total if total else None)
         figures.fps_from_total = True
+        first = self.frames_seen == 0
         self.draw(figures, renderer, False, renderer.size, dt)
+        if first:
+            # imgui measures an auto-resized window in its first frame and shows it from the
+            # second: build the first frame twice, so that frame 0 of a capture has its panel.
+            self.history.clear()
+            self.frames_seen = 0
+            self.draw(figures, renderer, False, renderer.size, dt)
         framebuffer, _ = renderer.display
         framebuffer.use()
         self.render()

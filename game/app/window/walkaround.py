@@ -316,38 +316,42 @@ class Walkaround:
         outputs.write_png(path, self.screenshot)
 
     def run(self, script: Callable[[Walkaround], None] | None = None) -> dict:
-        """Run until Esc, the window closes, or ``opts.frames`` frames; returns the stats.
+        """Run until Esc, the window closes, Ctrl-C, or ``opts.frames`` frames; returns the
+        stats (``interrupted``: whether Ctrl-C ended it).
 
         ``script``, when given, is called before every frame (tests drive input with it).
         """
         start = last = last_start = time.perf_counter()
         first_frame_end = None
-        while not self.quit:
-            interrupts.check()
-            if self.opts.frames is not None and self.frames >= self.opts.frames:
-                break
-            if script is not None:
-                script(self)
-            # The scene advances by the real time between frame starts (or fixed steps); the
-            # first frame shows the start time.
-            now = time.perf_counter()
-            if self.frames == 0:
-                dt = 0.0
-            else:
-                dt = self.opts.time_step if self.opts.time_step is not None else now - last_start
-            last_start = now
-            if not self.step(dt):
-                if not self.quit:
-                    glfw.wait_events_timeout(MINIMISED_WAIT_S)
-                last = last_start = time.perf_counter()  # no jump for the time minimised
-                continue
-            end = time.perf_counter()
-            self._frame_times.append(end - last)
-            if self.keep_stats:
-                self.frame_stats[-1]["frame_ms"] = round((end - last) * 1e3, 4)
-            if first_frame_end is None:
-                first_frame_end = end
-            last = end
+        with interrupts.caught() as interrupted:  # Ctrl-C: stop, keep the stats so far
+            while not self.quit:
+                interrupts.check()
+                if self.opts.frames is not None and self.frames >= self.opts.frames:
+                    break
+                if script is not None:
+                    script(self)
+                # The scene advances by the real time between frame starts (or fixed steps); the
+                # first frame shows the start time.
+                now = time.perf_counter()
+                if self.frames == 0:
+                    dt = 0.0
+                elif self.opts.time_step is not None:
+                    dt = self.opts.time_step
+                else:
+                    dt = now - last_start
+                last_start = now
+                if not self.step(dt):
+                    if not self.quit:
+                        glfw.wait_events_timeout(MINIMISED_WAIT_S)
+                    last = last_start = time.perf_counter()  # no jump for the time minimised
+                    continue
+                end = time.perf_counter()
+                self._frame_times.append(end - last)
+                if self.keep_stats:
+                    self.frame_stats[-1]["frame_ms"] = round((end - last) * 1e3, 4)
+                if first_frame_end is None:
+                    first_frame_end = end
+                last = end
         elapsed = last - (first_frame_end or start)
         timed = max(0, self.frames - 1)  # the first frame compiles and renders every map
         return {**context.describe(self.ctx), "clock": self.renderer.timer.clock,
@@ -359,6 +363,7 @@ class Walkaround:
                 # x, y, w, h in window pixels from the top-left: where the panel was drawn last
                 "overlay_rect": list(self.overlay.rect) if self.overlay is not None else None,
                 "fps": round(timed / elapsed, 3) if timed and elapsed > 0 else None,
+                "interrupted": interrupted.happened,
                 "frames": self.frame_stats}
 
     def close(self) -> None:
@@ -386,6 +391,8 @@ def play(scene: Scene, opts: PlayOptions) -> dict:
         app.close()
     if opts.stats is not None:
         outputs.write_json(opts.stats, stats)
+    if stats["interrupted"]:
+        raise KeyboardInterrupt
     return stats
 
 

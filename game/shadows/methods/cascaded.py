@@ -92,6 +92,7 @@ class CascadedShadows(ShadowMethod):
     name = "csm"
     summary = "cascaded shadow maps over the view frustum, all re-rendered every frame"
     resolution_fields = ("cascade_resolution",)
+    parameters = ("cascades", "cascade_lambda", "cascade_resolution")
 
     @classmethod
     def min_layers(cls, settings: ShadowSettings, n_characters: int) -> int:

@@ -71,6 +71,8 @@ class ClumpedShadows(ShadowMethod):
     summary = ("one cached map per clump of statics and one map per character, in one depth "
                "array")
     resolution_fields = ("clump_resolution", "character_resolution")
+    parameters = ("clumping", "clump_count", "texels_per_metre", "clump_resolution",
+                  "character_resolution")
     budgeted = True
 
     @classmethod

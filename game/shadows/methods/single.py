@@ -18,6 +18,7 @@ class SingleShadows(ShadowMethod):
     name = "single"
     summary = "one map over every caster, re-rendered every frame"
     resolution_fields = ("single_resolution",)
+    parameters = ("single_resolution",)
 
     def __init__(self, geom: PackedGeometry, light: Light, settings: ShadowSettings,
                  max_layers: int):

@@ -28,6 +28,7 @@ class StaticDynamicShadows(ShadowMethod):
     summary = ("the engines' cached map of every static plus one map of every character, "
                "re-rendered each frame")
     resolution_fields = ("single_resolution",)
+    parameters = ("single_resolution",)
 
     @classmethod
     def min_layers(cls, settings: ShadowSettings, n_characters: int) -> int:

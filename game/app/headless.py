@@ -1,0 +1,48 @@
+"""What capture and trace share: when their frames are, how a frame is written, and how a run
+ends (its stats file, and Ctrl-C)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from game.app import dumps, outputs
+from game.render.renderer import Frame, View
+from game.scene import Scene
+
+
+@dataclass
+class HeadlessRun:
+    """What every headless run writes and when its frames are: frame k is at scene time
+    ``time + k / fps``, written as ``out/frame_kkkk.*``."""
+
+    out: Path
+    frames: int = 1
+    size: tuple[int, int] = (960, 540)
+    time: float = 0.0
+    fps: float = 30.0
+    dump: bool = False
+    stats: Path | None = None
+    clock: str = "auto"
+
+    def frame_time(self, k: int) -> float:
+        return self.time + k / self.fps
+
+    def frame_stem(self, k: int) -> Path:
+        return self.out / f"frame_{k:04d}"
+
+    def write_frame(self, k: int, t: float, frame: Frame, scene: Scene, view: View) -> None:
+        """Frame k's PNG and, with ``dump``, its NPZ and GLB: all of them or none."""
+        stem = self.frame_stem(k)
+        with outputs.together():
+            outputs.write_png(stem.with_suffix(".png"), frame.image)
+            if self.dump:
+                dumps.write_dump(stem, scene, view, self.size, t, frame)
+
+    def finish(self, stats: dict, frames) -> None:
+        """Write the stats file (``frames``: a FrameLog), then re-raise an interrupt the run
+        stopped at (``stats["interrupted"]``)."""
+        if self.stats is not None:
+            frames.write_json(self.stats, stats)
+        if stats.get("interrupted"):
+            raise KeyboardInterrupt
