@@ -12,7 +12,7 @@ from tests.conftest import ROOT
 
 # Subpackage (or base module) -> layer; a module may import only lower layers and its own unit.
 LAYERS = {
-    "game.errors": 0, "game.transforms": 0, "game.data": 0,
+    "game.errors": 0, "game.transforms": 0, "game.data": 0, "game.gltf": 0,
     "game.scene": 1, "game.gpu": 1, "game.reference": 1,
     "game.shadows": 2, "game.soft": 2,
     "game.render": 3,

@@ -28,3 +28,18 @@ def test_installed_data_wins_over_the_checkout(tmp_path, monkeypatch):
     monkeypatch.setattr(data, "_PACKAGE", tmp_path)
     assert data.data_dir("shaders") == tmp_path / "shaders"
     assert data.data_dir("assets") == data._CHECKOUT / "assets"  # not installed: the checkout's
+
+
+def test_every_dependency_is_pinned_to_the_release_line_it_was_tested_with():
+    import importlib.metadata
+    import re
+
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    declared = project["dependencies"] + project["optional-dependencies"]["test"]
+    for requirement in declared:
+        name = re.match(r"[A-Za-z0-9_.-]+", requirement).group(0)
+        assert ">=" in requirement and "<" in requirement, f"{requirement}: no upper bound"
+        floor = re.search(r">=([0-9.]+)", requirement).group(1)
+        installed = importlib.metadata.version(name)
+        as_tuple = [tuple(int(x) for x in re.findall(r"\d+", v)[:3]) for v in (floor, installed)]
+        assert as_tuple[0] <= as_tuple[1], f"{name} {installed} is below {requirement}"

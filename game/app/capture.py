@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from game.app import frame_log, headless, interrupts
-from game.gpu import context, resources
+from game.gpu import context
 from game.render.renderer import Frame, Renderer, View
 from game.scene import Scene, floors
 from game.shadows.plan import ShadowSettings
@@ -36,14 +36,7 @@ def frame_stats(index: int, t: float, frame: Frame) -> dict:
             "maps_total": frame.maps_total, "triangles_to_maps": frame.triangles_to_maps,
             "camera_triangles": frame.camera_triangles,
             "maps_per_fragment": round(frame.maps_per_fragment, 5),
-            **_resource_stats(frame)}
-
-
-def _resource_stats(frame: Frame) -> dict:
-    """Live GL objects (by owner) and the process's resident memory: flat over long runs."""
-    owners = frame.gl_objects or {}
-    return {"gl_objects": sum(owners.values()), "gl_objects_by_owner": owners,
-            "rss_mib": round(resources.rss_bytes() / 2**20, 2)}
+            **headless.resource_stats(frame)}
 
 
 def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
@@ -53,7 +46,7 @@ def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
     whole), writes the stats of the finished frames with ``"interrupted": true``, and raises
     KeyboardInterrupt.
     """
-    opts.out.mkdir(parents=True, exist_ok=True)
+    opts.prepare()
 
     renderer = Renderer(ctx, scene, opts.size, opts.settings,
                         gbuffer=opts.dump or opts.soft is not None, clock=opts.clock,

@@ -7,8 +7,16 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from game.app import dumps, outputs
+from game.gpu import resources
 from game.render.renderer import Frame, View
 from game.scene import Scene
+
+
+def resource_stats(frame: Frame) -> dict:
+    """Live GL objects (by owner) and the process's resident memory: flat over long runs."""
+    owners = frame.gl_objects or {}
+    return {"gl_objects": sum(owners.values()), "gl_objects_by_owner": owners,
+            "rss_mib": round(resources.rss_bytes() / 2**20, 2)}
 
 
 @dataclass
@@ -30,6 +38,14 @@ class HeadlessRun:
 
     def frame_stem(self, k: int) -> Path:
         return self.out / f"frame_{k:04d}"
+
+    def prepare(self) -> None:
+        """Make the output folder, and clear the temp files that killed runs left in it (and
+        beside the stats file)."""
+        self.out.mkdir(parents=True, exist_ok=True)
+        outputs.remove_stale_temps(self.out)
+        if self.stats is not None:
+            outputs.remove_stale_temps(self.stats.parent)
 
     def write_frame(self, k: int, t: float, frame: Frame, scene: Scene, view: View) -> None:
         """Frame k's PNG and, with ``dump``, its NPZ and GLB: all of them or none."""

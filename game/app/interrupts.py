@@ -1,4 +1,5 @@
-"""Ctrl-C that always ends a run the same way: exit 130, one line, every file whole.
+"""Ctrl-C (and SIGTERM, SIGHUP) that always end a run the same way: one line, exit 128 + the
+signal's number (130 for Ctrl-C), every file whole, no temp file left.
 
 Python raises KeyboardInterrupt wherever the main thread happens to be, and three places turned
 that into something else (seen in 150 captures stopped at random moments):
@@ -9,6 +10,9 @@ that into something else (seen in 150 captures stopped at random moments):
 So the handler here also remembers the signal (:func:`pending`, for the command line's last
 ``except``), the long loops call :func:`check` at every step, and :func:`deferred` holds the
 interrupt while a file is written (game/app/outputs.py), raising it once the file is in place.
+SIGTERM and SIGHUP take the same path, as KeyboardInterrupt: a run stopped by ``kill`` or a
+closed terminal cleans up exactly as one stopped with Ctrl-C. While the main thread is inside a
+GL library the interrupt is never raised (see ``_GL_PACKAGES``), only recorded.
 """
 
 from __future__ import annotations
@@ -20,26 +24,70 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 
 _pending = False
+_signal = signal.SIGINT   # the signal that stopped the run
 _deferring = 0
+STOP_SIGNALS = (signal.SIGTERM, signal.SIGHUP)
 
 
-def _on_sigint(signum, frame) -> None:
-    global _pending
+_finished = False
+# Libraries whose C code calls back into Python (moderngl builds its uniform and attribute
+# objects that way; PyOpenGL and glfw go through ctypes; imgui through its bindings). An
+# exception raised in such a callback is not checked by the C code around it: Ctrl-C raised
+# there crashed the process (SIGSEGV inside program and compute-shader creation). Inside them
+# the interrupt is only recorded, and raised at the next :func:`check`.
+_GL_PACKAGES = ("moderngl", "glcontext", "OpenGL", "glfw", "imgui_bundle")
+
+
+def _inside_gl(frame) -> bool:
+    while frame is not None:
+        parts = frame.f_code.co_filename.replace("\\", "/").split("/")
+        if any(package in parts for package in _GL_PACKAGES):
+            return True
+        frame = frame.f_back
+    return False
+
+
+def _on_signal(signum, frame) -> None:
+    global _pending, _signal
+    if _finished:  # the run is over and exits with its own status
+        return
     _pending = True
-    if not _deferring:
+    _signal = signal.Signals(signum)
+    if not _deferring and not _inside_gl(frame):
         raise KeyboardInterrupt
 
 
 def install() -> None:
-    """Take over SIGINT where Python's default handler has it (not where it is ignored, as in
-    background jobs of a shell, and only from the main thread, where handlers can be set)."""
-    if (threading.current_thread() is threading.main_thread()
-            and signal.getsignal(signal.SIGINT) is signal.default_int_handler):
-        signal.signal(signal.SIGINT, _on_sigint)
+    """Take over SIGINT where Python's default handler has it, and SIGTERM and SIGHUP where
+    they are at their defaults (not where they are ignored, as for background jobs or under
+    nohup; and only from the main thread, where handlers can be set)."""
+    global _finished
+    if threading.current_thread() is not threading.main_thread():
+        return
+    _finished = False
+    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+        signal.signal(signal.SIGINT, _on_signal)
+    for sig in STOP_SIGNALS:
+        if signal.getsignal(sig) is signal.SIG_DFL:
+            signal.signal(sig, _on_signal)
+
+
+def finish() -> None:
+    """The run is over: a signal that comes now is ignored, so that the program exits with the
+    run's own status (not killed by the signal on its way out)."""
+    global _finished
+    _finished = True
+
+
+def stopped_by() -> tuple[str, int]:
+    """The line to print and the exit status for the signal that stopped the run."""
+    if _signal == signal.SIGINT:
+        return "interrupted", 130
+    return f"terminated by {_signal.name}", 128 + int(_signal)
 
 
 def pending() -> bool:
-    """Whether Ctrl-C came since :func:`install`."""
+    """Whether Ctrl-C (or SIGTERM, SIGHUP) came since :func:`install`."""
     return _pending
 
 

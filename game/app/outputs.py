@@ -7,7 +7,9 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import secrets
+import stat
 import struct
 import zlib
 from collections.abc import Callable
@@ -59,11 +61,55 @@ def together():
         _group = None
 
 
+# The temp names atomic_file makes: ``.NAME.PID.HEX.tmp``.
+TEMP_NAME = re.compile(r"^\.(?P<name>.+)\.(?P<pid>\d+)\.[0-9a-f]{8}\.tmp$")
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError):
+        return True  # another user's process, or a pid too large to be one: leave the file
+    return True
+
+
+def remove_stale_temps(folder: Path) -> int:
+    """Remove the temp files of this program's runs that died in ``folder`` (SIGKILL, power
+    loss): only names of :data:`TEMP_NAME`'s form whose process is gone. Returns how many."""
+    removed = 0
+    try:
+        candidates = list(folder.glob(".*.tmp"))
+    except OSError:
+        return 0
+    for tmp in candidates:
+        match = TEMP_NAME.match(tmp.name)
+        if match and tmp.is_file() and not _alive(int(match["pid"])):
+            tmp.unlink(missing_ok=True)
+            removed += 1
+    return removed
+
+
 @contextmanager
 def atomic_file(path: str | Path):
     """Open a temp file beside ``path`` for binary writing; rename it over ``path`` on success
-    (at the end of the :func:`together` block, inside one)."""
+    (at the end of the :func:`together` block, inside one).
+
+    A character device or a FIFO (``/dev/null``, a named pipe) is written to directly and never
+    replaced; any other path that is not a regular file is refused with OSError.
+    """
     path = Path(path)
+    try:
+        mode = path.stat().st_mode
+    except FileNotFoundError:
+        mode = None
+    if mode is not None and not stat.S_ISREG(mode):
+        if not (stat.S_ISCHR(mode) or stat.S_ISFIFO(mode)):
+            raise IsADirectoryError(f"{path}: not a regular file")
+        with interrupts.deferred(), path.open("wb") as f:
+            yield f
+        return
     # The temp name is chosen before the file exists, so an interrupt that lands anywhere after
     # this line (even inside the open) still finds the name to remove. Ctrl-C itself waits for
     # the rename (game/app/interrupts.py); this covers other exceptions, and signals not deferred.

@@ -39,7 +39,7 @@ def frame_stats(index: int, t: float, frame: Frame, result: TraceResult) -> dict
             "truncated_points": result.truncated,
             "mean_visibility": round(float(np.nanmean(result.visibility)), 6)
             if covered.any() else None,
-            **means}
+            **means, **headless.resource_stats(frame)}
 
 
 def run(ctx, scene: Scene, opts: TraceOptions) -> dict:
@@ -47,7 +47,7 @@ def run(ctx, scene: Scene, opts: TraceOptions) -> dict:
     :func:`game.app.capture.run`)."""
     if scene.linear_light is None:
         raise GameError("the scene has no [linear_light] to trace")
-    opts.out.mkdir(parents=True, exist_ok=True)
+    opts.prepare()
     renderer = Renderer(ctx, scene, opts.size, gbuffer=True, clock=opts.clock)
     view = View.from_camera(scene.camera, opts.size)
     frames = frame_log.FrameLog()

@@ -9,13 +9,27 @@ from pathlib import Path
 
 from game.app import outputs
 from game.bench.runs import COLUMNS
+from game.errors import GameError
 
 
 def read_rows(path: Path) -> list[dict]:
+    """The finished rows of an earlier run. A damaged file (not the bench's columns) is refused
+    in one line; a row cut short, or with no ``status``, is dropped, so the rerun measures it
+    again."""
     if not path.exists():
         return []
-    with path.open(newline="") as f:
-        return list(csv.DictReader(f))
+    try:
+        with path.open(newline="", encoding="utf-8") as f:
+            reader = csv.DictReader(f)
+            header = reader.fieldnames or []
+            if header[:2] != list(COLUMNS[:2]) or not set(header) <= set(COLUMNS):
+                raise GameError(f"{path}: not a bench CSV (its header is not the bench's "
+                                "columns); move it away or choose another --out")
+            return [row for row in reader
+                    if None not in row and None not in row.values() and row.get("status")
+                    and row.get("run")]
+    except (UnicodeDecodeError, csv.Error) as error:
+        raise GameError(f"{path}: not a bench CSV ({error})") from None
 
 
 def write_rows(path: Path, rows: list[dict]) -> None:

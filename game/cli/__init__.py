@@ -2,8 +2,8 @@
 line.
 
 Exit status: 0 success; 1 a bad scene or a machine that cannot run it; 2 a bad argument;
-130 interrupted. Set SHADOWGAME_DEBUG=1 to see the traceback of an internal error. The top of
-the package: it may import every other layer.
+130 interrupted (143 SIGTERM, 129 SIGHUP). Set SHADOWGAME_DEBUG=1 to see the traceback of an
+internal error. The top of the package: it may import every other layer.
 """
 
 from __future__ import annotations
@@ -15,17 +15,26 @@ import warnings
 from game.app import interrupts
 from game.cli.arguments import ArgumentError, build_parser
 from game.cli.commands import COMMANDS, cmd_default
-from game.errors import GameError
+from game.errors import GameError, printable
 
 
 def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
     """Warnings (a mesh lost degenerate triangles) as one line, without the source line."""
-    print(f"warning: {message}", file=sys.stderr)
+    _say(f"warning: {message}")
 
 
 def main(argv: list[str] | None = None) -> int:
     warnings.showwarning = _one_line_warning
     interrupts.install()
+    try:
+        return _run(argv)
+    except KeyboardInterrupt:  # in the moment between a command's end and the next line
+        return _stopped()
+    finally:
+        interrupts.finish()
+
+
+def _run(argv: list[str] | None) -> int:
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
@@ -33,21 +42,35 @@ def main(argv: list[str] | None = None) -> int:
             return cmd_default()
         return COMMANDS[args.command](args)
     except ArgumentError as exc:
-        print(f"error: {exc}", file=sys.stderr)
+        _say(f"error: {exc}")
         return 2
     except GameError as exc:
-        print(f"error: {exc}", file=sys.stderr)
+        _say(f"error: {exc}")
         return 1
     except KeyboardInterrupt:
-        print("interrupted", file=sys.stderr)
-        return 130
+        return _stopped()
+    except OSError as exc:  # a full disk, a read-only folder, a path that is a folder
+        if interrupts.pending():
+            return _stopped()
+        where = f"{exc.filename}: " if exc.filename else ""
+        _say(f"error: {where}{exc.strerror or exc}")
+        return 1
     except Exception as exc:  # noqa: BLE001 - the one place that turns bugs into one line too
         if interrupts.pending():  # Ctrl-C that a library turned into another exception
-            print("interrupted", file=sys.stderr)
-            return 130
+            return _stopped()
         if os.environ.get("SHADOWGAME_DEBUG"):
             raise
         first = str(exc).splitlines()[0] if str(exc) else ""
-        print(f"internal error: {type(exc).__name__}: {first} (set SHADOWGAME_DEBUG=1 for the "
-              "traceback)", file=sys.stderr)
+        _say(f"internal error: {type(exc).__name__}: {first} (set SHADOWGAME_DEBUG=1 for the "
+             "traceback)")
         return 1
+
+
+def _stopped() -> int:
+    line, status = interrupts.stopped_by()
+    _say(line)
+    return status
+
+
+def _say(line: str) -> None:
+    print(printable(line), file=sys.stderr)

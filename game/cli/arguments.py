@@ -114,6 +114,37 @@ def finite(text: str) -> float:
     return value
 
 
+# Scene times stay where float32 (the shaders' time) still counts milliseconds apart.
+MAX_SCENE_TIME = 1e9
+FPS_RANGE = (1e-3, 1e6)
+
+
+def scene_time(text: str) -> float:
+    value = finite(text)
+    if abs(value) > MAX_SCENE_TIME:
+        raise argparse.ArgumentTypeError(f"must be within +-{MAX_SCENE_TIME:g} s, got {text!r}")
+    return value
+
+
+def frame_rate(text: str) -> float:
+    value = finite(text)
+    if not FPS_RANGE[0] <= value <= FPS_RANGE[1]:
+        raise argparse.ArgumentTypeError(f"must be {FPS_RANGE[0]:g}..{FPS_RANGE[1]:g}, got "
+                                         f"{text!r}")
+    return value
+
+
+def at_most(most: float, kind=positive_int):
+    """A ``kind`` value (positive_int or positive) no larger than ``most``."""
+    def parse(text: str):
+        value = kind(text)
+        if value > most:
+            raise argparse.ArgumentTypeError(f"must be at most {most:g}, got {text!r}")
+        return value
+    parse.__name__ = kind.__name__  # argparse names the type in its messages
+    return parse
+
+
 def positive(text: str) -> float:
     value = finite(text)
     if value <= 0:
@@ -215,7 +246,7 @@ def _add_play_parser(sub) -> None:
     play.add_argument("--size", type=size_value, default=(960, 540), metavar="WxH",
                       help="window size in pixels")
     _add_method_option(play)
-    play.add_argument("--fps", type=positive, default=None,
+    play.add_argument("--fps", type=frame_rate, default=None,
                       help="scene seconds advance 1/F per frame (default: real time)")
     play.add_argument("--render-scale", type=render_scale, default=1.0, metavar="S",
                       help="render the scene at S times the window's size per side, then "
@@ -243,10 +274,10 @@ def _add_frame_options(parser, dump_help: str) -> None:
                         help="number of frames")
     parser.add_argument("--size", type=size_value, default=(960, 540), metavar="WxH",
                         help="image size in pixels")
-    parser.add_argument("--time", type=finite, default=0.0, metavar="T",
-                        help="scene time of the first frame, in seconds")
-    parser.add_argument("--fps", type=positive, default=30.0, metavar="F",
-                        help="frames per scene second: frame k is at T + k/F")
+    parser.add_argument("--time", type=scene_time, default=0.0, metavar="T",
+                        help="scene time of the first frame, in seconds (within +-1e9)")
+    parser.add_argument("--fps", type=frame_rate, default=30.0, metavar="F",
+                        help="frames per scene second: frame k is at T + k/F (1e-3..1e6)")
     parser.add_argument("--out", type=Path, default=None, metavar="DIR",
                         help=f"output folder (default: {DEFAULT_OUT}/<scene name>/)")
     parser.add_argument("--dump", action="store_true", help=dump_help)
@@ -261,19 +292,25 @@ def _add_trace_parser(sub) -> None:
                        default=trace_methods.DEFAULT_METHOD,
                        help="; ".join(f"{name}: {m.summary}"
                                       for name, m in trace_methods.METHODS.items()))
-    trace.add_argument("--samples", type=positive_int, default=d.samples, metavar="N",
-                       help="stratified samples along the segment per shaded point")
+    most = trace_methods.LIMITS
+    trace.add_argument("--samples", type=at_most(most["samples"]), default=d.samples,
+                       metavar="N", help="stratified samples along the segment per shaded point "
+                                         f"(at most {most['samples']})")
     _add_frame_options(trace, dump_help="write npz (with soft) + glb")
     trace.add_argument("--clock", choices=CLOCKS, default="auto")
     g = trace.add_argument_group("tracer parameters")
-    g.add_argument("--cells-per-triangle", type=positive, default=d.cells_per_triangle,
-                   help="grid resolution: cells per triangle of the scene")
-    g.add_argument("--vc-slots", type=positive_int, default=d.vc_slots,
-                   help="voxel-cache: voxels cached per shaded point (a power of two)")
-    g.add_argument("--vc-pool", type=positive_int, default=d.vc_pool,
-                   help="voxel-cache: candidate triangle ids cached per shaded point")
-    g.add_argument("--mailbox", type=positive_int, default=d.mailbox,
-                   help="triangles remembered per ray (mailboxing)")
+    g.add_argument("--cells-per-triangle", type=at_most(most["cells_per_triangle"], positive),
+                   default=d.cells_per_triangle,
+                   help="grid resolution: cells per triangle of the scene (at most "
+                        f"{most['cells_per_triangle']:g})")
+    g.add_argument("--vc-slots", type=at_most(most["vc_slots"]), default=d.vc_slots,
+                   help="voxel-cache: voxels cached per shaded point (a power of two, at most "
+                        f"{most['vc_slots']})")
+    g.add_argument("--vc-pool", type=at_most(most["vc_pool"]), default=d.vc_pool,
+                   help="voxel-cache: candidate triangle ids cached per shaded point (at most "
+                        f"{most['vc_pool']})")
+    g.add_argument("--mailbox", type=at_most(most["mailbox"]), default=d.mailbox,
+                   help=f"triangles remembered per ray, mailboxing (at most {most['mailbox']})")
 
 
 def trace_settings(args) -> TraceSettings:

@@ -9,16 +9,18 @@ from __future__ import annotations
 
 import os
 import sys
+import zipfile
 from pathlib import Path
 
 from game.cli.arguments import (
     DEFAULT_OUT,
+    MAX_SCENE_TIME,
     MAX_SIZE,
     ArgumentError,
     shadow_settings,
     trace_settings,
 )
-from game.errors import GameError
+from game.errors import GameError, printable
 from game.shadows import registry
 from game.shadows.method import VISIBILITY_TRACED
 
@@ -41,7 +43,7 @@ def cmd_play(args) -> int:
         cull=not args.no_cull)
     stats = window.play(scene, opts)
     if args.frames is not None:
-        print(f"played {len(stats['frames'])} frame(s): {window.summary(stats)}")
+        say(f"played {len(stats['frames'])} frame(s): {window.summary(stats)}")
     return 0
 
 
@@ -51,6 +53,7 @@ def cmd_trace(args) -> int:
 
     _check_out(args.out)
     _check_file("--stats", args.stats)
+    _check_times(args)
     settings = trace_settings(args)
     scene = _load(args.scene)
     out = _out_folder(args.out, scene)
@@ -66,9 +69,9 @@ def cmd_trace(args) -> int:
         ctx.release()
     cut = sum(f["truncated_points"] for f in stats["frames"])
     if cut:
-        print(f"warning: {cut} point(s) ran out of the GL driver's loop budget even at one "
-              "sample per dispatch; their visibility is incomplete", file=sys.stderr)
-    print(f"wrote {args.frames} frame(s) to {out}/: {trace_run.summary(stats)}")
+        say(f"warning: {cut} point(s) ran out of the GL driver's loop budget even at one "
+            "sample per dispatch; their visibility is incomplete", err=True)
+    say(f"wrote {args.frames} frame(s) to {out}/: {trace_run.summary(stats)}")
     return 0
 
 
@@ -117,21 +120,21 @@ def cmd_bench(args) -> int:
         progress=not args.no_progress, **values)
     if args.list:
         for _scene, spec in runs.plan_runs(opts, MAX_SIZE):
-            print(spec.run_id(opts.size))
+            say(spec.run_id(opts.size))
         return 0
     try:
         import embreex  # noqa: F401 - only to learn whether the reference can run
     except ImportError:
         opts.reference = False
-        print("note: embreex missing: no shadow error or reference flicker "
-              "(pip install -e '.[bench]')", file=sys.stderr)
+        say("note: embreex missing: no shadow error or reference flicker "
+            "(pip install -e '.[bench]')", err=True)
     result = bench.run(opts)
-    print(f"bench: {result['rows']} rows in {result['csv']}; "
-          f"{len(result['charts'])} chart files in {args.out / 'charts'}")
+    say(f"bench: {result['rows']} rows in {result['csv']}; "
+        f"{len(result['charts'])} chart files in {args.out / 'charts'}")
     for c in result["summary"].get("comparisons", []):
-        print(f"  {c['scene']}: clumped {c['clumped_ms']:.1f} ms, error "
-              f"{100 * c['clumped_error']:.2f}% vs {c['baseline']}: {c['baseline_ms']:.1f} ms, "
-              f"{100 * c['baseline_error']:.2f}% -> {c['speedup']:.1f}x")
+        say(f"  {c['scene']}: clumped {c['clumped_ms']:.1f} ms, error "
+            f"{100 * c['clumped_error']:.2f}% vs {c['baseline']}: {c['baseline_ms']:.1f} ms, "
+            f"{100 * c['baseline_error']:.2f}% -> {c['speedup']:.1f}x")
     return 0
 
 
@@ -150,9 +153,14 @@ def _gpu_suite(args) -> int:
     summary = gpu_suite.run(gpu_suite.Suite(out=out, quick=args.quick,
                                             progress=not args.no_progress))
     done = [p["part"] for p in summary["parts"] if p["status"] == "ok"]
-    print(f"bench --suite gpu: {', '.join(done) or 'nothing'} done in {summary['wall_s']} s; "
-          f"{out / 'summary.md'}")
+    say(f"bench --suite gpu: {', '.join(done) or 'nothing'} done in {summary['wall_s']} s; "
+        f"{out / 'summary.md'}")
     return 0
+
+
+def say(line: str, err: bool = False) -> None:
+    """Print one line, user-supplied strings in it escaped (game/errors.py)."""
+    print(printable(line), file=sys.stderr if err else sys.stdout)
 
 
 def _load(scene_arg: str | None):
@@ -178,11 +186,21 @@ def _check_file(flag: str, path: Path | None) -> None:
         return
     if path.is_dir():
         raise ArgumentError(f"{flag} {path}: is a folder")
+    if path.exists() and not (path.is_file() or path.is_char_device() or path.is_fifo()):
+        raise ArgumentError(f"{flag} {path}: not a regular file, a device or a pipe")
     folder = path.parent
     if not folder.is_dir():
         raise ArgumentError(f"{flag} {path}: folder {folder} does not exist")
     if not os.access(folder, os.W_OK | os.X_OK):
         raise ArgumentError(f"{flag} {path}: cannot write in {folder}")
+
+
+def _check_times(args) -> None:
+    """The last frame's scene time stays within --time's own bounds."""
+    last = args.time + (args.frames - 1) / args.fps
+    if abs(last) > MAX_SCENE_TIME:
+        raise ArgumentError(f"--frames {args.frames} at --fps {args.fps:g} from --time "
+                            f"{args.time:g} ends at {last:.3g} s; at most {MAX_SCENE_TIME:g} s")
 
 
 def _out_folder(out: Path | None, scene) -> Path:
@@ -212,6 +230,7 @@ def cmd_capture(args) -> int:
                             "by the tracer instead")
     _check_out(args.out)
     _check_file("--stats", args.stats)
+    _check_times(args)
     scene = _load(args.scene)
     out = _out_folder(args.out, scene)
     ctx = context.create_headless()
@@ -225,8 +244,8 @@ def cmd_capture(args) -> int:
     finally:
         ctx.release()
     for note in stats["notes"]:
-        print(f"note: {note}", file=sys.stderr)
-    print(f"wrote {args.frames} frame(s) to {out}/: {capture.summary(stats)}")
+        say(f"note: {note}", err=True)
+    say(f"wrote {args.frames} frame(s) to {out}/: {capture.summary(stats)}")
     return 0
 
 
@@ -247,11 +266,11 @@ def cmd_verify(args) -> int:
             err = score_dump(npz, scene.light)
             results.append({"frame": npz.stem, **{k: v for k, v in err.items()
                                                   if k not in ("mask", "exact")}})
-            print(f"{npz.stem}: error {err['error']:.4f} ({err['misclassified']} misclassified "
-                  f"of {err['shadowed_either']} pixels shadowed by the method or the reference; "
-                  f"{err['shadowed']} by the reference; {err['considered']} pixels with N.L > "
-                  f"{MIN_NDOTL})")
-    except (OSError, KeyError, ValueError) as exc:
+            say(f"{npz.stem}: error {err['error']:.4f} ({err['misclassified']} misclassified "
+                f"of {err['shadowed_either']} pixels shadowed by the method or the reference; "
+                f"{err['shadowed']} by the reference; {err['considered']} pixels with N.L > "
+                f"{MIN_NDOTL})")
+    except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile) as exc:
         raise GameError(f"{args.dumps}: cannot read the dumps ({exc})") from None
     except RuntimeError as exc:  # Embree missing
         raise GameError(str(exc)) from None
@@ -313,8 +332,8 @@ def cmd_default() -> int:
         ctx.release()
     reason = ("no display" if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
               else "cannot open a window on this display")
-    print(f"{reason} for the walkaround window: rendered {default_scene_path().name} headless "
-          f"to {out}/frame_0000.png (see python -m game capture --help)")
+    say(f"{reason} for the walkaround window: rendered {default_scene_path().name} headless "
+        f"to {out}/frame_0000.png (see python -m game capture --help)")
     return 0
 
 

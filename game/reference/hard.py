@@ -21,6 +21,8 @@ from typing import Any
 import numpy as np
 import trimesh
 
+from game import gltf
+
 # Shadow-ray start offset, as a fraction of the scene's bounding-box diagonal: large enough to step
 # past the float32 rounding of the dumped position and of Embree's own arithmetic, small enough
 # (4 mm on a 40 m scene) not to skip a real occluder that touches the receiver.
@@ -28,6 +30,13 @@ RAY_OFFSET_SCENE = 1e-4
 # Extra offset per metre of distance from the origin: float32 positions lose absolute precision far
 # from the origin (about 1e-7 relative), and the renderer's reconstructed positions more so.
 RAY_OFFSET_DISTANCE = 1e-5
+# What a dump may declare (load_frame): a frame no larger than the command line allows, and
+# arrays of at most this many 8-byte values per pixel (position and normal have 3 float32s,
+# lit_lights one per light), or at most MAX_SMALL_BYTES (the names, the matrices).
+MAX_DUMP_SIDE = 16384
+MAX_LAYERS_PER_PIXEL = 16
+MAX_SMALL_BYTES = 64 * 2**20
+
 # Pixels whose N.L is at or below this are left out of the error: at grazing angles the shadow
 # boundary is ill-posed for every method, shadow maps and ray casts alike.
 MIN_NDOTL = 0.1
@@ -105,6 +114,7 @@ def load_frame(npz_path: str | Path) -> dict[str, Any]:
     array is returned as stored. No pickles are loaded: a dump is data, not code.
     """
     with np.load(npz_path, allow_pickle=False) as data:
+        _check_declared_sizes(data)
         frame: dict[str, Any] = {key: data[key] for key in data.files}
     if "names" in frame:
         frame["names"] = [str(name) for name in frame["names"]]
@@ -113,6 +123,35 @@ def load_frame(npz_path: str | Path) -> dict[str, Any]:
     if "time" in frame:
         frame["time"] = float(frame["time"])
     return frame
+
+
+def _declared(data, key: str) -> tuple[tuple[int, ...], np.dtype]:
+    """The shape and dtype an npz member declares in its header, read without its data."""
+    with data.zip.open(f"{key}.npy") as member:
+        version = np.lib.format.read_magic(member)
+        read = (np.lib.format.read_array_header_1_0 if version == (1, 0)
+                else np.lib.format.read_array_header_2_0)
+        shape, _fortran, dtype = read(member)
+    return tuple(int(n) for n in shape), np.dtype(dtype)
+
+
+def _check_declared_sizes(data) -> None:
+    """Refuse a dump whose arrays are larger than its own frame size allows, before reading
+    any of them: a few megabytes of npz can otherwise unpack into tens of gigabytes."""
+    if "size" not in data.files:
+        raise ValueError("no 'size' array")
+    shape, dtype = _declared(data, "size")
+    if shape != (2,) or dtype.kind not in "iu":
+        raise ValueError("'size' is not two whole numbers")
+    w, h = (int(v) for v in data["size"])
+    if not (1 <= w <= MAX_DUMP_SIDE and 1 <= h <= MAX_DUMP_SIDE):
+        raise ValueError(f"'size' {w}x{h} is not a frame size (1..{MAX_DUMP_SIDE} per side)")
+    limit = max(MAX_LAYERS_PER_PIXEL * 8 * w * h, MAX_SMALL_BYTES)
+    for key in data.files:
+        shape, dtype = _declared(data, key)
+        if float(np.prod(shape, dtype=np.float64)) * dtype.itemsize > limit:
+            raise ValueError(f"array {key!r} declares {shape} of {dtype}, more than a "
+                             f"{w}x{h} frame holds")
 
 
 def load_geometry(glb_path: str | Path, skip_prefixes: tuple[str, ...] = ()) -> trimesh.Trimesh:
@@ -126,7 +165,12 @@ def load_geometry(glb_path: str | Path, skip_prefixes: tuple[str, ...] = ()) -> 
 
 
 def geometry_from_glb(data: bytes, skip_prefixes: tuple[str, ...] = ()) -> trimesh.Trimesh:
-    """:func:`load_geometry` of a glb file's bytes."""
+    """:func:`load_geometry` of a glb file's bytes.
+
+    A dump's glb carries its geometry inside: a URI to any other file is refused, and images
+    are never decoded (game/gltf.py). Raises ValueError for a glb that cannot be read so.
+    """
+    data = gltf.safe_glb(data)
     # process=False: keep the triangles exactly as written, no merging or reordering.
     scene = trimesh.load(io.BytesIO(data), file_type="glb", force="scene", process=False)
     parts = []

@@ -4,7 +4,29 @@ from __future__ import annotations
 
 import numpy as np
 
+from game.errors import GameError
+
 SKY = (0.58, 0.68, 0.80)   # the clear colour: pixels with no geometry
+
+
+# Bytes per pixel of the target on the GPU (colour and depth; the G-buffer's two RGBA32F
+# textures), and the most a frame may take: what is read back to the host is larger still.
+BYTES_PER_PIXEL = {False: 8, True: 40}
+MAX_FRAME_BYTES = 2 * 2**30
+
+
+def check_size(ctx, size: tuple[int, int], gbuffer: bool) -> None:
+    """Refuse, in one line, a frame the GL cannot hold or that would take more than
+    :data:`MAX_FRAME_BYTES`, before anything is allocated."""
+    w, h = size
+    most = min(int(ctx.info["GL_MAX_TEXTURE_SIZE"]), int(ctx.info["GL_MAX_RENDERBUFFER_SIZE"]))
+    if max(w, h) > most:
+        raise GameError(f"a {w}x{h} frame is larger than this GL allows ({most} per side)")
+    need = w * h * BYTES_PER_PIXEL[gbuffer]
+    if need > MAX_FRAME_BYTES:
+        what = " with its G-buffer (--dump, --soft)" if gbuffer else ""
+        raise GameError(f"a {w}x{h} frame{what} needs {need / 2**30:.1f} GiB of GPU memory; "
+                        f"at most {MAX_FRAME_BYTES / 2**30:.0f} GiB")
 
 
 class FrameTarget:
@@ -18,6 +40,7 @@ class FrameTarget:
 
     def _make(self, size: tuple[int, int], gbuffer: bool) -> None:
         ctx = self.ctx
+        check_size(ctx, size, gbuffer)
         self.size, self.gbuffer = size, gbuffer
         self.colour = ctx.texture(size, 4)
         self.position = self.normal = None

@@ -72,6 +72,10 @@ class TownParams:
     characters: int = 8  # walkers
 
 
+# The most triangles the parameters may allow (triangle_bound, about twice what a town gets):
+# memory grows with them, and the 1 M-triangle town's parameters allow 1.9 M.
+MAX_TRIANGLE_BOUND = 16_000_000
+
 # (type, lowest, highest) of every key; floats accept integers.
 PARAM_LIMITS: dict[str, tuple[type, float, float]] = {
     "seed": (int, 0, 2**63 - 1),
@@ -138,16 +142,26 @@ def town_params(table: Mapping[str, Any],
             fail(key, f"must be a number, got {value!r}")
         if kind is int and not isinstance(value, int):
             fail(key, f"must be an integer, got {value!r}")
-        if not math.isfinite(value):
+        # Compared as given, so that a 400-digit integer is out of range, not an overflow.
+        if isinstance(value, float) and not math.isfinite(value):
             fail(key, f"must be finite, got {value}")
         if not low <= value <= high:
-            fail(key, f"must be between {low:g} and {high:g}, got {value}")
+            digits = str(value)
+            shown = digits if len(digits) < 16 else f"{digits[:12]}... ({len(digits)} digits)"
+            fail(key, f"must be between {low:g} and {high:g}, got {shown}")
         values[key] = kind(value)
     params = TownParams(**values)
     if _lot_side(params) < MIN_LOT_SIDE:
         key = "buildings_per_block" if "buildings_per_block" in table else "block_size"
         fail(key, f"too many buildings and trees for block_size {params.block_size:g}: "
                   f"lots would be {_lot_side(params):.2f} m, at least {MIN_LOT_SIDE:g} m needed")
+    bound = triangle_bound(params)
+    if bound > MAX_TRIANGLE_BOUND:
+        key = next((k for k in ("blocks", "detail", "max_storeys", "buildings_per_block")
+                    if k in table), "blocks")
+        fail(key, f"these parameters could build up to {bound:,} triangles, more than the "
+                  f"{MAX_TRIANGLE_BOUND:,} a generated town may have (fewer blocks, storeys, "
+                  "buildings or less detail)")
     return params
 
 
@@ -282,6 +296,22 @@ def _tree(templates: _Templates, x: float, z: float, crown: float, trunk: float,
     else:
         parts.append(_place(templates.sphere, crown, (x, trunk + 0.75 * crown, z)))
     return _mesh(parts)
+
+
+def triangle_bound(params: TownParams) -> int:
+    """An upper bound on the town's static triangles, from the parameters alone: every building
+    at the widest footprint and the most storeys, every tree with the larger crown."""
+    lot = _lot_side(params)
+    pitch = WINDOW_PITCH_AT_DETAIL_0 / (1 + params.detail)
+    columns = max(1, int(min(FOOTPRINT_FRACTION[1] * lot, lot - 2.0 * LOT_MARGIN) // pitch))
+    storeys = params.max_storeys
+    per_building = (3 + (storeys - 1 if params.detail >= 1 else 0)
+                    + 4 * columns * storeys * (2 if params.detail >= 2 else 1))
+    templates = _templates(params.detail)
+    per_tree = len(templates.trunk[1]) + max(len(templates.sphere[1]), len(templates.cone[1]))
+    per_block = (params.buildings_per_block * len(_BOX_FACES) * per_building
+                 + params.trees_per_block * per_tree)
+    return params.blocks ** 2 * per_block
 
 
 def _lot_side(params: TownParams) -> float:

@@ -11,6 +11,7 @@ procedural town (:mod:`game.scene.generate`) after the objects listed in the fil
 from __future__ import annotations
 
 import hashlib
+import math
 import re
 import tomllib
 from collections.abc import Iterable
@@ -44,7 +45,7 @@ from game.scene.shapes import (
     sphere_mesh,
     transform_mesh,
 )
-from game.scene.toml_tables import Context, Table, describe, is_number, suggest
+from game.scene.toml_tables import MAX_MAGNITUDE, Context, Table, describe, is_number, suggest
 from game.transforms import euler_xyz
 
 # Keys each shape needs; a key of another shape is an error, not silently ignored.
@@ -57,6 +58,9 @@ SHAPE_KEYS: dict[str, tuple[str, ...]] = {
     "mesh": ("file",),
 }
 ALL_SHAPE_KEYS = tuple(sorted({k for keys in SHAPE_KEYS.values() for k in keys}))
+MAX_SCENE_BYTES = 4 * 2**20   # a scene file; its meshes live in their own files
+MAX_FAR_OVER_NEAR = 1e7
+
 TOP_LEVEL_KEYS = ("name", "camera", "light", "linear_light", "floor", "static", "character",
                   "generate")
 CAMERA_KEYS = ("position", "target", "fov", "near", "far")
@@ -122,6 +126,10 @@ def _parse_camera(ctx: Context, data: Any) -> Camera:
     if near >= far:
         table.fail("far" if table.has("far") else "near",
                    f"near ({near:g}) must be less than far ({far:g})")
+    if far / near > MAX_FAR_OVER_NEAR:
+        # A float32 depth buffer cannot tell surfaces apart beyond this ratio.
+        table.fail("near" if table.has("near") else "far",
+                   f"far / near is {far / near:.3g}; at most {MAX_FAR_OVER_NEAR:.0e} (raise near)")
     return Camera(position=position, target=target, fov=fov, near=near, far=far)
 
 
@@ -173,7 +181,19 @@ def _parse_body(ctx: Context, kind: str, index: int, data: Any) -> Body:
     rotation = table.vec3("rotation", (0.0, 0.0, 0.0))
     scale = table.scale()
     linear = euler_xyz(rotation) @ np.diag(scale)
-    return Body(name=f"{kind}_{index}", kind=kind, mesh=transform_mesh(local, linear, position))
+    mesh = transform_mesh(local, linear, position)
+    _check_extent(table, mesh)
+    return Body(name=f"{kind}_{index}", kind=kind, mesh=mesh)
+
+
+def _check_extent(table: Table, mesh) -> None:
+    """World-space vertices within the format's magnitude, after scale and rotation: their
+    float32 form stays finite and keeps its precision."""
+    reach = float(np.abs(mesh.vertices).max())
+    if not reach <= MAX_MAGNITUDE:
+        key = "scale" if table.has("scale") else ("file" if table.has("file") else None)
+        table.fail(key, f"places vertices {reach:.3g} m from the origin; at most "
+                        f"{MAX_MAGNITUDE:g} m")
 
 
 def _parse_path(table: Table) -> np.ndarray:
@@ -194,10 +214,11 @@ def _point(table: Table, i: int, value: Any) -> np.ndarray:
             or not all(is_number(v) for v in value)):
         table.fail("path", f"point {i} must be a list of 3 numbers [x, y, z], got "
                            f"{describe(value)}")
-    point = np.array(value, dtype=np.float64)
-    if not np.all(np.isfinite(point)):
+    if not all(isinstance(v, int) or math.isfinite(v) for v in value):
         table.fail("path", f"point {i} must be finite, got {value}")
-    return point
+    if not all(abs(v) <= MAX_MAGNITUDE for v in value):
+        table.fail("path", f"point {i} must be within +-{MAX_MAGNITUDE:g}, got {describe(value)}")
+    return np.array(value, dtype=np.float64)
 
 
 def _parse_character(ctx: Context, index: int, data: Any) -> Character:
@@ -209,6 +230,7 @@ def _parse_character(ctx: Context, index: int, data: Any) -> Character:
     rotation = table.vec3("rotation", (0.0, 0.0, 0.0))
     scale = table.scale()
     mesh = transform_mesh(local, euler_xyz(rotation) @ np.diag(scale))
+    _check_extent(table, mesh)
     return Character(name=f"character_{index}", mesh=mesh, path=path, speed=speed, phase=phase)
 
 
@@ -258,6 +280,8 @@ def parse_scene(text: str, source: Path | None = None, base_dir: Path | None = N
     ctx = Context(text, source, Path(base_dir))
     try:
         data = tomllib.loads(text)
+    except RecursionError:
+        raise SceneError(f"{ctx.label}:1: TOML nests too deeply to read") from None
     except tomllib.TOMLDecodeError as error:
         message = str(error)
         match = re.search(r"at line (\d+)", message)
@@ -296,9 +320,16 @@ def load_scene(path: str | Path) -> Scene:
     """Read and validate a scene file; raises SceneError with a one-line message."""
     path = Path(path)
     try:
-        raw = path.read_bytes()
-    except OSError as error:
-        raise SceneError(f"{path}: cannot read scene file: {error.strerror or error}") from None
+        if path.exists() and not path.is_file():
+            raise SceneError(f"{path}: not a regular file (a scene is a TOML file)")
+        with path.open("rb") as f:
+            raw = f.read(MAX_SCENE_BYTES + 1)
+    except (OSError, ValueError) as error:  # ValueError: a NUL byte in the path
+        raise SceneError(f"{path}: cannot read scene file: "
+                         f"{getattr(error, 'strerror', None) or error}") from None
+    if len(raw) > MAX_SCENE_BYTES:
+        raise SceneError(f"{path}: larger than the {MAX_SCENE_BYTES // 2**20} MiB a scene file "
+                         "may be (meshes belong in mesh files)")
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as error:

@@ -1,29 +1,36 @@
 """Mesh files of the scene format (obj, stl, ply, glb, gltf), loaded with trimesh.
 
 A path is checked before anything opens it: it must stay inside the scene's folder, and so must
-every file a glTF names by URI.
+every file a glTF or GLB names by URI (game/gltf.py, whatever trimesh itself would do).
 """
 
 from __future__ import annotations
 
-import json
+import io
 import re
 import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NoReturn
-from urllib.parse import unquote
 
 import numpy as np
 import trimesh
 
+from game import gltf
+
 MESH_SUFFIXES = (".obj", ".stl", ".ply", ".glb", ".gltf")
+MAX_MESH_FILE_BYTES = 512 * 2**20  # one mesh file (with a glTF's buffer files)
+MAX_FILE_COORDINATE = 1e9  # a vertex coordinate in the file's own units, before its scale
 
 
 def inside(base_dir: Path, relative: str, fail: Callable[[str], NoReturn]) -> Path:
     """``base_dir / relative`` if it stays inside ``base_dir``, checked before anything opens it."""
     if not relative:
         fail("must name a file")
+    if "\0" in relative:
+        fail("a path cannot hold a NUL character")
+    if any(len(part.encode()) > 255 for part in re.split(r"[/\\]", relative)):
+        fail("a name in the path is longer than 255 bytes")
     if (relative.startswith(("/", "\\")) or re.match(r"^[A-Za-z]:", relative)
             or Path(relative).is_absolute()):
         fail(f"absolute paths are not allowed, give a path relative to the scene's folder: "
@@ -36,31 +43,14 @@ def inside(base_dir: Path, relative: str, fail: Callable[[str], NoReturn]) -> Pa
                 fail(f"path leaves the scene's folder: {relative}")
         elif part not in ("", "."):
             depth += 1
-    root = base_dir.resolve()
-    full = (base_dir / relative).resolve()
+    try:
+        root = base_dir.resolve()
+        full = (base_dir / relative).resolve()
+    except (OSError, RuntimeError) as error:  # RuntimeError: a symlink loop
+        fail(f"cannot follow the path {relative}: {error}")
     if not full.is_relative_to(root):
         fail(f"path resolves outside the scene's folder (through a symlink): {relative}")
     return full
-
-
-def _check_gltf_uris(path: Path, root: Path, fail: Callable[[str], NoReturn]) -> None:
-    """A .gltf names its buffers and images by URI: they must stay inside the folder too."""
-    try:
-        document = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
-        fail(f"not a glTF file: {path.name} ({_one_line(str(error))})")
-    if not isinstance(document, dict):
-        fail(f"not a glTF file: {path.name}")
-    for section in ("buffers", "images"):
-        for entry in document.get(section, []) or []:
-            uri = entry.get("uri") if isinstance(entry, dict) else None
-            if not isinstance(uri, str) or uri.startswith("data:"):
-                continue
-            target = Path(unquote(uri))
-            if "://" in uri or target.is_absolute():
-                fail(f"glTF {section} URI must be a relative file name: {uri}")
-            if not (path.parent / target).resolve().is_relative_to(root):
-                fail(f"glTF {section} URI leaves the scene's folder: {uri}")
 
 
 def _one_line(text: str, limit: int = 120) -> str:
@@ -87,15 +77,36 @@ def load_mesh_file(relative: str, base_dir: Path, label: str,
         fail(f"cannot open {relative}: {error.strerror or error}")
     if empty:
         fail(f"empty file: {relative}")
+    size = path.stat().st_size
+    if size > MAX_MESH_FILE_BYTES:
+        fail(f"{relative} is {size / 2**20:.0f} MiB, more than the {MAX_MESH_FILE_BYTES // 2**20} "
+             "MiB a mesh file may hold")
     kwargs: dict[str, Any] = {}
-    if suffix == ".gltf":
-        _check_gltf_uris(path, base_dir.resolve(), fail)
+    source: Any = str(path)
+    if suffix in (".glb", ".gltf"):
+        # Read here, URIs checked and images left out, before trimesh sees any of it.
+        try:
+            if suffix == ".glb":
+                source = io.BytesIO(gltf.safe_glb(path.read_bytes(), path.parent, base_dir))
+            else:
+                text, buffers = gltf.safe_gltf(path.read_bytes(), path.parent, base_dir)
+                if sum(p.stat().st_size for p in buffers if p.is_file()) > MAX_MESH_FILE_BYTES:
+                    fail(f"the buffers of {relative} hold more than "
+                         f"{MAX_MESH_FILE_BYTES // 2**20} MiB")
+                source = io.BytesIO(text)
+                kwargs["resolver"] = trimesh.resolvers.FilePathResolver(path)
+        except gltf.GltfError as error:
+            fail(f"cannot read mesh {relative}: {error}")
     elif suffix == ".obj":
         # Materials are not used (flat shading), and an mtllib could name a file outside the folder.
         kwargs["skip_materials"] = True
     try:
-        loaded = trimesh.load(str(path), file_type=suffix[1:], force="mesh", process=False,
+        loaded = trimesh.load(source, file_type=suffix[1:], force="mesh", process=False,
                               **kwargs)
+    except ImportError:
+        # trimesh reaches for optional modules (charset_normalizer, to guess the text encoding
+        # of a binary STL whose size does not match its triangle count) when a file is damaged.
+        fail(f"cannot read mesh {relative}: damaged or truncated {suffix[1:].upper()} file")
     except Exception as error:  # noqa: BLE001 - trimesh raises anything on a corrupt file
         fail(f"cannot read mesh {relative}: {_one_line(str(error)) or type(error).__name__}")
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
@@ -106,11 +117,19 @@ def load_mesh_file(relative: str, base_dir: Path, label: str,
         fail(f"face indices out of range in {relative}")
     if not np.all(np.isfinite(vertices)):
         fail(f"non-finite vertex coordinates in {relative}")
+    reach = float(np.abs(vertices).max())
+    if reach > MAX_FILE_COORDINATE:
+        # float32 (what the GPU and the dumps hold) would turn these into inf, and a mesh that
+        # mixes them with unit coordinates loses every small triangle.
+        fail(f"vertex coordinates up to {reach:.3g} in {relative}; at most "
+             f"{MAX_FILE_COORDINATE:g}")
     corners = vertices[faces]
     areas = 0.5 * np.linalg.norm(
         np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
-    extent = float(np.ptp(vertices[faces.ravel()], axis=0).max())
-    keep = areas > 1e-12 * max(extent, 1e-300) ** 2
+    # Zero area measured against the triangle's own size, not the mesh's: a small triangle far
+    # from a large one is still a triangle.
+    longest = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2).max(axis=1)
+    keep = areas > 1e-12 * longest ** 2
     if not keep.all():
         if not keep.any():
             fail(f"every triangle in {relative} has zero area")

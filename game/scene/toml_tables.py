@@ -18,6 +18,10 @@ import numpy as np
 
 from game.errors import SceneError
 
+# The largest magnitude of any number in a scene: positions, sizes and scales in metres, speeds
+# in metres per second. Beyond it, float32 positions lose centimetres and products overflow.
+MAX_MAGNITUDE = 1e6
+
 # Hints for keys that are common mistakes, where a close-match suggestion would mislead.
 KEY_HINTS = {
     ("character", "position"): "characters have no position; give path = [[x, y, z], ...]",
@@ -165,9 +169,11 @@ class Table:
                       non_negative: bool = False, below: float | None = None) -> float:
         if not is_number(value):
             self.fail(key, f"must be a number, got {describe(value)}")
-        value = float(value)
-        if not math.isfinite(value):
+        if not (isinstance(value, int) or math.isfinite(value)):
             self.fail(key, f"must be finite, got {value}")
+        if not abs(value) <= MAX_MAGNITUDE:  # compared before float(): 400-digit integers
+            self.fail(key, f"must be within +-{MAX_MAGNITUDE:g}, got {describe(value)}")
+        value = float(value)
         if positive and value <= 0.0:
             self.fail(key, f"must be positive, got {value}")
         if non_negative and value < 0.0:
@@ -186,9 +192,12 @@ class Table:
         if (not isinstance(value, list) or len(value) != 3
                 or not all(is_number(v) for v in value)):
             self.fail(key, f"must be a list of 3 numbers [x, y, z], got {describe(value)}")
-        array = np.array(value, dtype=np.float64)
-        if not np.all(np.isfinite(array)):
+        if not all(isinstance(v, int) or math.isfinite(v) for v in value):
             self.fail(key, f"must be finite, got {value}")
+        if not all(abs(v) <= MAX_MAGNITUDE for v in value):
+            self.fail(key, f"must be within +-{MAX_MAGNITUDE:g} per component, got "
+                           f"{describe(value)}")
+        array = np.array(value, dtype=np.float64)
         if positive and np.any(array <= 0.0):
             self.fail(key, f"must be positive, got {value}")
         return array

@@ -40,6 +40,14 @@ DEFAULT_METHOD = "voxel-cache"
 SAMPLED_METHODS = tuple(name for name, m in METHODS.items() if m.sampled)
 
 
+# The most each tracer parameter may be. The voxel cache, its pool and the mailbox are arrays
+# private to each shader invocation, which GL reports no limit for; beyond these the compile
+# fails or the driver runs out of stack (llvmpipe), and the per-point reset alone takes
+# seconds. The bounds are checked before anything is allocated.
+LIMITS = {"samples": 4096, "vc_slots": 1024, "vc_pool": 4096, "mailbox": 64,
+          "cells_per_triangle": 64.0}
+
+
 @dataclass(frozen=True)
 class TraceSettings:
     """How the soft-shadow pass runs."""
@@ -59,6 +67,9 @@ class TraceSettings:
             raise ValueError("samples must be at least 1")
         if self.vc_slots < 1 or self.vc_slots & (self.vc_slots - 1):
             raise ValueError("vc_slots must be a power of two")
+        for name, most in LIMITS.items():
+            if not 0 < getattr(self, name) <= most:
+                raise ValueError(f"{name} must be in (0, {most:g}], got {getattr(self, name)}")
 
     @property
     def voxel_cache_bytes_per_point(self) -> int:

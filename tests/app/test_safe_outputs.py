@@ -141,7 +141,7 @@ def test_interrupted_stats_write_keeps_the_old_file(tmp_path, monkeypatch):
 def test_every_writer_goes_through_outputs():
     # The audit as a test: no module but outputs.py opens a file for writing.
     offenders = []
-    for path in (ROOT / "game").glob("*.py"):
+    for path in (ROOT / "game").rglob("*.py"):
         if path.name == "outputs.py":
             continue
         text = path.read_text()
@@ -179,6 +179,15 @@ with interrupts.deferred():
     ctrl_c()
     done.append(1)
 """,
+    # Inside a GL library's Python code, which its C code calls back into (moderngl builds its
+    # uniform objects so), it is only recorded: raised there it crashed the process.
+    "inside gl": """
+reached = []
+code = compile("ctrl_c()\\nreached.append(1)", "/site-packages/moderngl/__init__.py", "exec")
+exec(code, {"ctrl_c": ctrl_c, "reached": reached})
+assert reached == [1]
+interrupts.check()
+""",
     # A library turned it into another exception (ctypes: ArgumentError): still exit 130.
     "converted": """
 from game import cli
@@ -207,3 +216,21 @@ def test_ctrl_c_is_never_lost_nor_turned_into_an_error(case):
         assert result.stderr.strip().splitlines()[-1] == "KeyboardInterrupt"
     if case == "deferred":  # raised as the block ended, not inside it
         assert "in deferred" in result.stderr and "done.append" not in result.stderr
+    if case == "inside gl":  # raised at the next check, after the library code ran on
+        assert "in check" in result.stderr and "moderngl" not in result.stderr
+
+
+@pytest.mark.parametrize("delay", [0.6, 1.2, 1.8, 2.4])
+def test_ctrl_c_during_start_up_ends_the_run_cleanly(tmp_path, delay):
+    """Interrupted while the renderer compiles its programs (bench makes one renderer per run),
+    a run could die with SIGSEGV inside moderngl: every run must end with 0 or 130."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "game", "bench", "--quick", "--scenes", "default", "--methods",
+         "clumped", "--out", str(tmp_path / "b"), "--no-progress"],
+        cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    time.sleep(delay)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode in (0, 130), err[-2000:]
+    if proc.returncode == 130:
+        assert err.strip().splitlines()[-1] == "interrupted"

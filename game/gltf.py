@@ -1,0 +1,173 @@
+"""glTF and GLB files read without trusting them: every URI checked, nothing decoded that is not
+used, sizes checked before anything is read.
+
+trimesh resolves the URIs a glTF or GLB names (its buffers and images) and decodes every image,
+whatever its version; a file could so make it read files anywhere, or unpack a few kilobytes
+of PNG into gigabytes. Here the JSON is read first, its URIs are checked, and what trimesh gets
+is the same file with its images, textures, samplers and materials taken out: the geometry is
+all the renderer and the reference use.
+"""
+
+from __future__ import annotations
+
+import json
+import struct
+from pathlib import Path
+from urllib.parse import unquote
+
+GLB_MAGIC = b"glTF"
+CHUNK_JSON = 0x4E4F534A
+CHUNK_BIN = 0x004E4942
+MAX_JSON_BYTES = 64 * 2**20      # a glTF's JSON part; real ones are far smaller
+MAX_JSON_DEPTH = 64              # nesting of the JSON, so the parser cannot recurse too deep
+# Parts that trimesh would decode or resolve but that the geometry does not need.
+UNUSED = ("images", "textures", "samplers", "materials")
+
+
+class GltfError(ValueError):
+    """A glTF or GLB that cannot be read safely; the message is one line."""
+
+
+def _depth_ok(text: str) -> bool:
+    """Whether JSON ``text`` nests at most :data:`MAX_JSON_DEPTH` deep (strings skipped)."""
+    depth, in_string, escaped = 0, False, False
+    for ch in text:
+        if in_string:
+            if escaped:
+                escaped = False
+            elif ch == "\\":
+                escaped = True
+            elif ch == '"':
+                in_string = False
+        elif ch == '"':
+            in_string = True
+        elif ch in "[{":
+            depth += 1
+            if depth > MAX_JSON_DEPTH:
+                return False
+        elif ch in "]}":
+            depth -= 1
+    return True
+
+
+def _parse_json(raw: bytes) -> dict:
+    if len(raw) > MAX_JSON_BYTES:
+        raise GltfError(f"its JSON part is {len(raw)} bytes, more than {MAX_JSON_BYTES}")
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError:
+        raise GltfError("its JSON part is not UTF-8 text") from None
+    if not _depth_ok(text):
+        raise GltfError(f"its JSON nests deeper than {MAX_JSON_DEPTH} levels")
+    try:
+        document = json.loads(text)
+    except (json.JSONDecodeError, RecursionError) as error:
+        raise GltfError(f"its JSON is not valid ({error})") from None
+    if not isinstance(document, dict):
+        raise GltfError("its JSON is not an object")
+    return document
+
+
+def split_glb(data: bytes) -> tuple[dict, bytes]:
+    """A GLB's JSON document and its binary chunk (empty if none), after checking the header and
+    the chunk lengths against the data."""
+    if len(data) < 20 or data[:4] != GLB_MAGIC:
+        raise GltfError("not a GLB file (no glTF header)")
+    version, length = struct.unpack_from("<II", data, 4)
+    if version != 2:
+        raise GltfError(f"GLB version {version}; only version 2 is read")
+    if length > len(data):
+        raise GltfError(f"the header declares {length} bytes, the file has {len(data)}")
+    chunk_length, chunk_type = struct.unpack_from("<II", data, 12)
+    if chunk_type != CHUNK_JSON or 20 + chunk_length > length:
+        raise GltfError("its first chunk is not a whole JSON chunk")
+    document = _parse_json(data[20:20 + chunk_length])
+    binary = b""
+    offset = 20 + chunk_length
+    if offset + 8 <= length:
+        bin_length, bin_type = struct.unpack_from("<II", data, offset)
+        if bin_type == CHUNK_BIN:
+            if offset + 8 + bin_length > length:
+                raise GltfError("its binary chunk runs past the end of the file")
+            binary = data[offset + 8:offset + 8 + bin_length]
+    return document, binary
+
+
+def check_uris(document: dict, base: Path | None = None, root: Path | None = None) -> list[Path]:
+    """Every buffer and image URI must be data, or a relative path from ``base`` (the file's
+    folder) that stays inside ``root`` (the scene's folder); with no ``base``, only embedded
+    data is allowed. Declared buffer sizes must be whole numbers.
+
+    Returns the outside files the buffers name (images are never read).
+    """
+    files = []
+    for section in ("buffers", "images"):
+        entries = document.get(section, [])
+        if not isinstance(entries, list):
+            raise GltfError(f"'{section}' is not a list")
+        for entry in entries:
+            if not isinstance(entry, dict):
+                raise GltfError(f"an entry of '{section}' is not an object")
+            uri = entry.get("uri")
+            if uri is None or (isinstance(uri, str) and uri.startswith("data:")):
+                continue
+            if not isinstance(uri, str):
+                raise GltfError(f"a {section} URI is not a string")
+            if base is None:
+                raise GltfError(f"names an outside file ({section} URI {uri!r}); only embedded "
+                                "data is read here")
+            target = Path(unquote(uri))
+            if "://" in uri or target.is_absolute() or uri.startswith(("/", "\\")):
+                raise GltfError(f"{section} URI must be a relative file name: {uri!r}")
+            inside = (root or base).resolve()
+            full = (base / target).resolve()
+            if not full.is_relative_to(inside):
+                raise GltfError(f"{section} URI leaves the scene's folder: {uri!r}")
+            if section == "buffers":
+                files.append(full)
+    for entry in document.get("buffers", []):
+        size = entry.get("byteLength", 0)
+        if not isinstance(size, int) or size < 0:
+            raise GltfError("a buffer's byteLength is not a whole number")
+    return files
+
+
+def geometry_only(document: dict) -> dict:
+    """The document without :data:`UNUSED` parts and the references to them."""
+    out = {k: v for k, v in document.items() if k not in UNUSED}
+    meshes = []
+    for mesh in out.get("meshes", []) or []:
+        if isinstance(mesh, dict) and isinstance(mesh.get("primitives"), list):
+            mesh = {**mesh, "primitives": [
+                {k: v for k, v in p.items() if k != "material"} if isinstance(p, dict) else p
+                for p in mesh["primitives"]]}
+        meshes.append(mesh)
+    if meshes:
+        out["meshes"] = meshes
+    return out
+
+
+def join_glb(document: dict, binary: bytes) -> bytes:
+    """A GLB of ``document`` and ``binary`` (the inverse of :func:`split_glb`)."""
+    text = json.dumps(document, separators=(",", ":")).encode()
+    text += b" " * (-len(text) % 4)
+    chunks = struct.pack("<II", len(text), CHUNK_JSON) + text
+    if binary:
+        binary += b"\0" * (-len(binary) % 4)
+        chunks += struct.pack("<II", len(binary), CHUNK_BIN) + binary
+    return GLB_MAGIC + struct.pack("<II", 2, 12 + len(chunks)) + chunks
+
+
+def safe_glb(data: bytes, base: Path | None = None, root: Path | None = None) -> bytes:
+    """GLB bytes ready for trimesh: URIs checked (see :func:`check_uris`), unused parts out."""
+    document, binary = split_glb(data)
+    check_uris(document, base, root)
+    return join_glb(geometry_only(document), binary)
+
+
+def safe_gltf(data: bytes, base: Path, root: Path) -> tuple[bytes, list[Path]]:
+    """A .gltf's JSON ready for trimesh, its URIs checked as for :func:`safe_glb`, and the
+    buffer files it will read."""
+    document = _parse_json(data)
+    files = check_uris(document, base, root)
+    return json.dumps(geometry_only(document)).encode(), files
