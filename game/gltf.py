@@ -132,6 +132,47 @@ def check_uris(document: dict, base: Path | None = None, root: Path | None = Non
     return files
 
 
+def check_accessors(document: dict, binary_length: int | None = None) -> None:
+    """Every accessor must fit in its buffer view and every view in its buffer, so that no
+    declared count makes a reader allocate more than the file holds."""
+    sizes = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
+    component = {5120: 1, 5121: 1, 5122: 2, 5123: 2, 5125: 4, 5126: 4}
+    buffers = document.get("buffers", [])
+    views = document.get("bufferViews", [])
+    if not isinstance(views, list) or not isinstance(buffers, list):
+        raise GltfError("'bufferViews' or 'buffers' is not a list")
+    for view in views:
+        if not isinstance(view, dict) or not isinstance(view.get("buffer"), int):
+            raise GltfError("a buffer view names no buffer")
+        index, length = view["buffer"], view.get("byteLength")
+        offset = view.get("byteOffset", 0)
+        if not (0 <= index < len(buffers)) or not isinstance(length, int) \
+                or not isinstance(offset, int) or length < 0 or offset < 0:
+            raise GltfError("a buffer view is not whole numbers inside its buffer")
+        declared = buffers[index].get("byteLength", 0) if isinstance(buffers[index], dict) else 0
+        if index == 0 and binary_length is not None and "uri" not in buffers[index]:
+            declared = min(declared, binary_length)
+        if offset + length > declared:
+            raise GltfError("a buffer view runs past the end of its buffer")
+    for accessor in document.get("accessors", []) or []:
+        if not isinstance(accessor, dict):
+            raise GltfError("an accessor is not an object")
+        count = accessor.get("count")
+        width = sizes.get(accessor.get("type")), component.get(accessor.get("componentType"))
+        if not isinstance(count, int) or count < 0 or None in width:
+            raise GltfError("an accessor has no valid count, type or component type")
+        view = accessor.get("bufferView")
+        if view is None:
+            continue
+        if not isinstance(view, int) or not 0 <= view < len(views):
+            raise GltfError("an accessor names a buffer view that does not exist")
+        stride = views[view].get("byteStride") or width[0] * width[1]
+        need = accessor.get("byteOffset", 0) + max(count - 1, 0) * stride + width[0] * width[1]
+        if count and need > views[view]["byteLength"]:
+            raise GltfError(f"an accessor declares {count:,} elements, more than its buffer "
+                            "view holds")
+
+
 def geometry_only(document: dict) -> dict:
     """The document without :data:`UNUSED` parts and the references to them."""
     out = {k: v for k, v in document.items() if k not in UNUSED}
@@ -162,6 +203,7 @@ def safe_glb(data: bytes, base: Path | None = None, root: Path | None = None) ->
     """GLB bytes ready for trimesh: URIs checked (see :func:`check_uris`), unused parts out."""
     document, binary = split_glb(data)
     check_uris(document, base, root)
+    check_accessors(document, len(binary))
     return join_glb(geometry_only(document), binary)
 
 

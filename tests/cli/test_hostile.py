@@ -365,3 +365,58 @@ def test_a_key_with_an_escape_sequence_is_escaped(capsys, tmp_path):
     text = TINY.replace("fov      = 60.0", 'fov      = 60.0\n"\\u001b[2Jevil" = 1')
     message = expect_scene_error(capsys, tmp_path, text, None, "camera.")
     assert "\x1b" not in message and "\\x1b" in message
+
+
+# -- more bombs and damaged files ------------------------------------------------------------
+
+def test_a_glb_accessor_declaring_more_than_its_buffer_holds(capsys, tmp_path):
+    folder = tmp_path / "scene"
+    folder.mkdir()
+    huge = {"accessors": [
+        {"bufferView": 0, "componentType": 5126, "count": 10**9, "type": "VEC3"},
+        {"bufferView": 1, "componentType": 5125, "count": 3, "type": "SCALAR"}]}
+    (folder / "level.glb").write_bytes(glb_with(huge))
+    expect_scene_error(capsys, folder, mesh_scene(folder, "level.glb"), None, "static[2].file",
+                       "1,000,000,000 elements")
+
+
+def test_a_glb_whose_json_nests_too_deep(capsys, tmp_path):
+    folder = tmp_path / "scene"
+    folder.mkdir()
+    deep: dict = {}
+    for _ in range(200):
+        deep = {"x": deep}
+    (folder / "level.glb").write_bytes(glb_with({"extras": deep}))
+    expect_scene_error(capsys, folder, mesh_scene(folder, "level.glb"), None, "static[2].file",
+                       "nests deeper")
+
+
+def test_a_full_disk_is_one_line_and_leaves_no_temp_file(capsys, tmp_path, monkeypatch):
+    import errno
+
+    def full(src, dst):
+        raise OSError(errno.ENOSPC, "No space left on device", str(dst))
+
+    monkeypatch.setattr(os, "replace", full)
+    code, lines = run_main(capsys, "capture", TINY_PATH, "--size", "16x9", "--out", tmp_path / "o")
+    assert code == 1 and len(lines) == 1 and "No space left on device" in lines[0], lines
+    assert lines[0].startswith("error: ")
+    assert not list((tmp_path / "o").iterdir())
+
+
+def test_a_damaged_bench_csv_is_refused_and_a_cut_row_is_measured_again(capsys, tmp_path):
+    from game.bench.rows import read_rows
+    from game.bench.runs import COLUMNS
+
+    out = tmp_path / "b"
+    out.mkdir()
+    (out / "bench.csv").write_text("a,b\n1,2\n")
+    code, lines = run_main(capsys, "bench", "--out", out, "--scenes", "default", "--methods",
+                           "single", "--no-progress")
+    assert code == 1 and len(lines) == 1 and "not a bench CSV" in lines[0], lines
+    whole = dict.fromkeys(COLUMNS, "1")
+    whole.update(run="default|single|defaults|320x180", status="ok")
+    header = ",".join(COLUMNS)
+    (out / "bench.csv").write_text(header + "\n" + ",".join(whole[c] for c in COLUMNS) + "\n"
+                                   + "default|csm|defaults|320x180,default,main\n")
+    assert [r["run"] for r in read_rows(out / "bench.csv")] == ["default|single|defaults|320x180"]
