@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from game.app import frame_log, headless, interrupts
+from game.app import headless
 from game.gpu import context
 from game.render.renderer import Frame, Renderer, View
 from game.scene import Scene, floors
@@ -54,18 +54,15 @@ def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
     renderer.debug_view = opts.debug_view
     hud = _overlay() if opts.overlay else None
     view = View.from_camera(scene.camera, opts.size)
-    frames = frame_log.FrameLog()  # on disk: a long run's memory stays flat
+
+    def render(t: float) -> Frame:
+        frame = renderer.render(t, view, soft=opts.soft)
+        if hud is not None:
+            frame.image = hud.draw_over_frame(renderer, frame, 1.0 / opts.fps)
+        return frame
+
     try:
-        with interrupts.caught() as interrupted:
-            for k in range(opts.frames):
-                interrupts.check()
-                t = opts.frame_time(k)
-                frame = renderer.render(t, view, soft=opts.soft)
-                if hud is not None:
-                    frame.image = hud.draw_over_frame(renderer, frame, 1.0 / opts.fps)
-                with interrupts.deferred():  # the frame's files and its stats entry, or none
-                    opts.write_frame(k, t, frame, scene, view)
-                    frames.append(frame_stats(k, t, frame))
+        frames, interrupted = opts.run_frames(scene, view, render, frame_stats)
         stats = {
             **context.describe(ctx), "clock": renderer.timer.clock,
             "scene": str(scene.source) if scene.source else scene.name,
@@ -80,7 +77,7 @@ def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
                 range(renderer.geom.first_static, renderer.geom.first_character)),
             "characters": renderer.geom.n_characters,
             "notes": renderer.notes + floors.floor_warnings(scene),
-            "interrupted": interrupted.happened,
+            "interrupted": interrupted,
             "frames": frames,
         }
     finally:

@@ -3,10 +3,11 @@ ends (its stats file, and Ctrl-C)."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from game.app import dumps, outputs
+from game.app import dumps, frame_log, interrupts, outputs
 from game.gpu import resources
 from game.render.renderer import Frame, View
 from game.scene import Scene
@@ -54,6 +55,23 @@ class HeadlessRun:
             outputs.write_png(stem.with_suffix(".png"), frame.image)
             if self.dump:
                 dumps.write_dump(stem, scene, view, self.size, t, frame)
+
+    def run_frames(self, scene: Scene, view: View, render: Callable[[float], Frame],
+                   entry: Callable[[int, float, Frame], dict]) -> tuple[frame_log.FrameLog, bool]:
+        """Render and write every frame: ``render(t)`` makes the frame at scene time t,
+        ``entry(k, t, frame)`` its stats entry. Ctrl-C ends the loop after the frame being
+        written (its files and its entry are kept whole). Returns the entries, kept on disk so
+        that a long run's memory stays flat, and whether Ctrl-C ended the loop."""
+        frames = frame_log.FrameLog()
+        with interrupts.caught() as interrupted:
+            for k in range(self.frames):
+                interrupts.check()
+                t = self.frame_time(k)
+                frame = render(t)
+                with interrupts.deferred():
+                    self.write_frame(k, t, frame, scene, view)
+                    frames.append(entry(k, t, frame))
+        return frames, interrupted.happened
 
     def finish(self, stats: dict, frames) -> None:
         """Write the stats file (``frames``: a FrameLog), then re-raise an interrupt the run

@@ -11,7 +11,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from game.app import frame_log, headless, interrupts
+from game.app import headless
 from game.errors import GameError
 from game.gpu import context
 from game.render.renderer import Frame, Renderer, View
@@ -50,16 +50,10 @@ def run(ctx, scene: Scene, opts: TraceOptions) -> dict:
     opts.prepare()
     renderer = Renderer(ctx, scene, opts.size, gbuffer=True, clock=opts.clock)
     view = View.from_camera(scene.camera, opts.size)
-    frames = frame_log.FrameLog()
     try:
-        with interrupts.caught() as interrupted:
-            for k in range(opts.frames):
-                interrupts.check()
-                t = opts.frame_time(k)
-                frame = renderer.render(t, view, soft=opts.settings)
-                with interrupts.deferred():  # the frame's files and its stats entry, or none
-                    opts.write_frame(k, t, frame, scene, view)
-                    frames.append(frame_stats(k, t, frame, frame.soft))
+        frames, interrupted = opts.run_frames(
+            scene, view, lambda t: renderer.render(t, view, soft=opts.settings),
+            lambda k, t, frame: frame_stats(k, t, frame, frame.soft))
         tracer = renderer.soft_tracer
         spec = tracer.grid.spec
         counts = tracer.grid.static.counts()
@@ -79,7 +73,7 @@ def run(ctx, scene: Scene, opts: TraceOptions) -> dict:
             "memory_bytes": {**tracer.memory_bytes(),
                              "voxel_cache_per_point": opts.settings.voxel_cache_bytes_per_point},
             "counters": list(COUNTERS),
-            "interrupted": interrupted.happened,
+            "interrupted": interrupted,
             "frames": frames,
         }
     finally:

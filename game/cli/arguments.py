@@ -119,21 +119,6 @@ MAX_SCENE_TIME = 1e9
 FPS_RANGE = (1e-3, 1e6)
 
 
-def scene_time(text: str) -> float:
-    value = finite(text)
-    if abs(value) > MAX_SCENE_TIME:
-        raise argparse.ArgumentTypeError(f"must be within +-{MAX_SCENE_TIME:g} s, got {text!r}")
-    return value
-
-
-def frame_rate(text: str) -> float:
-    value = finite(text)
-    if not FPS_RANGE[0] <= value <= FPS_RANGE[1]:
-        raise argparse.ArgumentTypeError(f"must be {FPS_RANGE[0]:g}..{FPS_RANGE[1]:g}, got "
-                                         f"{text!r}")
-    return value
-
-
 def at_most(most: float, kind=positive_int):
     """A ``kind`` value (positive_int or positive) no larger than ``most``."""
     def parse(text: str):
@@ -159,11 +144,26 @@ def non_negative(text: str) -> float:
     return value
 
 
+def in_range(low: float, high: float):
+    """A finite number from ``low`` to ``high``."""
+    def parse(text: str) -> float:
+        value = finite(text)
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"must be {low:g}..{high:g}, got {text!r}")
+        return value
+    parse.__name__ = "number"  # argparse names the type in its messages
+    return parse
+
+
 def unit(text: str) -> float:
     value = finite(text)
     if not 0.0 <= value <= 1.0:
         raise argparse.ArgumentTypeError(f"must be in [0, 1], got {text!r}")
     return value
+
+
+scene_time = in_range(-MAX_SCENE_TIME, MAX_SCENE_TIME)
+frame_rate = in_range(*FPS_RANGE)
 
 
 def _add_method_option(parser) -> None:
@@ -224,11 +224,7 @@ def shadow_settings(args) -> ShadowSettings:
         cascade_resolution=args.cascade_resolution)
 
 
-def render_scale(text: str) -> float:
-    value = finite(text)
-    if not 0.25 <= value <= 1.0:
-        raise argparse.ArgumentTypeError(f"must be 0.25..1, got {text!r}")
-    return value
+render_scale = in_range(0.25, 1.0)
 
 
 def _add_play_parser(sub) -> None:
