@@ -111,7 +111,7 @@ def _plain(value: float) -> str:
     return f"{value:g}"
 
 
-def _plain_log_ticks(axis) -> None:
+def plain_log_ticks(axis) -> None:
     """Plain numbers on a log axis (20, 50, 100 rather than 2x10^1), at least two of them in view
     even where the axis spans less than a decade."""
     from matplotlib.ticker import FuncFormatter, Locator, LogLocator, MaxNLocator, NullFormatter
@@ -165,7 +165,7 @@ def pareto_figure(plt, rows: list[dict], scene: str) -> Figure | None:
     for m, c in COLOURS.items():
         ax.scatter([], [], color=c, marker=MARKERS[m], label=m)
     ax.set_xscale("log")
-    _plain_log_ticks(ax.xaxis)
+    plain_log_ticks(ax.xaxis)
     ax.set_xlabel("per-frame total, ms (median after warm-up, log scale)")
     ax.set_ylabel(ERROR_LABEL)
     ax.set_title(f"{scene} at {_size(pts)}: shadow error against per-frame cost\n"
@@ -257,8 +257,8 @@ def scaling_figure(plt, rows: list[dict], axis: str) -> Figure | None:
                 label=f"{m} {town}".strip())
     ax.set_xscale("log")
     ax.set_yscale("log")
-    _plain_log_ticks(ax.xaxis)
-    _plain_log_ticks(ax.yaxis)
+    plain_log_ticks(ax.xaxis)
+    plain_log_ticks(ax.yaxis)
     ax.set_xlabel(label)
     ax.set_ylabel("per-frame total, ms (median, log scale)")
     ax.set_title(f"per-frame cost against {what}\nmethods at defaults, {_size(picked)}",
@@ -325,7 +325,7 @@ def stability_figure(plt, rows: list[dict], factor: str) -> Figure | None:
                        marker="x", color=COLOURS[m], s=80, label=f"{m} failed")
     if factor == "scale":
         ax.set_xscale("log")
-        _plain_log_ticks(ax.xaxis)
+        plain_log_ticks(ax.xaxis)
     if not numeric:
         ax.set_xticks(list(pos.values()), [f"{v:g}" for v in values])
     ax.set_xlabel(f"{what}, {unit}" if unit else what)

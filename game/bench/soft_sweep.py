@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from game.app import dumps, outputs
+from game.bench.charts import plain_log_ticks
 from game.errors import GameError
 from game.gpu import context
 from game.reference import soft as sr
@@ -161,10 +162,14 @@ def write_chart(path: Path, rows: list[dict], header: dict) -> None:
                     label="analytic (exact)")
     ax.set_xscale("log")
     ax.set_yscale("log")
+    plain_log_ticks(ax.xaxis)
+    plain_log_ticks(ax.yaxis)
     ax.set_xlabel("ms per frame (trace pass; Embree: query time)")
     ax.set_ylabel(f"RMSE vs {header['reference_samples']} stratified Embree samples")
-    ax.set_title(f"{Path(header['scene']).name}, {header['size'][0]}x{header['size'][1]}, "
-                 f"{header['renderer']}", fontsize=9)
+    counts = ", ".join(str(n) for n in sorted({r["samples"] for r in rows if r["samples"]}))
+    ax.set_title(f"soft shadows of {Path(header['scene']).name} at {header['size'][0]}x"
+                 f"{header['size'][1]}: error against trace time, each method at N = {counts}"
+                 f"\n{header['renderer']}, clock {header['clock']}", fontsize=9)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
@@ -204,11 +209,13 @@ def write_counter_chart(path: Path, rows: list[dict], header: dict) -> None:
                        label="one point-light ray (grid, N=1)")
         ax.set_xscale("log", base=2)
         ax.set_yscale("log")
+        plain_log_ticks(ax.yaxis)
         ax.set_xlabel("samples N along the segment")
         ax.set_ylabel(label)
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=7)
-    fig.suptitle(f"{Path(header['scene']).name}, {header['size'][0]}x{header['size'][1]}, "
+    fig.suptitle(f"soft shadows of {Path(header['scene']).name} at {header['size'][0]}x"
+                 f"{header['size'][1]}: work per shaded point against samples, per method\n"
                  f"{header['renderer']}", fontsize=9)
     fig.tight_layout()
     outputs.write_figure(path, fig)
