@@ -40,8 +40,9 @@ FACTORS = {"elevation": ("light elevation", "degrees"), "scale": ("scene scale",
            "thin": ("caster thickness", "metres"), "raised-floor": ("floor height", "metres"),
            "maps": ("characters, one map each", "")}
 # How a point's label shows a parameter (clump counts aside): the label must fit beside the point.
-SHORT = {"clumping": "{}", "clump_resolution": "res {}", "character_resolution": "char res {}",
-         "single_resolution": "{}", "cascades": "{} cascades", "cascade_lambda": "lambda {}",
+SHORT = {"clumping": "{}", "clump_resolution": "clump res {}",
+         "character_resolution": "char res {}", "single_resolution": "{}",
+         "cascades": "{} cascades", "cascade_lambda": "lambda {}",
          "cascade_resolution": "res {}", "texels_per_metre": "{} texels/m",
          "rerender_static": "rerender"}
 
@@ -354,9 +355,11 @@ def _stability_bars(plt, picked: list[dict], factor: str, what: str, unit: str,
         notes.append(f"{heights[-1]:.2f}%" if good else "failed" if failed else "not measured")
     bars = ax.bar(range(len(methods)), heights, color=[COLOURS.get(m, "k") for m in methods])
     ax.bar_label(bars, notes, fontsize=7, padding=2)
-    ax.set_xticks(range(len(methods)), methods)
+    # A method run with other parameters than its defaults says which on its tick.
+    ticks = [next((_label(r) for r in picked if r["method"] == m), m) for m in methods]
+    ax.set_xticks(range(len(methods)), ticks, fontsize=8)
     ax.set_ylim(0, 1.15 * max(heights + [1.0]))
-    ax.set_xlabel("method (at defaults)")
+    ax.set_xlabel("method (at its defaults unless named)")
     ax.set_ylabel(ERROR_LABEL)
     ax.set_title(f"stability, {factor}: shadow error of each method\n{what} = {value:g}"
                  f"{' ' + unit if unit else ''}, {_size(picked)}", fontsize=10)
