@@ -20,6 +20,8 @@ CHUNK_JSON = 0x4E4F534A
 CHUNK_BIN = 0x004E4942
 MAX_JSON_BYTES = 64 * 2**20      # a glTF's JSON part; real ones are far smaller
 MAX_JSON_DEPTH = 64              # nesting of the JSON, so the parser cannot recurse too deep
+# An accessor with no buffer view is all zeros, which the reader allocates: at most this much.
+MAX_ZERO_ACCESSOR_BYTES = 64 * 2**20
 # Parts that trimesh would decode or resolve but that the geometry does not need.
 UNUSED = ("images", "textures", "samplers", "materials")
 
@@ -154,7 +156,10 @@ def check_accessors(document: dict, binary_length: int | None = None) -> None:
             declared = min(declared, binary_length)
         if offset + length > declared:
             raise GltfError("a buffer view runs past the end of its buffer")
-    for accessor in document.get("accessors", []) or []:
+    accessors = document.get("accessors", [])
+    if not isinstance(accessors, list):
+        raise GltfError("'accessors' is not a list")
+    for accessor in accessors:
         if not isinstance(accessor, dict):
             raise GltfError("an accessor is not an object")
         count = accessor.get("count")
@@ -162,12 +167,19 @@ def check_accessors(document: dict, binary_length: int | None = None) -> None:
         if not isinstance(count, int) or count < 0 or None in width:
             raise GltfError("an accessor has no valid count, type or component type")
         view = accessor.get("bufferView")
-        if view is None:
+        if view is None:  # all zeros, made by the reader: bound what it would allocate
+            if count * width[0] * width[1] > MAX_ZERO_ACCESSOR_BYTES:
+                raise GltfError(f"an accessor without data declares {count:,} elements")
             continue
         if not isinstance(view, int) or not 0 <= view < len(views):
             raise GltfError("an accessor names a buffer view that does not exist")
         stride = views[view].get("byteStride") or width[0] * width[1]
-        need = accessor.get("byteOffset", 0) + max(count - 1, 0) * stride + width[0] * width[1]
+        offset = accessor.get("byteOffset", 0)
+        if not (isinstance(stride, int) and stride > 0 and isinstance(offset, int)
+                and offset >= 0):
+            raise GltfError("an accessor's byteOffset or its view's byteStride is not a whole "
+                            "number")
+        need = offset + max(count - 1, 0) * stride + width[0] * width[1]
         if count and need > views[view]["byteLength"]:
             raise GltfError(f"an accessor declares {count:,} elements, more than its buffer "
                             "view holds")
@@ -199,17 +211,26 @@ def join_glb(document: dict, binary: bytes) -> bytes:
     return GLB_MAGIC + struct.pack("<II", 2, 12 + len(chunks)) + chunks
 
 
+def _checked(check, *args):
+    """Run a check; a field of the wrong type anywhere is one GltfError, not a TypeError."""
+    try:
+        return check(*args)
+    except (TypeError, KeyError, AttributeError, IndexError, OverflowError) as error:
+        raise GltfError(f"malformed glTF fields ({type(error).__name__}: {error})") from None
+
+
 def safe_glb(data: bytes, base: Path | None = None, root: Path | None = None) -> bytes:
     """GLB bytes ready for trimesh: URIs checked (see :func:`check_uris`), unused parts out."""
     document, binary = split_glb(data)
-    check_uris(document, base, root)
-    check_accessors(document, len(binary))
-    return join_glb(geometry_only(document), binary)
+    _checked(check_uris, document, base, root)
+    _checked(check_accessors, document, len(binary))
+    return join_glb(_checked(geometry_only, document), binary)
 
 
 def safe_gltf(data: bytes, base: Path, root: Path) -> tuple[bytes, list[Path]]:
     """A .gltf's JSON ready for trimesh, its URIs checked as for :func:`safe_glb`, and the
     buffer files it will read."""
     document = _parse_json(data)
-    files = check_uris(document, base, root)
-    return json.dumps(geometry_only(document)).encode(), files
+    files = _checked(check_uris, document, base, root)
+    _checked(check_accessors, document)
+    return json.dumps(_checked(geometry_only, document)).encode(), files

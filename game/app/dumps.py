@@ -38,6 +38,8 @@ def write_dump(stem: Path, scene: Scene, view: View, size: tuple[int, int], t: f
         # Which scene made the frame, so that verify scores it against that scene's light.
         "scene": np.array(str(scene.source) if scene.source else scene.name),
         "scene_sha256": np.array(scene.sha256),
+        # The same file from any folder: verify may run elsewhere than the capture did.
+        "scene_path": np.array(str(scene.source.resolve()) if scene.source else ""),
     }
     if "soft" in g:  # the linear light's traced visibility (trace, capture --soft)
         arrays["soft"] = g["soft"]

@@ -61,10 +61,11 @@ def install() -> None:
     """Take over SIGINT where Python's default handler has it, and SIGTERM and SIGHUP where
     they are at their defaults (not where they are ignored, as for background jobs or under
     nohup; and only from the main thread, where handlers can be set)."""
-    global _finished
+    global _finished, _pending, _signal, _deferring
     if threading.current_thread() is not threading.main_thread():
         return
-    _finished = False
+    # A new run: nothing of an earlier one in this process is pending.
+    _finished, _pending, _signal, _deferring = False, False, signal.SIGINT, 0
     if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
         signal.signal(signal.SIGINT, _on_signal)
     for sig in STOP_SIGNALS:

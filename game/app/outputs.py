@@ -5,6 +5,7 @@ An interrupted run therefore never leaves a truncated frame, dump or stats file 
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 import re
@@ -107,8 +108,19 @@ def atomic_file(path: str | Path):
     if mode is not None and not stat.S_ISREG(mode):
         if not (stat.S_ISCHR(mode) or stat.S_ISFIFO(mode)):
             raise IsADirectoryError(f"{path}: not a regular file")
-        with interrupts.deferred(), path.open("wb") as f:
-            yield f
+        # Opened without waiting: a FIFO nobody reads would otherwise block the run for good,
+        # deaf to Ctrl-C (the open is retried after each signal).
+        try:
+            fd = os.open(path, os.O_WRONLY | os.O_NONBLOCK)
+        except OSError as error:
+            reason = "a pipe with no reader" if error.errno == errno.ENXIO else error.strerror
+            raise OSError(error.errno, reason, str(path)) from None
+        os.set_blocking(fd, True)
+        try:
+            with interrupts.deferred(), os.fdopen(fd, "wb") as f:
+                yield f
+        except OSError as error:
+            raise OSError(error.errno, error.strerror, str(path)) from None
         return
     # The temp name is chosen before the file exists, so an interrupt that lands anywhere after
     # this line (even inside the open) still finds the name to remove. Ctrl-C itself waits for

@@ -240,7 +240,8 @@ def run_one(ctx, bscene: BenchScene, scene: Scene, spec: RunSpec, opts: BenchOpt
     """
     start = time.perf_counter()
     s = spec.settings()
-    row: dict = {"run": spec.run_id(opts.size), "scene": bscene.key, "group": bscene.group,
+    row: dict = {"run": spec.run_id(opts.size), "scene": bscene.key,
+                 "scene_sha256": bscene.sha256, "group": bscene.group,
                  "factor": bscene.factor, "value": bscene.value, "method": spec.method,
                  **{k: getattr(s, k) for k in PARAM_KEYS}, RERENDER: spec.rerender,
                  "width": opts.size[0], "height": opts.size[1], "frames": opts.frames,

@@ -36,11 +36,16 @@ def run(opts: BenchOptions, ctx=None) -> dict:
     clean(opts.out)
     csv_path = opts.out / "bench.csv"
     rows = read_rows(csv_path)
-    done = {r["run"] for r in rows}
     own = ctx is None
     ctx = context.create_headless() if own else ctx
     try:
         runs = plan_runs(opts, int(ctx.info["GL_MAX_TEXTURE_SIZE"]))
+        # A row of a scene whose text has changed since (or another file of the same name) is
+        # measured again, not kept.
+        current = {b.key: b.sha256 for b, _ in runs}
+        rows = [r for r in rows if r.get("scene_sha256") in ("", None)
+                or r["scene_sha256"] == current.get(r["scene"], r["scene_sha256"])]
+        done = {r["run"] for r in rows}
         todo = [(b, s) for b, s in runs if s.run_id(opts.size) not in done]
         opts.log(f"bench: {len(runs)} runs, {len(runs) - len(todo)} already in {csv_path}, "
                  f"{len(todo)} to go ({context.describe(ctx)['renderer']})")

@@ -6,6 +6,7 @@ list :func:`plan_runs` makes from the options.
 
 from __future__ import annotations
 
+import hashlib
 import math
 import sys
 from collections.abc import Callable, Iterable
@@ -32,7 +33,8 @@ RERENDER = "rerender_static"
 # (4096^2) in 1 to 64 maps, so what grows with the count is the per-map cost.
 SWITCH_SERIES = ((1, 4096), (4, 2048), (16, 1024), (64, 512))
 COLUMNS = (
-    ["run", "scene", "group", "factor", "value", "method", *PARAM_KEYS, RERENDER, "width",
+    ["run", "scene", "scene_sha256", "group", "factor", "value", "method", *PARAM_KEYS, RERENDER,
+     "width",
      "height",
      "frames", "warmup", "renderer", "version", "clock", "static_triangles", "characters"]
     + [f"{p}_ms_{stat}" for p in PASSES for stat in ("median", "p95", "min")]
@@ -61,6 +63,11 @@ class BenchScene:
     value: float = 0.0
     accuracy_expected: bool = True
     path: Path | None = None  # a user's scene file (group "user"), loaded where it lies
+
+    @property
+    def sha256(self) -> str:
+        """Of the scene's text: rows of another text under the same key are measured again."""
+        return hashlib.sha256(self.text.encode("utf-8")).hexdigest()
 
 
 @dataclass(frozen=True)
@@ -192,7 +199,10 @@ def parse_param(text: str) -> tuple[str, tuple]:
             raise ValueError(f"{key}: {v!r} is not one of {', '.join(clumping.STRATEGIES)}")
         if kind is not str and not (math.isfinite(value) and value > 0):
             raise ValueError(f"{key}: must be positive, got {v!r}")
-        out.append(value)
+        if key == "cascade_lambda" and value > 1:
+            raise ValueError(f"{key}: must be 0..1, got {v!r}")
+        if value not in out:
+            out.append(value)
     return key, tuple(out)
 
 
@@ -204,7 +214,7 @@ def param_grid(key: str, methods: Iterable[str], params: dict[str, tuple]) -> li
         for m in methods:
             if name in registry.METHODS[m].parameters:
                 specs += [RunSpec(key, m, _p(**{name: v})) for v in values]
-    return specs
+    return list(dict.fromkeys(specs))  # one run per run id, in order
 
 
 def _p(**kw) -> tuple[tuple[str, object], ...]:

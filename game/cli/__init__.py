@@ -8,6 +8,7 @@ internal error. The top of the package: it may import every other layer.
 
 from __future__ import annotations
 
+import logging
 import os
 import sys
 import warnings
@@ -23,8 +24,18 @@ def _one_line_warning(message, category, filename, lineno, file=None, line=None)
     _say(f"warning: {message}")
 
 
+class _OneLineLog(logging.Handler):
+    """Library log records (trimesh's) as one escaped ``warning:`` line each."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        _say(f"warning: {' '.join(record.getMessage().split())}")
+
+
 def main(argv: list[str] | None = None) -> int:
     warnings.showwarning = _one_line_warning
+    log = logging.getLogger("trimesh")
+    log.handlers[:] = [_OneLineLog(logging.WARNING)]
+    log.propagate = False
     interrupts.install()
     try:
         return _run(argv)

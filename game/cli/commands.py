@@ -113,7 +113,11 @@ def cmd_bench(args) -> int:
             key, swept = runs.parse_param(text)
         except ValueError as exc:
             raise ArgumentError(f"--param {exc}") from None
-        params[key] = params.get(key, ()) + swept
+        params[key] = tuple(dict.fromkeys(params.get(key, ()) + swept))
+        readers = [m for m in methods or registry.MAP_METHODS
+                   if key in registry.METHODS[m].parameters]
+        if not readers:
+            raise ArgumentError(f"--param {key}: no selected method reads it")
     opts = runs.BenchOptions(
         out=args.out, quick=quick, size=args.size, repeat=args.repeat,
         scenes=patterns or None, user_scenes=files, methods=methods, params=params,
@@ -272,6 +276,9 @@ def cmd_verify(args) -> int:
                 f"{MIN_NDOTL})")
     except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile) as exc:
         raise GameError(f"{args.dumps}: cannot read the dumps ({exc})") from None
+    except MemoryError:
+        raise GameError(f"{args.dumps}: the dumps are too large for this machine's memory") \
+            from None
     except RuntimeError as exc:  # Embree missing
         raise GameError(str(exc)) from None
     if args.out is not None:
@@ -286,29 +293,35 @@ def _scene_of_dumps(folder: Path, frames: list[Path], scene_arg: str | None):
     dumps record (read again, and checked against the recorded hash)."""
     from game.reference.score import recorded_scene
 
-    recorded = {recorded_scene(npz) for npz in frames}
+    records = [recorded_scene(npz) for npz in frames]
+    recorded = {r[:2] for r in records if r is not None}
     if len(recorded) > 1:
         raise GameError(f"{folder}: the dumps come from {len(recorded)} different scenes; "
                         "verify one capture at a time")
-    record = recorded.pop()
+    unrecorded = sum(r is None for r in records)
     if scene_arg is not None:
         scene = _load(scene_arg)
-        if record is not None and record[1] != scene.sha256:
+        if recorded and next(iter(recorded))[1] != scene.sha256:
+            name, sha = next(iter(recorded))
             raise GameError(f"{scene_arg}: not the scene these dumps were captured from (they "
-                            f"record {record[0]!r} with sha256 {record[1][:12]}...)")
+                            f"record {name!r} with sha256 {sha[:12]}...)")
         return scene
-    if record is None:
-        raise GameError(f"{folder}: the dumps do not record their scene; name it: "
-                        f"python -m game verify {folder} SCENE")
-    path = Path(record[0])
-    if not path.is_file():
-        raise GameError(f"{folder}: the recorded scene {record[0]!r} is not found from here; "
+    if unrecorded:
+        raise GameError(f"{folder}: {unrecorded} of the dumps do not record their scene; name "
+                        f"it: python -m game verify {folder} SCENE")
+    name, sha, absolute = next(r for r in records if r is not None)
+    candidates = [Path(p) for p in (absolute, name) if p]
+    found = [p for p in candidates if p.is_file()]
+    if not found:
+        raise GameError(f"{folder}: the recorded scene {name!r} is not found from here; "
                         f"name it: python -m game verify {folder} SCENE")
-    scene = _load(str(path))
-    if scene.sha256 != record[1]:
-        raise GameError(f"{record[0]}: has changed since the capture (its sha256 is not the one "
-                        "the dumps record); name the scene that was captured")
-    return scene
+    for path in found:
+        scene = _load(str(path))
+        if scene.sha256 == sha:
+            return scene
+    raise GameError(f"{found[0]}: not the file these dumps were captured from (its sha256 "
+                    "differs from the recorded one: changed since, or another file); name the "
+                    "scene that was captured")
 
 
 def cmd_default() -> int:

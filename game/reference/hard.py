@@ -36,6 +36,7 @@ RAY_OFFSET_DISTANCE = 1e-5
 MAX_DUMP_SIDE = 16384
 MAX_LAYERS_PER_PIXEL = 16
 MAX_SMALL_BYTES = 64 * 2**20
+MAX_DUMP_BYTES = 4 * 2**30   # all arrays together: an 8192x8192 dump is 1.6 GiB
 
 # Pixels whose N.L is at or below this are left out of the error: at grazing angles the shadow
 # boundary is ill-posed for every method, shadow maps and ray casts alike.
@@ -147,11 +148,19 @@ def _check_declared_sizes(data) -> None:
     if not (1 <= w <= MAX_DUMP_SIDE and 1 <= h <= MAX_DUMP_SIDE):
         raise ValueError(f"'size' {w}x{h} is not a frame size (1..{MAX_DUMP_SIDE} per side)")
     limit = max(MAX_LAYERS_PER_PIXEL * 8 * w * h, MAX_SMALL_BYTES)
+    total = 0.0
     for key in data.files:
         shape, dtype = _declared(data, key)
-        if float(np.prod(shape, dtype=np.float64)) * dtype.itemsize > limit:
-            raise ValueError(f"array {key!r} declares {shape} of {dtype}, more than a "
+        size = float(np.prod(shape, dtype=np.float64)) * dtype.itemsize
+        expected = {"position": (h, w, 3), "normal": (h, w, 3), "lit": (h, w),
+                    "object": (h, w), "soft": (h, w)}.get(key)
+        if size > limit or (expected is not None and shape != expected):
+            raise ValueError(f"array {key!r} declares {shape} of {dtype}, not what a "
                              f"{w}x{h} frame holds")
+        total += size
+    if total > MAX_DUMP_BYTES:
+        raise ValueError(f"its arrays declare {total / 2**30:.1f} GiB, more than the "
+                         f"{MAX_DUMP_BYTES / 2**30:.0f} GiB a dump may hold")
 
 
 def load_geometry(glb_path: str | Path, skip_prefixes: tuple[str, ...] = ()) -> trimesh.Trimesh:

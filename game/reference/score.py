@@ -34,9 +34,11 @@ def score_dump(npz_path: str | Path, light) -> dict[str, Any]:
     return score_frame(frame["lit"], frame["position"], frame["normal"], occluders, light)
 
 
-def recorded_scene(npz_path: str | Path) -> tuple[str, str] | None:
-    """The ``(scene, scene_sha256)`` a dump records, or None for a dump that records none."""
+def recorded_scene(npz_path: str | Path) -> tuple[str, str, str] | None:
+    """The ``(scene, scene_sha256, scene_path)`` a dump records (``scene_path``: the file's
+    absolute path, or ""), or None for a dump that records none."""
     with np.load(npz_path, allow_pickle=False) as data:
         if "scene" not in data.files or "scene_sha256" not in data.files:
             return None
-        return str(data["scene"]), str(data["scene_sha256"])
+        path = str(data["scene_path"]) if "scene_path" in data.files else ""
+        return str(data["scene"]), str(data["scene_sha256"]), path

@@ -6,6 +6,7 @@ characters keep a local mesh and are placed every frame by :meth:`Character.mode
 
 from __future__ import annotations
 
+import hashlib
 import math
 import re
 from dataclasses import dataclass
@@ -135,12 +136,16 @@ class Scene:
     def folder_name(self) -> str:
         """The scene's name as one safe path component: ``captures/<folder_name>/``.
 
-        A name is free text, so anything but letters, digits, ``.``, ``_`` and ``-`` becomes
-        ``_``, and leading dots go: a name such as ``../x`` cannot leave ``captures/``.
+        A name is free text, so anything but letters (of any script), digits, ``.``, ``_`` and
+        ``-`` becomes ``_``, and leading dots go: a name such as ``../x`` cannot leave
+        ``captures/``. A name that had to change gets six hex digits of its own hash, so that
+        two names never share a folder (``a/b`` and ``a b``).
         """
         for candidate in (self.name, self.source.stem if self.source else ""):
-            safe = re.sub(r"[^A-Za-z0-9._-]", "_", candidate).lstrip(".")[:100]
+            safe = re.sub(r"[^\w.-]", "_", candidate).lstrip(".")[:100]
             if safe.strip("_"):
+                if safe != candidate:
+                    safe += "-" + hashlib.sha256(candidate.encode()).hexdigest()[:6]
                 return safe
         return "scene"
 

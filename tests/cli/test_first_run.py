@@ -48,7 +48,7 @@ def test_verify_refuses_a_recorded_scene_that_has_changed(tmp_path):
     out = tmp_path / "dumps"
     assert run("capture", scene, "--size", "32x18", "--dump", "--out", out).returncode == 0
     scene.write_text(scene.read_text() + "\n# edited\n")
-    assert_one_line_error(run("verify", out), "has changed since the capture")
+    assert_one_line_error(run("verify", out), "not the file these dumps were captured from")
     scene.unlink()
     assert_one_line_error(run("verify", out), "not found from here", "SCENE")
 
@@ -119,13 +119,23 @@ def test_runs_write_to_a_folder_per_scene_by_default(tmp_path):
 
 
 @pytest.mark.parametrize("name, folder", [
-    ("courtyard", "courtyard"), ("../../etc", "_.._etc"), ("a/b", "a_b"), ("...", "mine"),
-    ("", "mine"), ("night town", "night_town"),
+    ("courtyard", "courtyard"), ("../../etc", "_.._etc-"), ("a/b", "a_b-"), ("a b", "a_b-"),
+    ("...", "mine"), ("", "mine"), ("Über", "Über"), ("Äber", "Äber"), ("夜の町", "夜の町"),
 ])
 def test_a_scene_name_becomes_one_safe_folder(name, folder, tmp_path):
     text = TINY.read_text().replace('name = "tiny"', f'name = {json.dumps(name)}')
     scene = parse_scene(text, source=tmp_path / "mine.toml", base_dir=TINY.parent)
-    assert scene.folder_name == folder
+    assert scene.folder_name.startswith(folder)
+    assert (scene.folder_name == folder) == (not folder.endswith("-"))
+    assert "/" not in scene.folder_name and not scene.folder_name.startswith(".")
+
+
+def test_names_that_change_never_share_a_folder(tmp_path):
+    folders = set()
+    for name in ("a/b", "a b", "a_b", "a:b"):
+        text = TINY.read_text().replace('name = "tiny"', f'name = {json.dumps(name)}')
+        folders.add(parse_scene(text, source=tmp_path / "x.toml").folder_name)
+    assert len(folders) == 4
 
 
 def test_bench_takes_a_scene_file_with_its_methods_and_parameters(tmp_path):
@@ -177,3 +187,41 @@ def test_the_readme_speaks_to_its_reader():
     text = (ROOT / "README.md").read_text()
     assert not re.search(r"\bseed\b", text, re.I)
     assert not re.search(r"\bissues? \d+|#\d+", text, re.I)
+
+
+def test_verify_finds_the_recorded_scene_from_another_folder(tmp_path):
+    pytest.importorskip("embreex")
+    home = tmp_path / "home"
+    home.mkdir()
+    shutil.copy(TINY, home / "mine.toml")
+    assert run("capture", "mine.toml", "--size", "32x18", "--dump", cwd=home).returncode == 0
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    (elsewhere / "mine.toml").write_text(DEFAULT.read_text())  # another file of that name
+    result = run("verify", home / "captures" / "tiny", cwd=elsewhere)
+    assert result.returncode == 0, result.stderr
+
+
+def test_verify_of_a_folder_mixing_recorded_and_unrecorded_dumps(tiny_dumps, tmp_path):
+    pytest.importorskip("embreex")
+    mixed = tmp_path / "mixed"
+    shutil.copytree(tiny_dumps, mixed)
+    shutil.copy(mixed / "frame_0000.glb", mixed / "frame_0001.glb")
+    with np.load(mixed / "frame_0000.npz") as dump:
+        np.savez(mixed / "frame_0001.npz", **{k: dump[k] for k in dump.files
+                                              if not k.startswith("scene")})
+    assert_one_line_error(run("verify", mixed), "1 of the dumps do not record their scene")
+    assert run("verify", mixed, TINY).returncode == 0
+
+
+def test_bench_measures_again_a_scene_file_whose_text_changed(tmp_path):
+    for folder, light in (("a", "-0.4, -1.0, -0.3"), ("b", "0.4, -1.0, 0.3")):
+        (tmp_path / folder).mkdir()
+        (tmp_path / folder / "tiny.toml").write_text(
+            TINY.read_text().replace("-0.4, -1.0, -0.3", light))
+    args = ["--methods", "single", "--size", "32x18", "--frames", "1", "--warmup", "0",
+            "--error-frames", "0", "--flicker-frames", "0", "--out", tmp_path / "o",
+            "--no-progress"]
+    assert run("bench", "--scenes", tmp_path / "a" / "tiny.toml", *args).returncode == 0
+    second = run("bench", "--scenes", tmp_path / "b" / "tiny.toml", *args)
+    assert second.returncode == 0 and "0 already in" in second.stderr, second.stderr

@@ -155,7 +155,7 @@ def test_verify_refuses_arrays_larger_than_their_frame_before_reading_them(capsy
                   (90000, 160000, 3))
     (dumps / "frame_0000.glb").write_bytes(glb_with({}))
     code, lines = run_main(capsys, "verify", dumps, TINY_PATH)
-    assert code == 1 and len(lines) == 1 and "more than a 16x9 frame holds" in lines[0], lines
+    assert code == 1 and len(lines) == 1 and "not what a 16x9 frame holds" in lines[0], lines
 
 
 @pytest.mark.parametrize("damage", ["empty", "truncated"])
@@ -420,3 +420,72 @@ def test_a_damaged_bench_csv_is_refused_and_a_cut_row_is_measured_again(capsys, 
     (out / "bench.csv").write_text(header + "\n" + ",".join(whole[c] for c in COLUMNS) + "\n"
                                    + "default|csm|defaults|320x180,default,main\n")
     assert [r["run"] for r in read_rows(out / "bench.csv")] == ["default|single|defaults|320x180"]
+
+
+def test_a_glb_accessor_without_data_declaring_millions_of_elements(capsys, tmp_path):
+    folder = tmp_path / "scene"
+    folder.mkdir()
+    zeros = {"accessors": [{"componentType": 5126, "count": 4 * 10**8, "type": "VEC3"},
+                           {"bufferView": 1, "componentType": 5125, "count": 3,
+                            "type": "SCALAR"}]}
+    (folder / "level.glb").write_bytes(glb_with(zeros))
+    expect_scene_error(capsys, folder, mesh_scene(folder, "level.glb"), None, "static[2].file",
+                       "without data declares 400,000,000 elements")
+
+
+@pytest.mark.parametrize("extra", [{"accessors": 5},
+                                   {"bufferViews": [{"buffer": 0, "byteLength": 36,
+                                                     "byteStride": "a"},
+                                                    {"buffer": 0, "byteOffset": 36,
+                                                     "byteLength": 12}]},
+                                   {"meshes": [{"primitives": 7}]}])
+def test_glb_fields_of_the_wrong_type_are_one_line(capsys, tmp_path, extra):
+    folder = tmp_path / "scene"
+    folder.mkdir()
+    (folder / "level.glb").write_bytes(glb_with(extra))
+    message = expect_scene_error(capsys, folder, mesh_scene(folder, "level.glb"), None,
+                                 "static[2].file", "cannot read mesh level.glb")
+    assert "internal error" not in message
+
+
+def test_verify_refuses_dumps_declaring_more_than_a_dump_may_hold(capsys, tmp_path):
+    dumps = tmp_path / "dumps"
+    dumps.mkdir()
+    with zipfile.ZipFile(dumps / "frame_0000.npz", "w", zipfile.ZIP_DEFLATED) as z:
+        with z.open("size.npy", "w") as f:
+            np.lib.format.write_array(f, np.array([16384, 16384]))
+        for key in ("position", "normal"):
+            with z.open(f"{key}.npy", "w") as f:
+                np.lib.format.write_array_header_1_0(
+                    f, {"descr": "<f4", "fortran_order": False, "shape": (16384, 16384, 3)})
+    (dumps / "frame_0000.glb").write_bytes(glb_with({}))
+    code, lines = run_main(capsys, "verify", dumps, TINY_PATH)
+    assert code == 1 and len(lines) == 1 and "a dump may hold" in lines[0], lines
+
+
+def test_stats_to_a_pipe_nobody_reads_is_one_line_not_a_hang(tmp_path):
+    pipe = tmp_path / "pipe"
+    os.mkfifo(pipe)
+    result = subprocess.run([sys.executable, "-m", "game", "capture", str(TINY_PATH), "--size",
+                             "16x9", "--out", str(tmp_path / "o"), "--stats", str(pipe)],
+                            cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert result.returncode == 1
+    assert result.stderr.strip().splitlines() == [f"error: {pipe}: a pipe with no reader"]
+
+
+def test_a_new_run_in_the_same_process_starts_with_no_interrupt_pending(capsys, tmp_path):
+    from game.app import interrupts
+
+    interrupts._pending = True  # left by an earlier run stopped with SIGTERM
+    assert cli.main(["capture", str(TINY_PATH), "--size", "16x9", "--out",
+                     str(tmp_path / "o")]) == 0
+
+
+def test_library_log_lines_are_escaped_warnings(capsys, tmp_path):
+    import logging
+
+    cli.main(["capture", "/nowhere.toml"])  # installs the handler
+    capsys.readouterr()
+    logging.getLogger("trimesh").warning("EVIL\n\x1b[31mRED\x1b[0m")
+    err = capsys.readouterr().err
+    assert err == "warning: EVIL \\x1b[31mRED\\x1b[0m\n"
