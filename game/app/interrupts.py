@@ -69,7 +69,8 @@ def install() -> None:
     if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
         signal.signal(signal.SIGINT, _on_signal)
     for sig in STOP_SIGNALS:
-        if signal.getsignal(sig) is signal.SIG_DFL:
+        current = signal.getsignal(sig)
+        if current is signal.SIG_DFL or getattr(current, "replaceable", False):
             signal.signal(sig, _on_signal)
 
 

@@ -57,6 +57,7 @@ def cmd_trace(args) -> int:
     settings = trace_settings(args)
     scene = _load(args.scene)
     out = _out_folder(args.out, scene)
+    _check_out(out, "output folder")
     if scene.linear_light is None:
         raise GameError(f"{args.scene or 'the built-in scene'}: has no [linear_light] to trace")
     ctx = context.create_headless()
@@ -173,15 +174,15 @@ def _load(scene_arg: str | None):
     return load_scene(Path(scene_arg) if scene_arg else default_scene_path())
 
 
-def _check_out(path: Path | None) -> None:
+def _check_out(path: Path | None, flag: str = "--out") -> None:
     """An output folder: a folder, or a path where one can be made (checked before any work)."""
     if path is None:
         return
     if path.exists() and not path.is_dir():
-        raise ArgumentError(f"--out {path}: exists and is not a folder")
+        raise ArgumentError(f"{flag} {path}: exists and is not a folder")
     existing = next((p for p in (path, *path.parents) if p.exists()), Path("."))
     if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
-        raise ArgumentError(f"--out {path}: cannot make or write a folder in {existing}")
+        raise ArgumentError(f"{flag} {path}: cannot make or write a folder in {existing}")
 
 
 def _check_file(flag: str, path: Path | None) -> None:
@@ -237,6 +238,7 @@ def cmd_capture(args) -> int:
     _check_times(args)
     scene = _load(args.scene)
     out = _out_folder(args.out, scene)
+    _check_out(out, "output folder")
     ctx = context.create_headless()
     try:
         opts = capture.CaptureOptions(
@@ -337,6 +339,7 @@ def cmd_default() -> int:
         window.play(scene, window.PlayOptions())
         return 0
     out = _out_folder(None, scene)
+    _check_out(out, "output folder")
     ctx = context.create_headless()
     try:
         opts = capture.CaptureOptions(out=out, frames=1, size=(960, 540))

@@ -225,3 +225,10 @@ def test_bench_measures_again_a_scene_file_whose_text_changed(tmp_path):
     assert run("bench", "--scenes", tmp_path / "a" / "tiny.toml", *args).returncode == 0
     second = run("bench", "--scenes", tmp_path / "b" / "tiny.toml", *args)
     assert second.returncode == 0 and "0 already in" in second.stderr, second.stderr
+
+
+def test_a_default_output_folder_that_cannot_be_made_is_refused_before_any_work(tmp_path):
+    (tmp_path / "captures").write_text("a file where the folder would go")
+    result = run("capture", TINY, "--size", "16x9", cwd=tmp_path)
+    assert result.returncode == 2
+    assert_one_line_error(result, "output folder captures/tiny")

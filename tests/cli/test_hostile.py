@@ -489,3 +489,15 @@ def test_library_log_lines_are_escaped_warnings(capsys, tmp_path):
     logging.getLogger("trimesh").warning("EVIL\n\x1b[31mRED\x1b[0m")
     err = capsys.readouterr().err
     assert err == "warning: EVIL \\x1b[31mRED\\x1b[0m\n"
+
+
+@pytest.mark.parametrize("sig, status, line", [(signal.SIGTERM, 143, "terminated by SIGTERM"),
+                                               (signal.SIGHUP, 129, "terminated by SIGHUP")])
+def test_sigterm_while_the_modules_load_is_the_same_one_line(sig, status, line):
+    proc = subprocess.Popen([sys.executable, "-m", "game", "capture", "--help"], cwd=ROOT,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    time.sleep(0.1)  # python -m game is still importing numpy, trimesh, moderngl
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=60)
+    if proc.returncode != 0:  # 0: it had finished already on a fast machine
+        assert proc.returncode == status and err.strip().splitlines() == [line], err
