@@ -65,7 +65,7 @@ def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
         frames, interrupted = opts.run_frames(scene, view, render, frame_stats)
         stats = {
             **context.describe(ctx), "clock": renderer.timer.clock,
-            "scene": str(scene.source) if scene.source else scene.name,
+            "scene": scene.given,
             "scene_sha256": scene.sha256,
             "method": opts.settings.method, "size": list(opts.size),
             # What ran: the settings after the GL limits and the budget (see ``notes``), and

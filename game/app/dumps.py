@@ -36,7 +36,7 @@ def write_dump(stem: Path, scene: Scene, view: View, size: tuple[int, int], t: f
         "view": view.view.astype(np.float64), "proj": view.proj.astype(np.float64),
         "size": np.array(size, dtype=np.int64), "time": np.float64(t),
         # Which scene made the frame, so that verify scores it against that scene's light.
-        "scene": np.array(str(scene.source) if scene.source else scene.name),
+        "scene": np.array(scene.given),
         "scene_sha256": np.array(scene.sha256),
         # The same file from any folder: verify may run elsewhere than the capture did.
         "scene_path": np.array(str(scene.source.resolve()) if scene.source else ""),

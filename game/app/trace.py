@@ -59,7 +59,7 @@ def run(ctx, scene: Scene, opts: TraceOptions) -> dict:
         counts = tracer.grid.static.counts()
         stats = {
             **context.describe(ctx), "clock": tracer.timer.clock,
-            "scene": str(scene.source) if scene.source else scene.name,
+            "scene": scene.given,
             "scene_sha256": scene.sha256,
             "method": opts.settings.method, "samples": opts.settings.samples,
             "size": list(opts.size), "settings": asdict(opts.settings),

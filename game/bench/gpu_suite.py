@@ -106,10 +106,7 @@ def _hard(suite: Suite, deadline: float) -> dict:
         scenes=["default", *plan.towns], user_scenes=users,
         params={"single_resolution": plan.single_resolutions}, progress=suite.progress,
         log=suite.log, deadline=deadline)
-    try:
-        import embreex  # noqa: F401 - only to learn whether the reference can run
-    except ImportError:
-        opts.reference = False
+    opts.reference = runner.reference_available()
     result = runner.run(opts)
     acceptance = result["summary"]
     return {"renderer": acceptance.get("renderer"), "clock": acceptance.get("clock"),

@@ -84,6 +84,15 @@ def run(opts: BenchOptions, ctx=None) -> dict:
             "summary": summary}
 
 
+def reference_available() -> bool:
+    """Whether the Embree reference (embreex, the ``[bench]`` extra) can score frames."""
+    try:
+        import embreex  # noqa: F401 - only to learn whether it is installed
+    except ImportError:
+        return False
+    return True
+
+
 def _load(bscene: BenchScene, folder: Path) -> Scene:
     """Parse a bench scene; generated ones are also written to ``folder`` for ``capture``."""
     if bscene.path is not None:  # a user's file: its meshes lie beside it

@@ -102,7 +102,7 @@ def sweep(ctx, scene, size: tuple[int, int], samples=SAMPLES, methods=METHODS,
                     f"ray-tri {row['ray_triangle_tests']:.1f}, tri-tri "
                     f"{row['triangle_triangle_tests']:.1f}; Embree {embree_ms[n][0]:.1f} ms")
         header = {**context.describe(ctx), "clock": tracer.timer.clock,
-                  "scene": str(scene.source) if scene.source else scene.name,
+                  "scene": scene.given,
                   "size": list(size), "shaded_points": int(covered.sum()),
                   "grid_dims": [int(x) for x in spec.dims],
                   "cells_per_triangle": tracer.grid.cells_per_triangle, "settings": extra,

@@ -10,25 +10,24 @@ from __future__ import annotations
 
 import logging
 import os
-import sys
 import warnings
 
 from game.app import interrupts
 from game.cli.arguments import ArgumentError, build_parser
-from game.cli.commands import COMMANDS, cmd_default
-from game.errors import GameError, printable
+from game.cli.commands import COMMANDS, cmd_default, say
+from game.errors import GameError
 
 
 def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
     """Warnings (a mesh lost degenerate triangles) as one line, without the source line."""
-    _say(f"warning: {message}")
+    say(f"warning: {message}", err=True)
 
 
 class _OneLineLog(logging.Handler):
     """Library log records (trimesh's) as one escaped ``warning:`` line each."""
 
     def emit(self, record: logging.LogRecord) -> None:
-        _say(f"warning: {' '.join(record.getMessage().split())}")
+        say(f"warning: {' '.join(record.getMessage().split())}", err=True)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -53,10 +52,10 @@ def _run(argv: list[str] | None) -> int:
             return cmd_default()
         return COMMANDS[args.command](args)
     except ArgumentError as exc:
-        _say(f"error: {exc}")
+        say(f"error: {exc}", err=True)
         return 2
     except GameError as exc:
-        _say(f"error: {exc}")
+        say(f"error: {exc}", err=True)
         return 1
     except KeyboardInterrupt:
         return _stopped()
@@ -64,7 +63,7 @@ def _run(argv: list[str] | None) -> int:
         if interrupts.pending():
             return _stopped()
         where = f"{exc.filename}: " if exc.filename else ""
-        _say(f"error: {where}{exc.strerror or exc}")
+        say(f"error: {where}{exc.strerror or exc}", err=True)
         return 1
     except Exception as exc:  # noqa: BLE001 - the one place that turns bugs into one line too
         if interrupts.pending():  # Ctrl-C that a library turned into another exception
@@ -72,16 +71,12 @@ def _run(argv: list[str] | None) -> int:
         if os.environ.get("SHADOWGAME_DEBUG"):
             raise
         first = str(exc).splitlines()[0] if str(exc) else ""
-        _say(f"internal error: {type(exc).__name__}: {first} (set SHADOWGAME_DEBUG=1 for the "
-             "traceback)")
+        say(f"internal error: {type(exc).__name__}: {first} (set SHADOWGAME_DEBUG=1 for the "
+            "traceback)", err=True)
         return 1
 
 
 def _stopped() -> int:
     line, status = interrupts.stopped_by()
-    _say(line)
+    say(line, err=True)
     return status
-
-
-def _say(line: str) -> None:
-    print(printable(line), file=sys.stderr)

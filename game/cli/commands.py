@@ -127,10 +127,8 @@ def cmd_bench(args) -> int:
         for _scene, spec in runs.plan_runs(opts, MAX_SIZE):
             say(spec.run_id(opts.size))
         return 0
-    try:
-        import embreex  # noqa: F401 - only to learn whether the reference can run
-    except ImportError:
-        opts.reference = False
+    opts.reference = bench.reference_available()
+    if not opts.reference:
         say("note: embreex missing: no shadow error or reference flicker "
             "(pip install -e '.[bench]')", err=True)
     result = bench.run(opts)
@@ -285,7 +283,7 @@ def cmd_verify(args) -> int:
         raise GameError(str(exc)) from None
     if args.out is not None:
         outputs.write_json(args.out, {"dumps": str(args.dumps),
-                                      "scene": str(scene.source) if scene.source else scene.name,
+                                      "scene": scene.given,
                                       "scene_sha256": scene.sha256, "frames": results})
     return 0
 

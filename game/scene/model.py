@@ -133,6 +133,11 @@ class Scene:
     sha256: str = ""  # of the scene file's bytes (of the text, for a scene given as text)
 
     @property
+    def given(self) -> str:
+        """How the stats and dumps name the scene: its file's path as given, else its name."""
+        return str(self.source) if self.source else self.name
+
+    @property
     def folder_name(self) -> str:
         """The scene's name as one safe path component: ``captures/<folder_name>/``.
 

@@ -355,7 +355,7 @@ class Walkaround:
         elapsed = last - (first_frame_end or start)
         timed = max(0, self.frames - 1)  # the first frame compiles and renders every map
         return {**context.describe(self.ctx), "clock": self.renderer.timer.clock,
-                "scene": str(self.scene.source) if self.scene.source else self.scene.name,
+                "scene": self.scene.given,
                 "size": list(glfw.get_framebuffer_size(self.window)),
                 "render_size": list(self.renderer.size), "method": self.renderer.settings.method,
                 "soft": self.soft,
