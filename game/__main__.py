@@ -4,22 +4,20 @@ import signal
 import sys
 
 
-def _stopped_while_loading(signum, frame):
-    """SIGTERM or SIGHUP before game/app/interrupts.py takes over: the same line and status."""
-    print(f"terminated by {signal.Signals(signum).name}", file=sys.stderr)
-    sys.exit(128 + signum)
+def _received_while_loading(signum, frame):
+    """Ctrl-C, SIGTERM or SIGHUP before game/app/interrupts.py takes over: only recorded. Raised
+    in the middle of an import, an exception leaves modules half made (trimesh's imports catch it
+    and fail later), so the run ends cleanly once the modules are in."""
+    _received_while_loading.received.append(signum)
 
 
-_stopped_while_loading.replaceable = True  # game/app/interrupts.py installs its own over it
-for _stop in (signal.SIGTERM, signal.SIGHUP):
-    if signal.getsignal(_stop) is signal.SIG_DFL:
-        signal.signal(_stop, _stopped_while_loading)
+_received_while_loading.received = []
+_received_while_loading.replaceable = True  # game/app/interrupts.py installs its own over it
+for _stop in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+    if signal.getsignal(_stop) in (signal.SIG_DFL, signal.default_int_handler):
+        signal.signal(_stop, _received_while_loading)
 
-try:
-    from game.cli import main
-except KeyboardInterrupt:  # Ctrl-C while the modules load, before game/app/interrupts.py is set
-    print("interrupted", file=sys.stderr)
-    sys.exit(130)
+from game.cli import main  # noqa: E402 - after the handlers, so that no signal lands inside it
 
 status = main()
 # The run is over: a signal now must not kill the program on its way out (Python gives SIGINT

@@ -7,6 +7,7 @@ found by pytest.
 
 from __future__ import annotations
 
+import signal
 from pathlib import Path
 
 import pytest
@@ -27,6 +28,14 @@ SMALL_SIZE = (160, 90)       # frames compared with each other
 MAX_ERROR = 0.05             # the shadow-error bound every method holds on ACCURACY_SCENES
 # The scenes the accuracy bound is asserted on, for every method.
 ACCURACY_SCENES = {"default": DEFAULT, "spot": SPOT, "point": POINT, "low_sun": LOW_SUN}
+
+
+def stoppable() -> None:
+    """``preexec_fn`` for a child that a test stops with a signal: SIGINT, SIGTERM and SIGHUP at
+    their defaults, as in a foreground run. A test run started in the background (``pytest &``)
+    passes SIGINT on ignored, and the program rightly keeps ignoring it."""
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, signal.SIG_DFL)
 
 
 @pytest.fixture(scope="session")

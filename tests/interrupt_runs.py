@@ -34,6 +34,7 @@ def main() -> None:
         for i in range(runs):
             args = [a.format(out=f"{tmp}/{i}") for a in COMMANDS[which]]
             proc = subprocess.Popen([sys.executable, "-m", "game", *args], cwd=ROOT, env=env,
+                                    preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
                                     stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                                     text=True)
             try:

@@ -79,4 +79,4 @@ class HeadlessRun:
         if self.stats is not None:
             frames.write_json(self.stats, stats)
         if stats.get("interrupted"):
-            raise KeyboardInterrupt
+            raise interrupts.Interrupted

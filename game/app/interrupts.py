@@ -12,7 +12,14 @@ So the handler here also remembers the signal (:func:`pending`, for the command 
 interrupt while a file is written (game/app/outputs.py), raising it once the file is in place.
 SIGTERM and SIGHUP take the same path, as KeyboardInterrupt: a run stopped by ``kill`` or a
 closed terminal cleans up exactly as one stopped with Ctrl-C. While the main thread is inside a
-GL library the interrupt is never raised (see ``_GL_PACKAGES``), only recorded.
+GL library, or while a module is being imported, the interrupt is never raised (see
+:func:`_unsafe`), only recorded.
+
+The exception raised is :class:`Interrupted`, a KeyboardInterrupt of its own type: CPython
+remembers a plain KeyboardInterrupt that escaped code run by ``exec`` of a string (dataclasses
+and namedtuples build their methods so) even once it is caught, and at exit kills its own process
+with SIGINT instead of returning the run's status (130 became -2, one run in twenty stopped at
+start-up). It marks only the exact type.
 """
 
 from __future__ import annotations
@@ -38,9 +45,19 @@ _finished = False
 _GL_PACKAGES = ("moderngl", "glcontext", "OpenGL", "glfw", "imgui_bundle")
 
 
-def _inside_gl(frame) -> bool:
+class Interrupted(KeyboardInterrupt):
+    """Ctrl-C, SIGTERM or SIGHUP, raised by this module (see the module's docstring for why a
+    type of its own)."""
+
+
+def _unsafe(frame) -> bool:
+    """Whether the main thread is inside a GL library, or inside an import: an exception there
+    leaves a module half made (trimesh's imports catch it and fail later with a TypeError)."""
     while frame is not None:
-        parts = frame.f_code.co_filename.replace("\\", "/").split("/")
+        name = frame.f_code.co_filename
+        if name.startswith("<frozen importlib"):
+            return True
+        parts = name.replace("\\", "/").split("/")
         if any(package in parts for package in _GL_PACKAGES):
             return True
         frame = frame.f_back
@@ -53,8 +70,8 @@ def _on_signal(signum, frame) -> None:
         return
     _pending = True
     _signal = signal.Signals(signum)
-    if not _deferring and not _inside_gl(frame):
-        raise KeyboardInterrupt
+    if not _deferring and not _unsafe(frame):
+        raise Interrupted
 
 
 def install() -> None:
@@ -66,12 +83,15 @@ def install() -> None:
         return
     # A new run: nothing of an earlier one in this process is pending.
     _finished, _pending, _signal, _deferring = False, False, signal.SIGINT, 0
-    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
-        signal.signal(signal.SIGINT, _on_signal)
-    for sig in STOP_SIGNALS:
+    for sig in (signal.SIGINT, *STOP_SIGNALS):
         current = signal.getsignal(sig)
-        if current is signal.SIG_DFL or getattr(current, "replaceable", False):
+        default = signal.default_int_handler if sig == signal.SIGINT else signal.SIG_DFL
+        if current is default or getattr(current, "replaceable", False):
             signal.signal(sig, _on_signal)
+        # A signal that came while the program loaded (game/__main__.py records it): the first
+        # check raises it.
+        if getattr(current, "received", None) and not _pending:
+            _pending, _signal = True, signal.Signals(current.received[0])
 
 
 def finish() -> None:
@@ -96,7 +116,7 @@ def pending() -> bool:
 def check() -> None:
     """Raise KeyboardInterrupt if Ctrl-C came, even if something swallowed it since."""
     if _pending and not _deferring:
-        raise KeyboardInterrupt
+        raise Interrupted
 
 
 @contextmanager

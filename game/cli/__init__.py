@@ -37,6 +37,7 @@ def main(argv: list[str] | None = None) -> int:
     log.propagate = False
     interrupts.install()
     try:
+        interrupts.check()  # a signal that came while the program loaded
         return _run(argv)
     except KeyboardInterrupt:  # in the moment between a command's end and the next line
         return _stopped()

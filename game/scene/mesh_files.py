@@ -53,6 +53,25 @@ def inside(base_dir: Path, relative: str, fail: Callable[[str], NoReturn]) -> Pa
     return full
 
 
+def binary_stl_damage(head: bytes, size: int) -> str | None:
+    """What is wrong with an STL file that is neither text nor a whole binary STL, or None.
+
+    A binary STL's header gives its triangle count and so its exact size. trimesh reads a file of
+    any other size as text, and what it then reports (no triangles, an encoding error, a missing
+    optional module) depends on the modules installed, so the damage is named here from the
+    first 84 bytes (``head``) and the size."""
+    if size >= 84:
+        count = int.from_bytes(head[80:84], "little")
+        if size == 84 + 50 * count:
+            return None
+    if head.lstrip()[:5].lower() == b"solid":  # a text STL
+        return None
+    if size < 84:
+        return f"damaged or truncated binary STL file ({size} bytes, shorter than its header)"
+    return (f"damaged or truncated binary STL file (its header says {count} triangles, "
+            f"{84 + 50 * count} bytes; the file has {size})")
+
+
 def _one_line(text: str, limit: int = 120) -> str:
     text = " ".join(text.split())
     return text if len(text) <= limit else text[: limit - 3] + "..."
@@ -97,6 +116,11 @@ def load_mesh_file(relative: str, base_dir: Path, label: str,
                 kwargs["resolver"] = trimesh.resolvers.FilePathResolver(path)
         except gltf.GltfError as error:
             fail(f"cannot read mesh {relative}: {error}")
+    elif suffix == ".stl":
+        with path.open("rb") as stl:
+            damage = binary_stl_damage(stl.read(84), size)
+        if damage:
+            fail(f"cannot read mesh {relative}: {damage}")
     elif suffix == ".obj":
         # Materials are not used (flat shading), and an mtllib could name a file outside the folder.
         kwargs["skip_materials"] = True

@@ -392,7 +392,7 @@ def play(scene: Scene, opts: PlayOptions) -> dict:
     if opts.stats is not None:
         outputs.write_json(opts.stats, stats)
     if stats["interrupted"]:
-        raise KeyboardInterrupt
+        raise interrupts.Interrupted
     return stats
 
 
