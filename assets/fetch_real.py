@@ -32,6 +32,8 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from game.scene.parts import connected_components, median_groups
+
 HERE = Path(__file__).resolve().parent
 DEFAULT_OUT = HERE / "real"
 
@@ -53,6 +55,9 @@ NPM = {
 }
 
 LEVEL = "samurai_monastry.obj"
+# The same level as separate files, as a user who split it by hand would give it: its connected
+# components in this many groups of neighbours (game/scene/parts.py), one OBJ each.
+LEVEL_PARTS = 24
 # Wheel members copied byte for byte into the output folder, under the same base name.
 WHEEL_FILES = ("samurai_monastry.obj", "samurai_monastry.mtl", "duck.obj", "teddy2_VHACD_CHs.obj")
 WHEEL_LICENSE = "pybullet-3.2.7.dist-info/LICENSE.txt"
@@ -226,8 +231,26 @@ def _static(prop: Prop, mesh: trimesh.Trimesh) -> str:
             f"position = {_vec(position)}\n")
 
 
-def monastery_scene() -> str:
-    """The level: ground around the walled compound, a low sun, a camera high on its +x +z side."""
+def level_part_files(level: trimesh.Trimesh) -> dict[str, str]:
+    """The level's connected components in ``LEVEL_PARTS`` groups of neighbours: OBJ texts."""
+    faces = np.asarray(level.faces)
+    components = connected_components(level.vertices, faces)
+    n = int(components.max()) + 1
+    centres = np.zeros((n, 3))
+    np.add.at(centres, components, np.asarray(level.vertices)[faces].mean(axis=1))
+    centres /= np.bincount(components, minlength=n)[:, None]
+    groups = median_groups(centres, LEVEL_PARTS)[components]
+    texts = {}
+    for g in range(int(groups.max()) + 1):
+        part = level.submesh([np.flatnonzero(groups == g)], append=True)
+        texts[f"monastery_part_{g:02d}.obj"] = _obj_text(
+            part, f"pybullet 3.2.7, pybullet_data/{LEVEL}, part {g} of {LEVEL_PARTS}")
+    return texts
+
+
+def monastery_scene(parts: list[str] | None = None) -> str:
+    """The level: ground around the walled compound, a low sun, a camera high on its +x +z side;
+    the level as one file, or as the files ``parts``."""
     x0, x1, z0, z1 = HOLE
     e, depth = GROUND_HALF, GROUND_Y - FLOOR_BOTTOM
     mid = GROUND_Y - depth / 2
@@ -238,10 +261,11 @@ def monastery_scene() -> str:
     inner = -0.05 - FLOOR_BOTTOM   # its top 3 cm below the courtyard's lowest point, y = -0.02
     return (
         "# The samurai monastery from the pybullet 3.2.7 wheel (pybullet_data/samurai_monastry.obj)"
-        "\n# on a ground around its walled compound. Written by assets/fetch_real.py; see\n"
-        "# assets/REAL_ASSETS.md.\n"
-        'name = "monastery"\n\n'
-        "[camera]\nposition = [18.0, 40.0, 90.0]\ntarget   = [-6.0, 0.0, 2.0]\nfov      = 55.0\n"
+        "\n# on a ground around its walled compound"
+        + (f", split into {len(parts)} files" if parts else "")
+        + ". Written by assets/fetch_real.py; see\n# assets/REAL_ASSETS.md.\n"
+        + ('name = "monastery_parts"\n\n' if parts else 'name = "monastery"\n\n')
+        + "[camera]\nposition = [18.0, 40.0, 90.0]\ntarget   = [-6.0, 0.0, 2.0]\nfov      = 55.0\n"
         "near     = 0.5\nfar      = 400.0\n\n"
         '[light]\nkind      = "directional"\ndirection = [0.75, -0.5, -0.35]\n\n'
         "[linear_light]\na = [-60.0, 90.0, 40.0]\nb = [-20.0, 90.0, -40.0]\n\n"
@@ -251,7 +275,8 @@ def monastery_scene() -> str:
         "# Under the compound, below its own courtyard.\n"
         + _floor([x1 - x0, inner, z1 - z0], [(x0 + x1) / 2, FLOOR_BOTTOM + inner / 2,
                                                (z0 + z1) / 2])
-        + f'\n[[static]]\nshape = "mesh"\nfile  = "{LEVEL}"\n'
+        + "".join(f'\n[[static]]\nshape = "mesh"\nfile  = "{name}"\n'
+                  for name in (parts or [LEVEL]))
     )
 
 
@@ -305,7 +330,13 @@ def _build_into(work: Path, wheel: Path, tarballs: dict[str, Path]) -> list[str]
     meshes = {name: _load_obj(work / name) for name in manifest if name.endswith(".obj")}
     for name, mesh in meshes.items():
         manifest[name]["triangles"] = len(mesh.faces)
+    parts = level_part_files(meshes[LEVEL])
+    for name, text in parts.items():
+        (work / name).write_text(text, encoding="utf-8")
+        manifest[name] = {"source": wheel.name, "member": f"pybullet_data/{LEVEL}",
+                          "triangles": text.count("\nf ")}
     scenes = {"monastery.toml": monastery_scene(),
+              "monastery_parts.toml": monastery_scene(sorted(parts)),
               "props_spot.toml": props_scene("spot", meshes),
               "props_point.toml": props_scene("point", meshes)}
     for name, text in scenes.items():

@@ -22,12 +22,14 @@ TINY = SCENES / "tiny.toml"
 POINT = SCENES / "point.toml"
 SPOT = SCENES / "spot.toml"
 LOW_SUN = SCENES / "low_sun.toml"
+POINT_AMONG = SCENES / "point_among.toml"
 
 ACCURACY_SIZE = (320, 180)   # frames scored against Embree
 SMALL_SIZE = (160, 90)       # frames compared with each other
 MAX_ERROR = 0.05             # the shadow-error bound every method holds on ACCURACY_SCENES
 # The scenes the accuracy bound is asserted on, for every method.
-ACCURACY_SCENES = {"default": DEFAULT, "spot": SPOT, "point": POINT, "low_sun": LOW_SUN}
+ACCURACY_SCENES = {"default": DEFAULT, "spot": SPOT, "point": POINT, "low_sun": LOW_SUN,
+                   "point_among": POINT_AMONG}
 
 
 def stoppable() -> None:

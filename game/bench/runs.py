@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from game.bench import stability
+from game.data import ASSET_DIR
 from game.scene import default_scene_path
 from game.shadows import clumping, registry
 from game.shadows.plan import ShadowSettings
@@ -48,8 +49,13 @@ COLUMNS = (
 
 
 # The scene groups whose methods are compared head to head (acceptance, Pareto charts): the
-# built-in main scene, the towns, and the user's own scene files.
-COMPARED_GROUPS = ("main", "town", "user")
+# built-in main scene, the towns, the real assets, and the user's own scene files.
+COMPARED_GROUPS = ("main", "town", "real", "user")
+
+# The real third-party corpus (assets/REAL_ASSETS.md), benched where assets/fetch_real.py has
+# fetched it: a level as one file and as separate files, and props under a spot and a point light.
+REAL_DIR = ASSET_DIR / "real"
+REAL_SCENES = ("monastery", "monastery_parts", "props_spot", "props_point")
 
 
 @dataclass(frozen=True)
@@ -57,7 +63,7 @@ class BenchScene:
     """One scene of the sweep."""
 
     key: str
-    group: str               # main | town | stability | user
+    group: str               # main | town | real | stability | user
     text: str                # the scene file's text (written to OUT/scenes/KEY.toml)
     factor: str = ""         # stability factor, or the scaling axis of a town
     value: float = 0.0
@@ -141,7 +147,8 @@ characters          = {characters}
 
 
 def bench_scenes(quick: bool) -> list[BenchScene]:
-    """The default scene, towns at three sizes (and three walker counts), stability scenes."""
+    """The default scene, towns at three sizes (and three walker counts), the real corpus where
+    it is fetched, stability scenes."""
     out = [BenchScene("default", "main", default_scene_path().read_text())]
     if quick:
         out.append(BenchScene("town_2x2", "town", town_text(2, 16, "town_2x2"), "size", 2))
@@ -157,6 +164,10 @@ def bench_scenes(quick: bool) -> list[BenchScene]:
                                   "characters", n))
         out.append(BenchScene("town_8x8_c64", "town", town_text(8, 64, "town_8x8_c64"),
                               "characters", 64))
+    for name in REAL_SCENES if not quick else ():
+        path = REAL_DIR / f"{name}.toml"
+        if path.is_file():
+            out.append(BenchScene(name, "real", path.read_text(encoding="utf-8"), path=path))
     for case in stability.cases(quick):
         out.append(BenchScene(f"stab_{case.name}", "stability", case.text, case.factor,
                               case.value, case.accuracy_expected))
@@ -238,6 +249,9 @@ def method_grid(scene: BenchScene, quick: bool, max_texture: int) -> list[RunSpe
             specs += [RunSpec(k, "clumped", _p(clump_count=n, clump_resolution=r,
                                                **{RERENDER: True})) for n, r in SWITCH_SERIES]
         return specs
+    if scene.group == "real":  # the level against single at the sizes an engine would use
+        return [*defaults, RunSpec(k, "clumped", _p(clumping="world"))] + [
+            RunSpec(k, "single", _p(single_resolution=r)) for r in (8192,) if r <= max_texture]
     if k == "town_4x4":
         return [*defaults, RunSpec(k, "clumped", _p(clumping="world"))] + [
             RunSpec(k, "clumped", _p(clump_count=n, clump_resolution=r, **{RERENDER: True}))

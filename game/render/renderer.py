@@ -170,7 +170,7 @@ class Renderer(SceneEdits):
         if self.shadow_pass.prepare(self.method.resolution, self.method.layers):
             self.method.mark_rendered_lost()
         plan = self.method.plan(models, view)
-        if self.buffers.order_statics(plan.static_order) and self.culler is not None:
+        if self.buffers.order_statics(plan.static_pieces) and self.culler is not None:
             self.culler.set_layout()
         s, light = self.settings, self.scene.light
         # How far the shader may look from a fragment, in texels: the bias offsets (as in

@@ -20,7 +20,7 @@ class SceneBuffers:
         self.layout = geometry.layout(self.geom)
         self.vbo = ctx.buffer(self._vertices())
         self.ibo = ctx.buffer(self.layout.indices.tobytes())
-        self._static_order: list[int] | None = None
+        self._pieces: list[geometry.Piece] | None = None
 
     def _vertices(self) -> bytes:
         vertices = np.empty(len(self.geom.positions), dtype=[("p", "<f4", 3), ("o", "<i4")])
@@ -34,22 +34,22 @@ class SceneBuffers:
         return self.ctx.vertex_array(program, [(self.vbo, *VERTEX_FORMAT)],
                                      index_buffer or self.ibo, 4)
 
-    def order_statics(self, static_order: list[int] | None) -> bool:
-        """Put the statics in ``static_order`` (a method's clump order) in the index buffer;
-        True when the buffer changed. A method keeps one list until it re-clumps, so identity
-        says "unchanged"."""
-        if static_order is None or static_order is self._static_order:
+    def order_statics(self, pieces: list[geometry.Piece] | None) -> bool:
+        """Put the statics in ``pieces`` (a method's clump order) in the index buffer; True
+        when the buffer changed. A method keeps one list until it re-clumps, so identity says
+        "unchanged"."""
+        if pieces is None or pieces is self._pieces:
             return False
-        self.layout = geometry.layout(self.geom, static_order)
+        self.layout = geometry.layout(self.geom, pieces)
         self.ibo.write(self.layout.indices.tobytes())
-        self._static_order = static_order
+        self._pieces = pieces
         return True
 
     def repack(self, scene: Scene) -> None:
         """The geometry of the changed scene, into the same buffers (grown when needed)."""
         self.geom = geometry.pack(scene)
         self.layout = geometry.layout(self.geom)
-        self._static_order = None  # the next plan's order is applied afresh
+        self._pieces = None  # the next plan's order is applied afresh
         for buffer, data in ((self.vbo, self._vertices()),
                              (self.ibo, self.layout.indices.tobytes())):
             buffer.orphan(max(len(data), 4))

@@ -60,7 +60,9 @@ class ShadowMapPass:
             fbo.viewport = (0, 0, rec.viewport, rec.viewport)
             fbo.clear(depth=1.0, viewport=(0, 0, rec.viewport, rec.viewport))
             self.depth_prog["u_map"].value = index
-            for first, count in layout.ranges(rec.objects):
+            ranges = (layout.ranges(rec.objects) if rec.pieces is None
+                      else layout.piece_ranges(rec.pieces))
+            for first, count in ranges:
                 self.depth_vao.render(moderngl.TRIANGLES, vertices=count, first=first)
                 triangles += count // 3
         return triangles

@@ -11,7 +11,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from game.scene.mesh_files import FILE_PART
 from game.scene.model import Scene
+from game.scene.parts import mesh_parts
 
 
 @dataclass
@@ -29,6 +31,9 @@ class PackedGeometry:
     character_points: list[np.ndarray]  # per character: (Ni, 3) float64 local vertices
     character_radius: np.ndarray     # per character: bounding-sphere radius about its origin
     closed: np.ndarray               # per object: a closed, outward-wound volume (cullable)
+    # Per static: its faces' parts (game/scene/parts.py), what the clumping groups. A mesh file
+    # splits into its structure and connected components; an analytic shape is one part.
+    static_parts: list[np.ndarray]
 
     @property
     def first_static(self) -> int:
@@ -52,6 +57,14 @@ class PackedGeometry:
 
     def triangle_count(self, objects) -> int:
         return int(sum(len(self.triangles[o]) for o in objects))
+
+    def static_corners(self, i: int, faces: np.ndarray | None = None) -> np.ndarray:
+        """World-space corners (3 per face, float64) of static ``i``'s ``faces`` (local
+        indices; all of them when None)."""
+        tri = self.triangles[self.static_object(i)]
+        if faces is not None:
+            tri = tri[faces]
+        return self.positions[tri.reshape(-1)].astype(np.float64)
 
 
 def pack(scene: Scene) -> PackedGeometry:
@@ -84,26 +97,46 @@ def pack(scene: Scene) -> PackedGeometry:
         character_radius=np.array([float(np.linalg.norm(p, axis=1).max()) if len(p) else 0.0
                                    for p in character_points]),
         closed=closed,
+        static_parts=[_parts(b.mesh) for b in scene.statics],
     )
+
+
+def _parts(mesh) -> np.ndarray:
+    if FILE_PART not in mesh.face_attributes:  # an analytic shape: one connected piece
+        return np.zeros(len(mesh.faces), np.int64)
+    return mesh_parts(mesh.vertices, mesh.faces, mesh.face_attributes[FILE_PART])
+
+
+Piece = tuple[int, np.ndarray]
+"""Some faces of one static: its index and its faces' (local) indices. A method that clumps
+parts orders the index buffer by pieces, so that each clump's faces lie side by side."""
 
 
 @dataclass
 class IndexLayout:
-    """The index buffer's order and each object's (first, count) range in it, in indices.
+    """The index buffer's order, in units: a floor, a character, a static or a piece of one.
 
     Closed volumes come first, open meshes after ``n_closed`` indices, so the shading pass
     draws each group in one call, with and without back-face culling.
     """
 
-    indices: np.ndarray   # (3 * F,) uint32
-    first: np.ndarray     # per object
-    count: np.ndarray     # per object
-    n_closed: int         # indices of closed volumes, at the start
+    indices: np.ndarray               # (3 * F,) uint32
+    spans: np.ndarray                 # (U, 2): each unit's first index and index count
+    object_units: list[list[int]]     # per object: its units
+    piece_units: list[int]            # per piece given to :func:`layout`: its unit
+    n_closed: int                     # indices of closed volumes, at the start
 
     def ranges(self, objects) -> list[tuple[int, int]]:
         """Draw ranges (first, count) covering the objects, adjacent ranges merged."""
-        spans = sorted((int(self.first[o]), int(self.count[o])) for o in objects
-                       if self.count[o] > 0)
+        return self._merged(u for o in objects for u in self.object_units[o])
+
+    def piece_ranges(self, pieces) -> list[tuple[int, int]]:
+        """Draw ranges covering the pieces (indices into the pieces given to :func:`layout`)."""
+        return self._merged(self.piece_units[p] for p in pieces)
+
+    def _merged(self, units) -> list[tuple[int, int]]:
+        spans = sorted((int(self.spans[u, 0]), int(self.spans[u, 1])) for u in units
+                       if self.spans[u, 1] > 0)
         merged: list[tuple[int, int]] = []
         for first, count in spans:
             if merged and merged[-1][0] + merged[-1][1] == first:
@@ -113,26 +146,34 @@ class IndexLayout:
         return merged
 
 
-def layout(geom: PackedGeometry, static_order: list[int] | None = None) -> IndexLayout:
+def layout(geom: PackedGeometry, pieces: list[Piece] | None = None) -> IndexLayout:
     """Order the index buffer: closed volumes, then open meshes; within each, floors, statics
-    (in ``static_order``, e.g. by clump), characters.
+    (as ``pieces``, e.g. by clump, which must hold every static face once; whole statics in
+    their order when None), characters.
 
-    Putting each clump's statics side by side lets its map be drawn in few calls.
+    Putting each clump's pieces side by side lets its map be drawn in few calls.
     """
-    statics = static_order if static_order is not None else range(geom.n_statics)
-    everything = (list(range(geom.n_floors)) + [geom.static_object(i) for i in statics]
-                  + [geom.character_object(i) for i in range(geom.n_characters)])
-    order = [o for o in everything if geom.closed[o]] + [o for o in everything
-                                                         if not geom.closed[o]]
-    n_objects = len(geom.triangles)
-    first = np.zeros(n_objects, np.int64)
-    count = np.zeros(n_objects, np.int64)
-    position = 0
-    for o in order:
-        first[o] = position
-        count[o] = 3 * len(geom.triangles[o])
-        position += count[o]
-    parts = [geom.triangles[o].reshape(-1) for o in order]
-    indices = np.concatenate(parts).astype(np.uint32) if parts else np.zeros(0, np.uint32)
-    n_closed = int(sum(count[o] for o in order if geom.closed[o]))
-    return IndexLayout(indices=indices, first=first, count=count, n_closed=n_closed)
+    units: list[tuple[int, np.ndarray | None]] = [(o, None) for o in range(geom.n_floors)]
+    if pieces is None:
+        units += [(geom.static_object(i), None) for i in range(geom.n_statics)]
+    else:
+        units += [(geom.static_object(i), faces) for i, faces in pieces]
+    units += [(geom.character_object(i), None) for i in range(geom.n_characters)]
+    order = ([u for u, (o, _) in enumerate(units) if geom.closed[o]]
+             + [u for u, (o, _) in enumerate(units) if not geom.closed[o]])
+    spans = np.zeros((len(units), 2), np.int64)
+    object_units: list[list[int]] = [[] for _ in geom.triangles]
+    chunks, position = [], 0
+    for u in order:
+        o, faces = units[u]
+        tri = geom.triangles[o] if faces is None else geom.triangles[o][faces]
+        spans[u] = position, 3 * len(tri)
+        position += 3 * len(tri)
+        chunks.append(tri.reshape(-1))
+        object_units[o].append(u)
+    indices = np.concatenate(chunks).astype(np.uint32) if chunks else np.zeros(0, np.uint32)
+    n_closed = int(sum(spans[u, 1] for u in order if geom.closed[units[u][0]]))
+    first_piece = geom.n_floors
+    piece_units = list(range(first_piece, first_piece + len(pieces))) if pieces else []
+    return IndexLayout(indices=indices, spans=spans, object_units=object_units,
+                       piece_units=piece_units, n_closed=n_closed)

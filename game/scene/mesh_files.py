@@ -21,6 +21,8 @@ from game import gltf
 MESH_SUFFIXES = (".obj", ".stl", ".ply", ".glb", ".gltf")
 MAX_MESH_FILE_BYTES = 512 * 2**20  # one mesh file (with a glTF's buffer files)
 MAX_FILE_COORDINATE = 1e9  # a vertex coordinate in the file's own units, before its scale
+FILE_PART = "file_part"
+"""The face attribute that holds each face's part of the file's own structure (an index)."""
 
 
 def inside(base_dir: Path, relative: str, fail: Callable[[str], NoReturn]) -> Path:
@@ -80,8 +82,9 @@ def _one_line(text: str, limit: int = 120) -> str:
 def load_mesh_file(relative: str, base_dir: Path, label: str,
                    fail: Callable[[str], NoReturn]) -> trimesh.Trimesh:
     """Load ``relative`` (inside ``base_dir``) with trimesh: validated, zero-area triangles
-    dropped, in file coordinates. ``fail`` raises the scene's one-line error; ``label`` names the
-    scene file in warnings."""
+    dropped, in file coordinates, each face's structural part in
+    ``face_attributes[FILE_PART]``. ``fail`` raises the scene's one-line error; ``label`` names
+    the scene file in warnings."""
     path = inside(base_dir, relative, fail)
     suffix = Path(relative).suffix.lower()
     if suffix not in MESH_SUFFIXES:
@@ -124,21 +127,32 @@ def load_mesh_file(relative: str, base_dir: Path, label: str,
     elif suffix == ".obj":
         # Materials are not used (flat shading), and an mtllib could name a file outside the folder.
         kwargs["skip_materials"] = True
+        kwargs.update(split_objects=True, split_groups=True)  # its parts (game/scene/parts.py)
     try:
-        loaded = trimesh.load(source, file_type=suffix[1:], force="mesh", process=False,
+        # As a scene, to keep the file's structure (OBJ objects and material groups, glTF
+        # nodes and primitives: game/scene/parts.py), then concatenated here as force="mesh"
+        # would, with each face's part recorded.
+        loaded = trimesh.load(source, file_type=suffix[1:], force="scene", process=False,
                               **kwargs)
+        pieces = [g for g in loaded.dump(concatenate=False)
+                  if isinstance(g, trimesh.Trimesh) and len(g.faces)]
     except ImportError:
         # trimesh reaches for optional modules (charset_normalizer, to guess the text encoding
         # of a binary STL whose size does not match its triangle count) when a file is damaged.
         fail(f"cannot read mesh {relative}: damaged or truncated {suffix[1:].upper()} file")
     except Exception as error:  # noqa: BLE001 - trimesh raises anything on a corrupt file
         fail(f"cannot read mesh {relative}: {_one_line(str(error)) or type(error).__name__}")
-    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
+    if not pieces:
         fail(f"no triangles in {relative} (not a mesh file?)")
-    vertices = np.asarray(loaded.vertices, dtype=np.float64)
-    faces = np.asarray(loaded.faces, dtype=np.int64)
-    if faces.min() < 0 or faces.max() >= len(vertices):
-        fail(f"face indices out of range in {relative}")
+    for piece in pieces:
+        f = np.asarray(piece.faces)
+        if f.min() < 0 or f.max() >= len(piece.vertices):
+            fail(f"face indices out of range in {relative}")
+    offsets = np.cumsum([0] + [len(p.vertices) for p in pieces])
+    vertices = np.concatenate([np.asarray(p.vertices, dtype=np.float64) for p in pieces])
+    faces = np.concatenate([np.asarray(p.faces, dtype=np.int64) + offset
+                            for p, offset in zip(pieces, offsets, strict=False)])
+    parts = np.repeat(np.arange(len(pieces)), [len(p.faces) for p in pieces])
     if not np.all(np.isfinite(vertices)):
         fail(f"non-finite vertex coordinates in {relative}")
     reach = float(np.abs(vertices).max())
@@ -159,5 +173,6 @@ def load_mesh_file(relative: str, base_dir: Path, label: str,
             fail(f"every triangle in {relative} has zero area")
         warnings.warn(f"{label}: {relative}: removed {int((~keep).sum())} "
                       f"zero-area triangles", stacklevel=2)
-        faces = faces[keep]
-    return trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
+        faces, parts = faces[keep], parts[keep]
+    return trimesh.Trimesh(vertices=vertices, faces=faces, process=False,
+                           face_attributes={FILE_PART: parts})

@@ -30,7 +30,8 @@ def transform_mesh(mesh: trimesh.Trimesh, linear: np.ndarray,
     faces = np.asarray(mesh.faces, dtype=np.int64)
     if np.linalg.det(linear) < 0:
         faces = faces[:, ::-1]
-    return trimesh.Trimesh(vertices=vertices, faces=np.ascontiguousarray(faces), process=False)
+    return trimesh.Trimesh(vertices=vertices, faces=np.ascontiguousarray(faces), process=False,
+                           face_attributes=dict(mesh.face_attributes))
 
 
 def _plain(mesh: trimesh.Trimesh) -> trimesh.Trimesh:

@@ -167,8 +167,34 @@ def union_rect(rects: np.ndarray) -> np.ndarray:
     return np.concatenate([rects[:, :2].min(axis=0), rects[:, 2:].max(axis=0)])
 
 
-def _extent(rect: np.ndarray) -> float:
+def rect_extent(rect: np.ndarray) -> float:
+    """Larger side of a footprint rectangle (xmin, ymin, xmax, ymax)."""
     return float(max(rect[2] - rect[0], rect[3] - rect[1]))
+
+
+def split_wide(corners: np.ndarray, faces: np.ndarray, footprint: Footprint,
+               max_extent: float) -> list[np.ndarray]:
+    """Split one part's ``faces`` (their corners: (F, 3, 3)) into pieces whose footprints are
+    at most ``max_extent`` wide, or hold one face: a recursive median split of the faces'
+    footprint centres along the piece's wider side. A part larger than one clump map can hold at
+    the density target (a level's ground, a long wall) is then clumped piece by piece.
+    Returns the pieces' faces, each ascending, in a fixed order."""
+    fp = np.asarray(footprint(corners.reshape(-1, 3)), np.float64).reshape(-1, 3, 2)
+    lo, hi = fp.min(axis=1), fp.max(axis=1)
+    centre = (lo + hi) / 2
+    pieces = []
+    stack = [np.arange(len(faces))]
+    while stack:
+        idx = stack.pop()
+        size = hi[idx].max(axis=0) - lo[idx].min(axis=0)
+        if len(idx) == 1 or size.max() <= max_extent:
+            pieces.append(np.sort(faces[idx]))
+            continue
+        axis = int(np.argmax(size))
+        order = idx[np.argsort(centre[idx, axis], kind="stable")]
+        half = len(order) // 2
+        stack += [order[half:], order[:half]]
+    return pieces
 
 
 def split_world(idx: np.ndarray, centres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -214,7 +240,7 @@ def split_light(idx: np.ndarray, rects: np.ndarray) -> tuple[np.ndarray, np.ndar
         orders.append(order)
     smallest = max(1, int(np.ceil(LIGHT_SPLIT_MIN_FRACTION * m - 1e-9)))
     costs[:, (k < smallest) | (k > m - smallest)] = np.inf
-    tol = SPLIT_TIE_RTOL * max(_extent(union_rect(r)) ** 2, np.finfo(np.float64).tiny)
+    tol = SPLIT_TIE_RTOL * max(rect_extent(union_rect(r)) ** 2, np.finfo(np.float64).tiny)
     near_best = costs <= costs.min() + tol
     imbalance = np.where(near_best, np.abs(2 * k - m), np.iinfo(np.int64).max)
     axis, pos = np.unravel_index(int(np.argmin(imbalance)), imbalance.shape)
@@ -282,7 +308,7 @@ def make_clumps(
     def push(idx: np.ndarray) -> None:
         nonlocal seq
         rect = union_rect(rects[idx])
-        ext = _extent(rect)
+        ext = rect_extent(rect)
         if len(idx) == 1 or (target is None and ext <= max_extent):
             done.append((idx, rect))
         else:

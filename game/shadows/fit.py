@@ -3,7 +3,8 @@
 Directional lights get orthographic maps in a common light space (rows of
 ``transforms.light_rotation``), so every map's footprint is a rectangle in the same plane and its
 texel grid can be snapped to world-fixed positions. Spot and point lights get one perspective
-frustum per caster, aimed from the light at the caster: no cube maps.
+frustum per caster, aimed from the light at the caster, and a caster set that surrounds a point
+light gets the faces of a cube around it.
 """
 
 from __future__ import annotations
@@ -82,17 +83,19 @@ def fit_directional(points: np.ndarray, light_rot: np.ndarray, resolution: int,
                   rect=np.array([x0, y0, x1, y1]), near=near, far=far)
 
 
-def fit_perspective(points: np.ndarray, eye: np.ndarray, resolution: int) -> MapFit | None:
+def fit_perspective(points: np.ndarray, eye: np.ndarray, resolution: int,
+                    axis: np.ndarray | None = None, max_tan: float = MAX_TAN) -> MapFit | None:
     """Perspective map of ``points`` seen from a light at ``eye``; None if nothing is in front.
 
-    The frustum is aimed at the caster's bounding-box centre and bounded by the extreme
-    directions of its points, with square texels. Points at or behind the light's plane (a light
-    inside a caster's bounds) cannot be held by one frustum; they are clipped at a near plane.
+    The frustum is aimed at the caster's bounding-box centre (or along ``axis``) and bounded by
+    the extreme directions of its points, at most ``max_tan`` either side of its axis, with
+    square texels. Points at or behind the light's plane (a light inside a caster's bounds)
+    cannot be held by one frustum; they are clipped at a near plane.
     """
     p = np.asarray(points, float)
     eye = np.asarray(eye, float)
-    centre = (p.min(axis=0) + p.max(axis=0)) / 2
-    axis = centre - eye
+    if axis is None:
+        axis = (p.min(axis=0) + p.max(axis=0)) / 2 - eye
     if np.linalg.norm(axis) < 1e-9:
         axis = np.array([0.0, -1.0, 0.0])
     view = transforms.look_at(eye, eye + axis)
@@ -103,12 +106,12 @@ def fit_perspective(points: np.ndarray, eye: np.ndarray, resolution: int) -> Map
         return None
     near_floor = MIN_NEAR_SHARE * far_depth
     front = depth > near_floor
-    tx = np.clip(v[front, 0] / depth[front], -MAX_TAN, MAX_TAN)
-    ty = np.clip(v[front, 1] / depth[front], -MAX_TAN, MAX_TAN)
+    tx = np.clip(v[front, 0] / depth[front], -max_tan, max_tan)
+    ty = np.clip(v[front, 1] / depth[front], -max_tan, max_tan)
     if not front.all():
         # Part of the caster surrounds the light: widen to the maximum angle on those sides.
-        tx = np.concatenate([tx, [-MAX_TAN, MAX_TAN]])
-        ty = np.concatenate([ty, [-MAX_TAN, MAX_TAN]])
+        tx = np.concatenate([tx, [-max_tan, max_tan]])
+        ty = np.concatenate([ty, [-max_tan, max_tan]])
     lo = np.array([tx.min(), ty.min()])
     hi = np.array([tx.max(), ty.max()])
     usable = resolution - 2 * MARGIN_TEXELS - 1
@@ -198,15 +201,42 @@ def light_rotation_of(light) -> np.ndarray | None:
     return transforms.light_rotation(light.direction) if light.kind == "directional" else None
 
 
-def fit_to_light(points: np.ndarray, light, light_rot: np.ndarray | None,
-                 resolution: int) -> MapFit | None:
-    """A map over ``points`` for a scene light: orthographic in ``light_rot`` for a directional
-    light, perspective from its position otherwise. None when there are no points."""
+def fit_spot(points: np.ndarray, eye: np.ndarray, direction: np.ndarray, cone_deg: float,
+             resolution: int) -> MapFit | None:
+    """Perspective map of ``points`` for a spot light: aimed along the light and no wider than
+    its cone, since nothing outside the cone is lit. Casters on every side of the light give a
+    map of the whole cone; None when no point is in front of the light."""
+    half = math.radians(min(cone_deg, 179.0) / 2)
+    return fit_perspective(points, eye, resolution, axis=np.asarray(direction, float),
+                           max_tan=min(MAX_TAN, math.tan(half)))
+
+
+def fits_for_light(points: np.ndarray, light, light_rot: np.ndarray | None,
+                   resolution: int) -> list[MapFit]:
+    """The maps that hold ``points`` for a scene light, as an engine would give one caster
+    set: one orthographic map in ``light_rot`` (directional), one perspective map over the
+    cone (spot), one frustum or, when the casters surround it, the faces of a cube (point).
+    Empty when there are no points, or none a spot light can reach."""
     if not len(points):
-        return None
+        return []
     if light.kind == "directional":
-        return fit_directional(points, light_rot, resolution)
-    return fit_perspective(points, light.position, resolution)
+        return [fit_directional(points, light_rot, resolution)]
+    if light.kind == "spot":
+        fit = fit_spot(points, light.position, light.direction, light.cone, resolution)
+        return [fit] if fit is not None else []
+    if holds_in_one_frustum(points, light.position):
+        fit = fit_perspective(points, light.position, resolution)
+        return [fit] if fit is not None else []
+    return fit_cube_faces(points, light.position, resolution)
+
+
+CUBE_FACES = len(CUBE_AXES)
+"""The most maps :func:`fits_for_light` gives one caster set (a point light's cube)."""
+
+
+def layers_for_light(light) -> int:
+    """Layers that :func:`fits_for_light` may need for one caster set."""
+    return CUBE_FACES if light.kind == "point" else 1
 
 
 def deciding_points(points: np.ndarray, light_rot: np.ndarray | None) -> np.ndarray:

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from game.scene.geometry import Piece
 from game.shadows.fit import MapFit
 
 # KIND_CASCADE: keep in sync with shaders/shadow.glsl (the finest cascade holding a fragment wins).
@@ -68,6 +69,9 @@ class MapRecord:
     # than the map's own rectangle when a clump is spread out; the map grid lists a map for a
     # cell only where one of these (grown by the bias reach) overlaps it.
     cover: np.ndarray | None = None
+    # A clump of parts: the pieces drawn (indices into the plan's ``static_pieces``), where
+    # ``objects`` only names the statics they belong to. None: the objects are drawn whole.
+    pieces: list[int] | None = None
 
 
 @dataclass
@@ -76,4 +80,5 @@ class ShadowPlan:
     maps: list[MapRecord]            # every map the shading pass may sample
     render_static: list[int] = field(default_factory=list)   # indices into maps
     render_dynamic: list[int] = field(default_factory=list)
-    static_order: list[int] | None = None  # statics in clump order, for the index buffer
+    # The statics' faces in clump order, for the index buffer (game/scene/geometry.layout).
+    static_pieces: list[Piece] | None = None

@@ -17,7 +17,14 @@ import numpy as np
 from game import transforms
 from game.scene.geometry import PackedGeometry
 from game.scene.model import Light
-from game.shadows.fit import DEPTH_MARGIN, MARGIN_TEXELS, MapFit, deciding_points, fit_to_light
+from game.shadows.fit import (
+    DEPTH_MARGIN,
+    MARGIN_TEXELS,
+    MapFit,
+    deciding_points,
+    fits_for_light,
+    layers_for_light,
+)
 from game.shadows.method import ShadowMethod
 from game.shadows.plan import KIND_ALL, KIND_CASCADE, MapRecord, ShadowPlan, ShadowSettings
 
@@ -85,8 +92,9 @@ class CascadedShadows(ShadowMethod):
     The shadow distance is the camera's far plane, cut to the farthest corner of the scene's
     bounds (engines expose it as a setting; past the scene nothing receives a shadow). Each
     cascade draws only the casters whose light-space rectangle meets it. Spot and point lights
-    have no cascades in engines; there this method renders one perspective map of
-    ``cascade_resolution`` over every caster (and says so in ``notes``).
+    have no cascades in engines; there this method draws the maps of ``single`` at
+    ``cascade_resolution`` (one map over a spot light's cone; one frustum, or a cube's faces,
+    around a point light) and says so in ``notes``.
     """
 
     name = "csm"
@@ -110,7 +118,8 @@ class CascadedShadows(ShadowMethod):
 
     @property
     def layers(self) -> int:
-        return self.settings.cascades if self.light.kind == "directional" else 1
+        return (self.settings.cascades if self.light.kind == "directional"
+                else layers_for_light(self.light))
 
     @property
     def resolution(self) -> int:
@@ -120,7 +129,10 @@ class CascadedShadows(ShadowMethod):
         self.light = light
         g = self.geom
         if light.kind != "directional":
-            note = "csm: cascades need a directional light; one perspective map used instead"
+            note = (f"csm: cascades need a directional light; for this {light.kind} light it "
+                    "draws the maps of single at cascade_resolution "
+                    + ("(one over the cone)" if light.kind == "spot"
+                       else "(one frustum, or a cube's faces around the light)"))
             if note not in self.notes:
                 self.notes.append(note)
             self._light_rot = None
@@ -148,13 +160,11 @@ class CascadedShadows(ShadowMethod):
         character_objects = [g.character_object(i) for i in range(g.n_characters)]
         if self.light.kind != "directional":
             points = np.concatenate([self._static_points, *character_points])
-            fit = fit_to_light(points, self.light, None, res)
+            fits = fits_for_light(points, self.light, None, res)
             objects = [g.static_object(i) for i in range(g.n_statics)] + character_objects
-            if fit is None:
-                return ShadowPlan(resolution=res, maps=[])
-            return ShadowPlan(resolution=res, maps=[MapRecord("csm", KIND_ALL, fit, 0, res,
-                                                              objects)],
-                              render_dynamic=[0])
+            maps = [MapRecord("csm" if len(fits) == 1 else f"csm_face_{k}", KIND_ALL, fit, k,
+                              res, objects) for k, fit in enumerate(fits)]
+            return ShadowPlan(resolution=res, maps=maps, render_dynamic=list(range(len(maps))))
         rot = self._light_rot
         boxes = self._static_boxes
         objects = self._static_objects

@@ -87,7 +87,7 @@ class ClumpedShadows(ShadowMethod):
         self.layer_limit = max(2, min(budget_layers, max_layers))
         self.static_maps: list[MapRecord] = []
         self.clumps: list[clumping.Clump] = []
-        self._clump_names: list[list[str]] = []   # member names per clump, parallel to clumps
+        self._clump_keys: list[list[tuple[str, int]]] = []  # member units' keys per clump
         self._clump_layers: list[list[int]] = []  # a clump's layers: one, or cube faces
         self._dirty: set[int] = set()             # clumps (indices) whose maps must be drawn
         self._free: list[int] = []                # layers given back, reused lowest first
@@ -170,16 +170,53 @@ class ClumpedShadows(ShadowMethod):
         g = self.geom
         return [g.names[g.static_object(i)] for i in range(g.n_statics)]
 
+    def _max_extent(self, per_metre: float) -> float:
+        s = self.settings
+        return clumping.max_extent_for_density(s.clump_resolution, s.texels_per_metre) * per_metre
+
+    def _make_units(self) -> None:
+        """The statics' parts (game/scene/parts.py), a part wider than one map at the density
+        target split further (:func:`clumping.split_wide`): what the clumps are made of.
+        Each unit has a key, (static name, serial), stable while its static is unchanged."""
+        g = self.geom
+        names = self._static_names()
+        parts: list[tuple[int, np.ndarray]] = []
+        points: list[np.ndarray] = []
+        for i in range(g.n_statics):
+            labels = g.static_parts[i]
+            order = np.argsort(labels, kind="stable")
+            split = np.split(order, np.flatnonzero(np.diff(labels[order])) + 1)
+            for faces in split:
+                parts.append((i, faces))
+                points.append(g.static_points[i] if len(split) == 1
+                              else g.static_corners(i, faces))
+        footprint, per_metre = _footprint(self.light, points)
+        limit = self._max_extent(per_metre)
+        rects = clumping.object_summaries(points, footprint)[0] if points else np.zeros((0, 4))
+        self._units, self._unit_points, self._unit_keys = [], [], []
+        serial = dict.fromkeys(range(g.n_statics), 0)
+        for (i, faces), part_points, rect in zip(parts, points, rects, strict=True):
+            pieces = [faces]
+            if clumping.rect_extent(rect) > limit and len(faces) > 1:
+                corners = g.static_corners(i, faces).reshape(-1, 3, 3)
+                pieces = clumping.split_wide(corners, faces, footprint, limit)
+            for piece in pieces:
+                self._units.append((i, piece))
+                self._unit_points.append(part_points if len(pieces) == 1
+                                         else g.static_corners(i, piece))
+                self._unit_keys.append((names[i], serial[i]))
+                serial[i] += 1
+
     def _build_static(self) -> None:
         s = self.settings
-        points = self.geom.static_points
+        self._make_units()
+        points = self._unit_points
         footprint, per_metre = _footprint(self.light, points)
-        max_extent = clumping.max_extent_for_density(s.clump_resolution, s.texels_per_metre)
         count = s.clump_count
         if count is not None and count > self.max_clumps:
             self.notes.append(f"{count} clumps asked, {self.max_clumps} fit the layer budget")
             count = self.max_clumps
-        clumps = clumping.make_clumps(points, footprint, s.clumping, max_extent * per_metre,
+        clumps = clumping.make_clumps(points, footprint, s.clumping, self._max_extent(per_metre),
                                       count)
         if len(clumps) > self.max_clumps:
             self.notes.append(
@@ -190,45 +227,53 @@ class ClumpedShadows(ShadowMethod):
         for layers in self._clump_layers:
             for layer in layers:
                 self._give_layer(layer)
-        names = self._static_names()
-        self._clump_names = [[names[m] for m in c.members] for c in clumps]
+        self._clump_keys = [[self._unit_keys[m] for m in c.members] for c in clumps]
         self._clump_layers = [[self._take_layer()] for _ in clumps]
         self._dirty = set(range(len(clumps)))
         self._refresh_static()
 
     def _refresh_static(self) -> None:
-        """Clumps, fits and map records from the member names (after any change)."""
+        """Clumps, fits and map records from the member keys (after any change)."""
         s = self.settings
-        points = self.geom.static_points
-        index = {name: i for i, name in enumerate(self._static_names())}
+        points = self._unit_points
+        index = {key: u for u, key in enumerate(self._unit_keys)}
         footprint = (clumping.directional_footprint(self._light_rot)
                      if self.light.kind == "directional" else None)
-        keep = [k for k, names in enumerate(self._clump_names) if names]
-        for k in range(len(self._clump_names)):
-            if k not in keep:
-                for layer in self._clump_layers[k]:  # an emptied clump frees its layers
-                    self._give_layer(layer)
-        old_dirty = self._dirty
-        self._clump_names = [self._clump_names[k] for k in keep]
-        self._clump_layers = [self._clump_layers[k] for k in keep]
-        self._dirty = {new for new, k in enumerate(keep) if k in old_dirty}
+        self._drop_empty_clumps()
         self.clumps, self.static_maps, self._map_of_clump = [], [], {}
-        for k, names in enumerate(self._clump_names):
-            members = tuple(sorted(index[n] for n in names))
-            rects = (clumping.object_summaries([points[i] for i in members], footprint)[0]
+        self.static_pieces = []
+        for k, keys in enumerate(self._clump_keys):
+            members = tuple(sorted(index[key] for key in keys))
+            rects = (clumping.object_summaries([points[u] for u in members], footprint)[0]
                      if footprint is not None else None)
             self.clumps.append(clumping.Clump(
                 members=members,
                 rect=clumping.union_rect(rects) if rects is not None else np.zeros(4)))
-            fits = self._clump_fits(k, np.concatenate([points[i] for i in members]))
+            first = len(self.static_pieces)
+            self.static_pieces += [self._units[u] for u in members]
+            pieces = list(range(first, len(self.static_pieces)))
+            statics = sorted({self._units[u][0] for u in members})
+            fits = self._clump_fits(k, np.concatenate([points[u] for u in members]))
             self._map_of_clump[k] = []
             for fit, layer in zip(fits, self._clump_layers[k], strict=False):
                 self._map_of_clump[k].append(len(self.static_maps))
                 self.static_maps.append(MapRecord(
                     name=f"clump_{k}", kind=KIND_CLUMP, fit=fit, layer=layer,
                     viewport=s.clump_resolution,
-                    objects=[self.geom.static_object(i) for i in members], cover=rects))
-        self.static_order = [m for c in self.clumps for m in c.members]
+                    objects=[self.geom.static_object(i) for i in statics], cover=rects,
+                    pieces=pieces))
+
+    def _drop_empty_clumps(self) -> None:
+        """Clumps left without members go, and give back their layers."""
+        keep = [k for k, keys in enumerate(self._clump_keys) if keys]
+        for k in range(len(self._clump_keys)):
+            if k not in keep:
+                for layer in self._clump_layers[k]:
+                    self._give_layer(layer)
+        old_dirty = self._dirty
+        self._clump_keys = [self._clump_keys[k] for k in keep]
+        self._clump_layers = [self._clump_layers[k] for k in keep]
+        self._dirty = {new for new, k in enumerate(keep) if k in old_dirty}
 
     def _clump_fits(self, k: int, points: np.ndarray) -> list[MapFit]:
         """The maps of clump ``k``: one fit, or the faces of a cube around a light inside it.
@@ -261,35 +306,54 @@ class ClumpedShadows(ShadowMethod):
     def update_statics(self, geom: PackedGeometry, changed: set[str]) -> list[int]:
         """Statics were added, removed or moved (their names in ``changed``).
 
-        Each changed static leaves its clump (that clump's map is re-rendered: its old place)
-        and, if it still exists, joins the clump whose footprint overlaps its own the most, or
-        the nearest one (re-rendered too: its new place). Other clumps keep their cached maps.
-        Returns the indices of the clumps that will be re-rendered.
+        Every part of a changed static leaves its clump (that clump's map is re-rendered: its
+        old place). A static that still exists comes back: where it fits one map at the
+        density target, each of its parts joins the clump whose footprint overlaps its own the
+        most, or the nearest one (re-rendered too: its new place); the parts of a larger one (a
+        level in one file) are clumped anew among themselves, in clumps of their own. Other
+        clumps keep their cached maps. Returns the indices of the clumps that will be
+        re-rendered.
         """
         self.geom = geom
-        names = self._static_names()
-        index = {name: i for i, name in enumerate(names)}
-        for k, members in enumerate(self._clump_names):
-            kept = [n for n in members if n in index and n not in changed]
-            if len(kept) != len(members):
-                self._clump_names[k] = kept
+        self._make_units()
+        index = {key: u for u, key in enumerate(self._unit_keys)}
+        for k, keys in enumerate(self._clump_keys):
+            kept = [key for key in keys if key in index and key[0] not in changed]
+            if len(kept) != len(keys):
+                self._clump_keys[k] = kept
                 self._dirty.add(k)
-        arrivals = [n for n in names if n in changed]
+        self._drop_empty_clumps()
+        arrivals = [key for key in self._unit_keys if key[0] in changed]
+        footprint, per_metre = _footprint(self.light, self._unit_points)
+        by_static: dict[str, list[tuple[str, int]]] = {}
+        for key in arrivals:
+            by_static.setdefault(key[0], []).append(key)
+        arrivals = []
+        for keys in by_static.values():
+            own = clumping.make_clumps([self._unit_points[index[key]] for key in keys],
+                                       footprint, self.settings.clumping,
+                                       self._max_extent(per_metre))
+            if len(own) == 1:  # it fits one map: it joins the others
+                arrivals += keys
+                continue
+            for clump in own:
+                self._clump_keys.append([keys[m] for m in clump.members])
+                self._clump_layers.append([self._take_layer()])
+                self._dirty.add(len(self._clump_keys) - 1)
         if arrivals:
-            footprint, _ = _footprint(self.light, geom.static_points)
             rects = [clumping.object_summaries(
-                [geom.static_points[index[n]] for n in members], footprint)[0]
-                for members in self._clump_names]
-            for name in arrivals:
-                own = clumping.object_summaries([geom.static_points[index[name]]],
-                                                footprint)[0][0]
+                [self._unit_points[index[key]] for key in keys], footprint)[0]
+                for keys in self._clump_keys]
+            own_rects = clumping.object_summaries(
+                [self._unit_points[index[key]] for key in arrivals], footprint)[0]
+            for key, own in zip(arrivals, own_rects, strict=True):
                 k = self._nearest_clump(own, rects)
                 if k is None:
-                    self._clump_names.append([])
+                    self._clump_keys.append([])
                     self._clump_layers.append([self._take_layer()])
                     rects.append(np.zeros((0, 4)))
-                    k = len(self._clump_names) - 1
-                self._clump_names[k].append(name)
+                    k = len(self._clump_keys) - 1
+                self._clump_keys[k].append(key)
                 rects[k] = np.vstack([rects[k], own[None]])
                 self._dirty.add(k)
         self._refresh_static()
@@ -351,8 +415,8 @@ class ClumpedShadows(ShadowMethod):
         self._dirty = set()
         return ShadowPlan(resolution=resolution, maps=maps,
                           render_static=render_static, render_dynamic=render_dynamic,
-                          static_order=self.static_order)
+                          static_pieces=self.static_pieces)
 
     def mark_rendered_lost(self) -> None:
         """The array was re-created (resized): every cached layer must be drawn again."""
-        self._dirty = set(range(len(self._clump_names)))
+        self._dirty = set(range(len(self._clump_keys)))

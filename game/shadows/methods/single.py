@@ -1,4 +1,5 @@
-"""``single``: the baseline of one map fitted to every caster, re-rendered every frame."""
+"""``single``: the baseline of one map fitted to every caster, re-rendered every frame (for a
+point light among its casters, the six faces of a cube, as an engine gives it)."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ import numpy as np
 from game import transforms
 from game.scene.geometry import PackedGeometry
 from game.scene.model import Light
-from game.shadows.fit import deciding_points, fit_to_light, light_rotation_of
+from game.shadows.fit import deciding_points, fits_for_light, layers_for_light, light_rotation_of
 from game.shadows.method import ShadowMethod
 from game.shadows.plan import KIND_ALL, MapRecord, ShadowPlan, ShadowSettings
 
@@ -27,7 +28,7 @@ class SingleShadows(ShadowMethod):
 
     @property
     def layers(self) -> int:
-        return 1
+        return layers_for_light(self.light)
 
     @property
     def resolution(self) -> int:
@@ -56,9 +57,8 @@ class SingleShadows(ShadowMethod):
         points = np.concatenate(parts)
         objects = ([self.geom.static_object(i) for i in range(self.geom.n_statics)]
                    + [self.geom.character_object(i) for i in range(self.geom.n_characters)])
-        maps, render = [], []
-        fit = fit_to_light(points, self.light, self._light_rot, res)
-        if fit is not None:
-            maps.append(MapRecord("single", KIND_ALL, fit, 0, res, objects))
-            render = [0]
-        return ShadowPlan(resolution=res, maps=maps, render_dynamic=render)
+        fits = fits_for_light(points, self.light, self._light_rot, res)
+        names = ["single"] if len(fits) == 1 else [f"single_face_{k}" for k in range(len(fits))]
+        maps = [MapRecord(name, KIND_ALL, fit, layer, res, objects)
+                for layer, (name, fit) in enumerate(zip(names, fits, strict=True))]
+        return ShadowPlan(resolution=res, maps=maps, render_dynamic=list(range(len(maps))))

@@ -12,7 +12,7 @@ import numpy as np
 from game import transforms
 from game.scene.geometry import PackedGeometry
 from game.scene.model import Light
-from game.shadows.fit import fit_to_light, light_rotation_of
+from game.shadows.fit import fits_for_light, layers_for_light, light_rotation_of
 from game.shadows.method import ShadowMethod
 from game.shadows.plan import KIND_ALL, KIND_CLUMP, MapRecord, ShadowPlan, ShadowSettings
 
@@ -21,7 +21,8 @@ class StaticDynamicShadows(ShadowMethod):
     """One cached map of all statics and one map of all characters (re-rendered each frame).
 
     Both maps have ``settings.single_resolution`` texels per side: the same memory as two
-    ``single`` maps, so the comparison with ``single`` isolates what caching buys.
+    ``single`` maps, so the comparison with ``single`` isolates what caching buys. A point light
+    among its casters gives either map the faces of a cube instead, as it does ``single``.
     """
 
     name = "static-dynamic"
@@ -41,7 +42,7 @@ class StaticDynamicShadows(ShadowMethod):
 
     @property
     def layers(self) -> int:
-        return 2
+        return self._first_character_layer + layers_for_light(self.light)
 
     @property
     def resolution(self) -> int:
@@ -51,33 +52,35 @@ class StaticDynamicShadows(ShadowMethod):
         """A new light refits (and re-renders) the static map."""
         self.light = light
         self._light_rot = light_rotation_of(light)
-        fit = fit_to_light(self.geom.all_static_points(), light, self._light_rot,
-                           self.resolution)
+        fits = fits_for_light(self.geom.all_static_points(), light, self._light_rot,
+                              self.resolution)
         objects = [self.geom.static_object(i) for i in range(self.geom.n_statics)]
-        self._static = (None if fit is None else
-                        MapRecord("statics", KIND_CLUMP, fit, 0, self.resolution, objects))
+        names = ["statics"] if len(fits) == 1 else [f"statics_face_{k}" for k in range(len(fits))]
+        self._static = [MapRecord(name, KIND_CLUMP, fit, layer, self.resolution, objects)
+                        for layer, (name, fit) in enumerate(zip(names, fits, strict=True))]
+        self._first_character_layer = max(1, len(self._static))
         self._static_dirty = True
 
     def mark_rendered_lost(self) -> None:
         self._static_dirty = True
 
     def plan(self, models: np.ndarray, view=None) -> ShadowPlan:
-        maps, render_static, render_dynamic = [], [], []
-        if self._static is not None:
-            maps.append(self._static)
-            if self._static_dirty:
-                render_static.append(0)
+        maps = list(self._static)
+        render_static = list(range(len(maps))) if self._static_dirty else []
+        render_dynamic = []
         n = self.geom.n_characters
         if n:
             points = np.concatenate([
                 transforms.transform_points(models[i], self.geom.character_points[i])
                 for i in range(n)])
-            fit = fit_to_light(points, self.light, self._light_rot, self.resolution)
-            if fit is not None:
+            fits = fits_for_light(points, self.light, self._light_rot, self.resolution)
+            objects = [self.geom.character_object(i) for i in range(n)]
+            for k, fit in enumerate(fits):
                 render_dynamic.append(len(maps))
                 # KIND_ALL, not KIND_CHARACTER: one map holds many characters.
-                maps.append(MapRecord("characters", KIND_ALL, fit, 1, self.resolution,
-                                      [self.geom.character_object(i) for i in range(n)]))
+                name = "characters" if len(fits) == 1 else f"characters_face_{k}"
+                maps.append(MapRecord(name, KIND_ALL, fit, self._first_character_layer + k,
+                                      self.resolution, objects))
         self._static_dirty = False
         return ShadowPlan(resolution=self.resolution, maps=maps, render_static=render_static,
                           render_dynamic=render_dynamic)

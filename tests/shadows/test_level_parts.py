@@ -1,0 +1,108 @@
+"""A level that arrives as one mesh file is clumped by its parts (game/scene/parts.py), as well
+as the same level given as separate files."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+from game import transforms
+from game.render.renderer import Renderer
+from game.scene import load_scene
+from game.shadows.plan import ShadowSettings
+from tests.conftest import ACCURACY_SIZE, MAX_ERROR
+from tests.shadow_check import render_and_check
+
+pytest.importorskip("embreex", reason="the Embree reference needs embreex (pip install .[test])")
+
+HEAD = """name = "level"
+[camera]
+position = [0.0, 45.0, 55.0]
+target   = [0.0, 0.0, 0.0]
+fov      = 55.0
+[light]
+kind      = "directional"
+direction = [0.5, -1.0, -0.35]
+[[floor]]
+shape    = "box"
+size     = [120.0, 0.2, 120.0]
+position = [0.0, -0.1, 0.0]
+"""
+
+
+def level_meshes() -> list[trimesh.Trimesh]:
+    """Houses of several heights on a 4x4 grid over 48 m, and a 40 m wall: wider than one
+    clump map holds at the density target, so it must be split too."""
+    rng = np.random.default_rng(7)
+    meshes = []
+    for x in np.linspace(-21, 21, 4):
+        for z in np.linspace(-21, 21, 4):
+            h = float(rng.uniform(2.0, 6.0))
+            meshes.append(trimesh.creation.box([4.0, h, 4.0]).apply_translation([x, h / 2, z]))
+    meshes.append(trimesh.creation.box([40.0, 3.0, 0.6]).apply_translation([0.0, 1.5, -27.0]))
+    return meshes
+
+
+def write_level(folder: Path, as_parts: bool) -> Path:
+    folder.mkdir()
+    meshes = level_meshes()
+    if as_parts:
+        entries = []
+        for i, mesh in enumerate(meshes):
+            mesh.export(folder / f"part_{i}.obj")
+            entries.append(f'[[static]]\nshape = "mesh"\nfile = "part_{i}.obj"\n')
+    else:
+        trimesh.util.concatenate(meshes).export(folder / "level.obj")
+        entries = ['[[static]]\nshape = "mesh"\nfile = "level.obj"\n']
+    (folder / "level.toml").write_text(HEAD + "\n".join(entries))
+    return folder / "level.toml"
+
+
+def test_a_level_in_one_file_gets_many_maps_and_the_accuracy_of_separate_files(ctx, tmp_path):
+    from tests.shadows.test_accuracy import capture_errors
+
+    results = {}
+    for as_parts in (False, True):
+        path = write_level(tmp_path / ("parts" if as_parts else "one"), as_parts)
+        scene = load_scene(path)
+        renderer = Renderer(ctx, scene, ACCURACY_SIZE)
+        try:
+            maps = len(renderer.method.static_maps)
+        finally:
+            renderer.release()
+        errors = capture_errors(ctx, scene, ShadowSettings(), tmp_path / f"frames_{as_parts}",
+                                frames=1)
+        results[as_parts] = maps, errors[0]["error"]
+    (one_maps, one_error), (parts_maps, parts_error) = results[False], results[True]
+    assert len(load_scene(tmp_path / "one" / "level.toml").statics) == 1
+    # 17 buildings over 48 m at 16 m per map: many maps either way, not one for the file.
+    assert one_maps >= 8 and parts_maps >= 8, results
+    assert one_error <= MAX_ERROR and one_error <= parts_error + 0.01, results
+
+
+def test_editing_a_level_file_re_renders_the_clumps_of_its_parts(ctx, tmp_path):
+    path = write_level(tmp_path / "one", as_parts=False)
+    text = path.read_text() + ('[[static]]\nshape = "box"\nsize = [2.0, 3.0, 2.0]\n'
+                               'position = [35.0, 1.5, 35.0]\n')
+    path.write_text(text)
+    scene = load_scene(path)
+    r = Renderer(ctx, scene, ACCURACY_SIZE, gbuffer=True)
+    try:
+        render_and_check(r)
+        method = r.method
+        level = r.geom.names.index("static_0")
+        holding = [k for k, m in enumerate(method.static_maps) if level in m.objects]
+        assert 8 <= len(holding) < len(method.static_maps)  # the box has a clump of its own
+        # Moving the box touches its own clump only; moving the level, every clump of its parts,
+        # and no stale shadow is left where its houses were.
+        assert len(r.move_static("static_1", transforms.translation([1.0, 0.0, 0.0]))) == 1
+        touched = r.move_static("static_0", transforms.translation([0.0, 0.0, 3.0]))
+        assert len(touched) >= len(holding)
+        frame, err = render_and_check(r)
+        assert frame.maps_rendered >= len(holding)
+        assert err["error"] <= MAX_ERROR, err["error"]
+    finally:
+        r.release()
