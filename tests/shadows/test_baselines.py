@@ -160,3 +160,23 @@ def test_capture_warns_about_a_raised_floor(tmp_path):
     r = _cli("capture", str(scene), "--size", "80x45", "--out", str(tmp_path / "out"))
     assert r.returncode == 0, r.stderr
     assert "note: floor_1 lies above static_0" in r.stderr
+
+
+def test_a_spot_map_covers_the_cone_and_no_more():
+    """Casters on every side of a spot light: its one map spans the cone (nothing outside it is
+    lit), where a fit to the casters would clip at 80 degrees and waste its texels."""
+    from game.shadows.fit import MARGIN_TEXELS, fit_spot
+
+    rng = np.random.default_rng(5)
+    around = rng.normal(size=(400, 3)) * 5.0
+    eye, direction = np.zeros(3), np.array([0.0, -1.0, 0.0])
+    fit = fit_spot(around, eye, direction, 60.0, 1024)
+    half = np.tan(np.radians(30.0))
+    margin = (MARGIN_TEXELS + 1) * fit.texel
+    x0, y0, x1, y1 = fit.rect
+    assert -half - margin <= x0 <= -half and half <= x1 <= half + 2 * margin
+    assert -half - margin <= y0 <= -half and half <= y1 <= half + 2 * margin
+    # A caster inside the cone alone gets a map fitted to it, not the whole cone.
+    small = np.array([[0.1, -5.0, 0.1], [0.3, -5.0, 0.2], [0.2, -4.5, 0.3]])
+    tight = fit_spot(small, eye, direction, 60.0, 1024)
+    assert tight.rect[2] - tight.rect[0] < 0.2 * (x1 - x0)
