@@ -12,7 +12,9 @@ uniform sampler2DArrayShadow u_shadow_maps;
 
 // KIND_CASCADE (a #define from game/shadows/plan.py) marks csm cascades. They are listed
 // finest first, and the first one that holds the fragment decides (coarser ones would only add
-// their larger error under the minimum).
+// their larger error under the minimum). KIND_FALLBACK marks clumped's coarse maps of long faces,
+// listed after the clump maps: every clump map holds the long faces that cross it, so a fallback
+// map is read only where no clump map held the fragment (its coarse texels would only add error).
 
 bool decided(int i, int sampled_before, int sampled) {
     return sampled > sampled_before && u_maps[i].kind == KIND_CASCADE;
@@ -96,7 +98,11 @@ struct Receiver {
     float sin_t, tan_t; // of the angle between n and l
 };
 
-void consider(int i, Receiver r, inout float vis, inout int sampled, inout int used) {
+void consider(int i, Receiver r, inout float vis, inout int sampled, inout int used,
+              inout int held) {
+    if (u_maps[i].kind == KIND_FALLBACK && held > 0) {
+        return;
+    }
     bool read;
 #if LIGHT_KIND == LIGHT_DIRECTIONAL
     float v = sample_ortho(i, r.lp, r.ln, r.sin_t, r.tan_t, read);
@@ -105,6 +111,7 @@ void consider(int i, Receiver r, inout float vis, inout int sampled, inout int u
 #endif
     if (read) {
         sampled += 1;
+        held += u_maps[i].kind == KIND_CLUMP ? 1 : 0;
         if (used < 0 || v < vis) {
             used = i;
         }
@@ -130,10 +137,11 @@ float shadow_visibility(vec3 p, vec3 n, out int sampled, out int used) {
     r.lp = (u_frame.light_rot * vec4(p, 1.0)).xyz;
     r.ln = mat3(u_frame.light_rot) * n;
     float vis = 1.0;
+    int held = 0;   // clump maps that held the fragment
 #if GRID == GRID_NONE
     for (int i = 0; i < u_frame.map_count && vis > 0.0; ++i) {
         int before = sampled;
-        consider(i, r, vis, sampled, used);
+        consider(i, r, vis, sampled, used, held);
         if (decided(i, before, sampled)) {
             break;
         }
@@ -154,7 +162,7 @@ float shadow_visibility(vec3 p, vec3 n, out int sampled, out int used) {
     int c = cell.y * size + cell.x;
     for (int k = u_grid[c]; k < u_grid[c + 1] && vis > 0.0; ++k) {
         int before = sampled;
-        consider(u_grid[k], r, vis, sampled, used);
+        consider(u_grid[k], r, vis, sampled, used, held);
         if (decided(u_grid[k], before, sampled)) {
             break;
         }

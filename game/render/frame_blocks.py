@@ -19,14 +19,21 @@ from game.scene.geometry import PackedGeometry
 from game.scene.model import Light
 from game.shadows.fit import light_rotation_of
 from game.shadows.map_grid import MapGrid
-from game.shadows.plan import KIND_CASCADE, KIND_CHARACTER, ShadowPlan, ShadowSettings
+from game.shadows.plan import (
+    KIND_CASCADE,
+    KIND_CHARACTER,
+    KIND_CLUMP,
+    KIND_FALLBACK,
+    ShadowPlan,
+    ShadowSettings,
+)
 
 
 def shader_defines(ctx) -> dict:
     """The #defines every shader of the frame is built with."""
     d = {"MAX_MAPS": blocks.max_maps(ctx), "GRID_NONE": blocks.GRID_NONE,
          "GRID_ORTHO": blocks.GRID_ORTHO, "GRID_OCTAHEDRAL": blocks.GRID_OCTAHEDRAL,
-         "KIND_CASCADE": KIND_CASCADE}
+         "KIND_CASCADE": KIND_CASCADE, "KIND_CLUMP": KIND_CLUMP, "KIND_FALLBACK": KIND_FALLBACK}
     d.update({f"DEBUG_{name.upper().replace('-', '_')}": value
               for name, value in blocks.DEBUG_VIEWS.items() if name != "none"})
     d.update({f"LIGHT_{kind.upper()}": value for kind, value in blocks.LIGHT_KINDS.items()})

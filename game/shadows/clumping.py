@@ -172,6 +172,25 @@ def rect_extent(rect: np.ndarray) -> float:
     return float(max(rect[2] - rect[0], rect[3] - rect[1]))
 
 
+def triangles_meet_rects(triangles: np.ndarray, rects: np.ndarray) -> np.ndarray:
+    """(T, K) whether each footprint triangle ((T, 3, 2) corners) meets each rectangle ((K, 4)
+    as xmin, ymin, xmax, ymax): the separating-axis test, on the rectangle's two axes and the
+    triangle's three edge normals."""
+    t = np.asarray(triangles, np.float64)[:, None]          # (T, 1, 3, 2)
+    r = np.asarray(rects, np.float64)[None]                 # (1, K, 4)
+    meet = ((t[..., 0].min(axis=2) <= r[..., 2]) & (t[..., 0].max(axis=2) >= r[..., 0])
+            & (t[..., 1].min(axis=2) <= r[..., 3]) & (t[..., 1].max(axis=2) >= r[..., 1]))
+    box = np.stack([r[..., [0, 1]], r[..., [2, 1]], r[..., [2, 3]], r[..., [0, 3]]], axis=2)
+    for e in range(3):
+        edge = t[:, :, (e + 1) % 3] - t[:, :, e]             # (T, 1, 2)
+        normal = np.stack([-edge[..., 1], edge[..., 0]], axis=-1)
+        tri = np.einsum("tkcd,tkd->tkc", np.broadcast_to(t, (*meet.shape, 3, 2)), normal)
+        rec = np.einsum("tkcd,tkd->tkc", np.broadcast_to(box, (*meet.shape, 4, 2)),
+                        np.broadcast_to(normal, (*meet.shape, 2)))
+        meet &= (tri.min(axis=2) <= rec.max(axis=2)) & (tri.max(axis=2) >= rec.min(axis=2))
+    return meet
+
+
 def split_wide(corners: np.ndarray, faces: np.ndarray, footprint: Footprint,
                max_extent: float) -> list[np.ndarray]:
     """Split one part's ``faces`` (their corners: (F, 3, 3)) into pieces whose footprints are

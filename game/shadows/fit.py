@@ -44,7 +44,8 @@ def _snap_rect(cx: float, cy: float, half: float, texel: float, resolution: int)
 
 
 def fit_directional(points: np.ndarray, light_rot: np.ndarray, resolution: int,
-                    radius: float | None = None) -> MapFit:
+                    radius: float | None = None,
+                    depth_points: np.ndarray | None = None) -> MapFit:
     """Orthographic map of ``points`` for a directional light.
 
     Parameters
@@ -59,9 +60,15 @@ def fit_directional(points: np.ndarray, light_rot: np.ndarray, resolution: int,
         For a moving caster: its bounding-sphere radius. The texel size then depends only on it,
         not on the caster's pose, so with the snapped origin the map moves in whole texels and
         the shadow does not shimmer as the caster walks and turns.
+    depth_points
+        More casters drawn into the map where they cross it (faces shared with other maps):
+        they widen its depth range, not its rectangle.
     """
     q = np.asarray(points, float) @ light_rot.T
     lo, hi = q.min(axis=0), q.max(axis=0)
+    if depth_points is not None and len(depth_points):
+        z = np.asarray(depth_points, float) @ light_rot[2]
+        lo[2], hi[2] = min(lo[2], float(z.min())), max(hi[2], float(z.max()))
     usable = resolution - 2 * MARGIN_TEXELS - 1
     if radius is not None:
         centre = (lo + hi) / 2

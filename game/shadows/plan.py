@@ -14,7 +14,9 @@ from game.scene.geometry import Piece
 from game.shadows.fit import MapFit
 
 # KIND_CASCADE: keep in sync with shaders/shadow.glsl (the finest cascade holding a fragment wins).
-KIND_CLUMP, KIND_CHARACTER, KIND_ALL, KIND_CASCADE = 0, 1, 2, 3
+# KIND_FALLBACK: a coarse map of long faces that the clump maps share (clumped); the shading pass
+# reads it only where no clump map holds the fragment.
+KIND_CLUMP, KIND_CHARACTER, KIND_ALL, KIND_CASCADE, KIND_FALLBACK = 0, 1, 2, 3, 4
 
 # Defaults chosen so the accuracy bar of tests/shadows/test_accuracy.py holds without per-scene
 # tuning.

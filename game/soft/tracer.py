@@ -29,7 +29,7 @@ COUNTERS = ("ray_triangle_tests", "triangle_triangle_tests", "voxels_visited", "
 # Ray start offset along the normal (receiver self-occlusion): a share of the grid's diagonal
 # plus a share of the distance from the origin (float32 positions lose absolute precision there).
 # The same rule as the Embree reference (game/reference/hard.py), so both see the same receivers.
-RAY_OFFSET_SCENE = 1e-4
+RAY_OFFSET_SCENE = 1e-5
 RAY_OFFSET_DISTANCE = 1e-5
 LOCAL_SIZE = 8            # invocations per side of a workgroup; keep in sync with trace.comp
 RAY_ID_LIMIT = 1 << 31    # tri-cache ids use 31 bits of the state word

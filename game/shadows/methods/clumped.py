@@ -25,7 +25,14 @@ from game.shadows.fit import (
 )
 from game.shadows.map_grid import octahedral_encode
 from game.shadows.method import ShadowMethod
-from game.shadows.plan import KIND_CHARACTER, KIND_CLUMP, MapRecord, ShadowPlan, ShadowSettings
+from game.shadows.plan import (
+    KIND_CHARACTER,
+    KIND_CLUMP,
+    KIND_FALLBACK,
+    MapRecord,
+    ShadowPlan,
+    ShadowSettings,
+)
 
 
 def _footprint(light: Light, statics: list[np.ndarray]):
@@ -206,6 +213,16 @@ class ClumpedShadows(ShadowMethod):
                                          else g.static_corners(i, piece))
                 self._unit_keys.append((names[i], serial[i]))
                 serial[i] += 1
+        # A single face wider than one map at the target (a roof's edge, a long wall's side)
+        # cannot be split. Clumped alone it would take a coarse map of its own and spread every
+        # map it joined; instead it is drawn into each clump map it crosses, at that map's
+        # texels, and owned by a few coarse maps of such faces for the ground between clumps
+        # (directional lights, where a map's footprint is a rectangle of the common plane).
+        self._long = set()
+        if self.light.kind == "directional" and self._unit_points:
+            unit_rects = clumping.object_summaries(self._unit_points, footprint)[0]
+            self._long = {self._unit_keys[u] for u, rect in enumerate(unit_rects)
+                          if len(self._units[u][1]) == 1 and clumping.rect_extent(rect) > limit}
 
     def _build_static(self) -> None:
         s = self.settings
@@ -216,21 +233,43 @@ class ClumpedShadows(ShadowMethod):
         if count is not None and count > self.max_clumps:
             self.notes.append(f"{count} clumps asked, {self.max_clumps} fit the layer budget")
             count = self.max_clumps
-        clumps = clumping.make_clumps(points, footprint, s.clumping, self._max_extent(per_metre),
-                                      count)
-        if len(clumps) > self.max_clumps:
+        long_keys = [k for k in self._unit_keys if k in self._long]
+        core = [u for u, k in enumerate(self._unit_keys) if k not in self._long]
+        long_clumps = self._long_clumps(long_keys, footprint)
+        room = max(1, self.max_clumps - len(long_clumps))
+        if count is not None:
+            count = max(1, min(count, len(core)) - len(long_clumps)) if core else None
+        clumps = clumping.make_clumps([points[u] for u in core], footprint, s.clumping,
+                                      self._max_extent(per_metre), count) if core else []
+        if len(clumps) > room:
             self.notes.append(
-                f"{len(clumps)} clumps would meet {s.texels_per_metre:g} texels/m; "
-                f"{self.max_clumps} fit the {s.budget_mib:g} MiB budget and the GL's layers, "
-                "so texels are coarser")
-            clumps = clumping.make_clumps(points, footprint, s.clumping, 0.0, self.max_clumps)
+                f"{len(clumps) + len(long_clumps)} clumps would meet {s.texels_per_metre:g} "
+                f"texels/m; {self.max_clumps} fit the {s.budget_mib:g} MiB budget and the GL's "
+                "layers, so texels are coarser")
+            clumps = clumping.make_clumps([points[u] for u in core], footprint, s.clumping, 0.0,
+                                          room)
         for layers in self._clump_layers:
             for layer in layers:
                 self._give_layer(layer)
-        self._clump_keys = [[self._unit_keys[m] for m in c.members] for c in clumps]
-        self._clump_layers = [[self._take_layer()] for _ in clumps]
-        self._dirty = set(range(len(clumps)))
+        self._clump_keys = [[self._unit_keys[core[m]] for m in c.members] for c in clumps]
+        self._clump_keys += long_clumps
+        self._clump_layers = [[self._take_layer()] for _ in self._clump_keys]
+        self._shared_faces: dict[tuple, tuple] = {}  # a clump's own keys -> faces it shares
+        self._dirty = set(range(len(self._clump_keys)))
         self._refresh_static()
+
+    def _long_clumps(self, keys: list[tuple[str, int]], footprint) -> list[list[tuple[str, int]]]:
+        """The long faces ``keys`` in clumps of their own: few, each about as wide as two of
+        the longest, since they only shadow what lies between the other clumps."""
+        if not keys:
+            return []
+        index = {key: u for u, key in enumerate(self._unit_keys)}
+        points = [self._unit_points[index[key]] for key in keys]
+        widest = float(max(clumping.rect_extent(r)
+                           for r in clumping.object_summaries(points, footprint)[0]))
+        return [[keys[m] for m in c.members]
+                for c in clumping.make_clumps(points, footprint, self.settings.clumping,
+                                              2.0 * widest)]
 
     def _refresh_static(self) -> None:
         """Clumps, fits and map records from the member keys (after any change)."""
@@ -242,25 +281,55 @@ class ClumpedShadows(ShadowMethod):
         self._drop_empty_clumps()
         self.clumps, self.static_maps, self._map_of_clump = [], [], {}
         self.static_pieces = []
-        for k, keys in enumerate(self._clump_keys):
+        piece_of: dict[int, int] = {}
+        member_rects = []
+        for keys in self._clump_keys:
             members = tuple(sorted(index[key] for key in keys))
             rects = (clumping.object_summaries([points[u] for u in members], footprint)[0]
                      if footprint is not None else None)
+            member_rects.append(rects)
             self.clumps.append(clumping.Clump(
                 members=members,
                 rect=clumping.union_rect(rects) if rects is not None else np.zeros(4)))
-            first = len(self.static_pieces)
-            self.static_pieces += [self._units[u] for u in members]
-            pieces = list(range(first, len(self.static_pieces)))
-            statics = sorted({self._units[u][0] for u in members})
-            fits = self._clump_fits(k, np.concatenate([points[u] for u in members]))
+            for u in members:
+                piece_of[u] = len(self.static_pieces)
+                self.static_pieces.append(self._units[u])
+        long_units = sorted(index[key] for key in self._long if key in index)
+        long_set = set(long_units)
+        long_corners = (np.stack([footprint(self.geom.static_corners(*self._units[u]))
+                                  for u in long_units])
+                        if footprint is not None and long_units else None)
+        for k, clump in enumerate(self.clumps):
+            members, rects = clump.members, member_rects[k]
+            fallback = long_corners is not None and members[0] in long_set
+            extra: list[int] = []
+            if long_corners is not None and not fallback:
+                # Long faces that cross this map's rectangle are drawn into it too.
+                core_points = np.concatenate([points[u] for u in members])
+                rect = fit_directional(core_points, self._light_rot, s.clump_resolution).rect
+                meet = clumping.triangles_meet_rects(long_corners, rect[None])[:, 0]
+                extra = [u for u, m in zip(long_units, meet, strict=True) if m]
+            own = tuple(self._clump_keys[k])
+            if self._shared_faces.get(own) != tuple(self._unit_keys[u] for u in extra):
+                self._shared_faces[own] = tuple(self._unit_keys[u] for u in extra)
+                self._dirty.add(k)
+            pieces = [piece_of[u] for u in (*members, *extra)]
+            statics = sorted({self._units[u][0] for u in (*members, *extra)})
+            cover = rects
+            if extra:  # the long faces' footprints, cut to the map's rectangle
+                theirs = clumping.object_summaries([points[u] for u in extra], footprint)[0]
+                theirs[:, :2] = np.maximum(theirs[:, :2], rect[:2])
+                theirs[:, 2:] = np.minimum(theirs[:, 2:], rect[2:])
+                cover = np.concatenate([rects, theirs])
+            depth = np.concatenate([points[u] for u in extra]) if extra else None
+            fits = self._clump_fits(k, np.concatenate([points[u] for u in members]), depth)
             self._map_of_clump[k] = []
             for fit, layer in zip(fits, self._clump_layers[k], strict=False):
                 self._map_of_clump[k].append(len(self.static_maps))
                 self.static_maps.append(MapRecord(
-                    name=f"clump_{k}", kind=KIND_CLUMP, fit=fit, layer=layer,
-                    viewport=s.clump_resolution,
-                    objects=[self.geom.static_object(i) for i in statics], cover=rects,
+                    name=f"clump_{k}", kind=KIND_FALLBACK if fallback else KIND_CLUMP, fit=fit,
+                    layer=layer, viewport=s.clump_resolution,
+                    objects=[self.geom.static_object(i) for i in statics], cover=cover,
                     pieces=pieces))
 
     def _drop_empty_clumps(self) -> None:
@@ -275,8 +344,10 @@ class ClumpedShadows(ShadowMethod):
         self._clump_layers = [self._clump_layers[k] for k in keep]
         self._dirty = {new for new, k in enumerate(keep) if k in old_dirty}
 
-    def _clump_fits(self, k: int, points: np.ndarray) -> list[MapFit]:
+    def _clump_fits(self, k: int, points: np.ndarray, depth_points: np.ndarray | None = None
+                    ) -> list[MapFit]:
         """The maps of clump ``k``: one fit, or the faces of a cube around a light inside it.
+        ``depth_points`` (directional light) widen only the depth range: faces it shares.
 
         Takes or gives back layers so that the clump holds one per map (at least one).
         """
@@ -291,7 +362,8 @@ class ClumpedShadows(ShadowMethod):
                                   "cannot hold a cube of maps; its widest frustum is used")
                 fits = []
         if not fits:
-            fit = self._fit(points, res)
+            fit = (fit_directional(points, self._light_rot, res, depth_points=depth_points)
+                   if light.kind == "directional" else self._fit(points, res))
             fits = [fit] if fit is not None else []
         layers = self._clump_layers[k]
         before = list(layers)
@@ -330,19 +402,24 @@ class ClumpedShadows(ShadowMethod):
             by_static.setdefault(key[0], []).append(key)
         arrivals = []
         for keys in by_static.values():
-            own = clumping.make_clumps([self._unit_points[index[key]] for key in keys],
+            core = [key for key in keys if key not in self._long]
+            own = clumping.make_clumps([self._unit_points[index[key]] for key in core],
                                        footprint, self.settings.clumping,
-                                       self._max_extent(per_metre))
-            if len(own) == 1:  # it fits one map: it joins the others
+                                       self._max_extent(per_metre)) if core else []
+            if len(own) == 1 and len(core) == len(keys):  # it fits one map: it joins the others
                 arrivals += keys
                 continue
-            for clump in own:
-                self._clump_keys.append([keys[m] for m in clump.members])
+            groups = [[core[m] for m in clump.members] for clump in own]
+            groups += self._long_clumps([key for key in keys if key in self._long], footprint)
+            for group in groups:
+                self._clump_keys.append(group)
                 self._clump_layers.append([self._take_layer()])
                 self._dirty.add(len(self._clump_keys) - 1)
         if arrivals:
+            # Candidates: the clumps of other faces, not the fallback maps of long faces.
             rects = [clumping.object_summaries(
                 [self._unit_points[index[key]] for key in keys], footprint)[0]
+                if keys and keys[0] not in self._long else np.zeros((0, 4))
                 for keys in self._clump_keys]
             own_rects = clumping.object_summaries(
                 [self._unit_points[index[key]] for key in arrivals], footprint)[0]
