@@ -168,8 +168,8 @@ def write_chart(path: Path, rows: list[dict], header: dict) -> None:
     ax.set_ylabel(f"RMSE vs {header['reference_samples']} stratified Embree samples")
     counts = ", ".join(str(n) for n in sorted({r["samples"] for r in rows if r["samples"]}))
     ax.set_title(f"soft shadows of {Path(header['scene']).name} at {header['size'][0]}x"
-                 f"{header['size'][1]}: error against trace time, each method at N = {counts}"
-                 f"\n{header['renderer']}, clock {header['clock']}", fontsize=9)
+                 f"{header['size'][1]}: error against trace time\neach method at N = {counts}; "
+                 f"{header['renderer']}, clock {header['clock']}", fontsize=9)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
