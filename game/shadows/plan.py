@@ -57,6 +57,11 @@ class ShadowSettings:
     cascade_resolution: int = CASCADE_RESOLUTION
 
 
+def map_names(base: str, count: int) -> list[str]:
+    """Names of a caster set's maps: ``base`` for one, ``base_face_K`` for a cube's faces."""
+    return [base] if count == 1 else [f"{base}_face_{k}" for k in range(count)]
+
+
 @dataclass
 class MapRecord:
     """One shadow map: its projection, its layer, and the objects drawn into it."""

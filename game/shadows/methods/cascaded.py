@@ -26,7 +26,14 @@ from game.shadows.fit import (
     layers_for_light,
 )
 from game.shadows.method import ShadowMethod
-from game.shadows.plan import KIND_ALL, KIND_CASCADE, MapRecord, ShadowPlan, ShadowSettings
+from game.shadows.plan import (
+    KIND_ALL,
+    KIND_CASCADE,
+    MapRecord,
+    ShadowPlan,
+    ShadowSettings,
+    map_names,
+)
 
 
 def split_distances(near: float, far: float, count: int, blend: float) -> np.ndarray:
@@ -162,8 +169,9 @@ class CascadedShadows(ShadowMethod):
             points = np.concatenate([self._static_points, *character_points])
             fits = fits_for_light(points, self.light, None, res)
             objects = [g.static_object(i) for i in range(g.n_statics)] + character_objects
-            maps = [MapRecord("csm" if len(fits) == 1 else f"csm_face_{k}", KIND_ALL, fit, k,
-                              res, objects) for k, fit in enumerate(fits)]
+            maps = [MapRecord(name, KIND_ALL, fit, k, res, objects)
+                    for k, (name, fit) in enumerate(zip(map_names("csm", len(fits)), fits,
+                                                        strict=True))]
             return ShadowPlan(resolution=res, maps=maps, render_dynamic=list(range(len(maps))))
         rot = self._light_rot
         boxes = self._static_boxes

@@ -10,7 +10,7 @@ from game.scene.geometry import PackedGeometry
 from game.scene.model import Light
 from game.shadows.fit import deciding_points, fits_for_light, layers_for_light, light_rotation_of
 from game.shadows.method import ShadowMethod
-from game.shadows.plan import KIND_ALL, MapRecord, ShadowPlan, ShadowSettings
+from game.shadows.plan import KIND_ALL, MapRecord, ShadowPlan, ShadowSettings, map_names
 
 
 class SingleShadows(ShadowMethod):
@@ -58,7 +58,7 @@ class SingleShadows(ShadowMethod):
         objects = ([self.geom.static_object(i) for i in range(self.geom.n_statics)]
                    + [self.geom.character_object(i) for i in range(self.geom.n_characters)])
         fits = fits_for_light(points, self.light, self._light_rot, res)
-        names = ["single"] if len(fits) == 1 else [f"single_face_{k}" for k in range(len(fits))]
+        names = map_names("single", len(fits))
         maps = [MapRecord(name, KIND_ALL, fit, layer, res, objects)
                 for layer, (name, fit) in enumerate(zip(names, fits, strict=True))]
         return ShadowPlan(resolution=res, maps=maps, render_dynamic=list(range(len(maps))))

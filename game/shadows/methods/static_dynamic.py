@@ -14,7 +14,14 @@ from game.scene.geometry import PackedGeometry
 from game.scene.model import Light
 from game.shadows.fit import fits_for_light, layers_for_light, light_rotation_of
 from game.shadows.method import ShadowMethod
-from game.shadows.plan import KIND_ALL, KIND_CLUMP, MapRecord, ShadowPlan, ShadowSettings
+from game.shadows.plan import (
+    KIND_ALL,
+    KIND_CLUMP,
+    MapRecord,
+    ShadowPlan,
+    ShadowSettings,
+    map_names,
+)
 
 
 class StaticDynamicShadows(ShadowMethod):
@@ -55,7 +62,7 @@ class StaticDynamicShadows(ShadowMethod):
         fits = fits_for_light(self.geom.all_static_points(), light, self._light_rot,
                               self.resolution)
         objects = [self.geom.static_object(i) for i in range(self.geom.n_statics)]
-        names = ["statics"] if len(fits) == 1 else [f"statics_face_{k}" for k in range(len(fits))]
+        names = map_names("statics", len(fits))
         self._static = [MapRecord(name, KIND_CLUMP, fit, layer, self.resolution, objects)
                         for layer, (name, fit) in enumerate(zip(names, fits, strict=True))]
         self._first_character_layer = max(1, len(self._static))
@@ -75,10 +82,10 @@ class StaticDynamicShadows(ShadowMethod):
                 for i in range(n)])
             fits = fits_for_light(points, self.light, self._light_rot, self.resolution)
             objects = [self.geom.character_object(i) for i in range(n)]
-            for k, fit in enumerate(fits):
+            for k, (name, fit) in enumerate(zip(map_names("characters", len(fits)), fits,
+                                                strict=True)):
                 render_dynamic.append(len(maps))
                 # KIND_ALL, not KIND_CHARACTER: one map holds many characters.
-                name = "characters" if len(fits) == 1 else f"characters_face_{k}"
                 maps.append(MapRecord(name, KIND_ALL, fit, self._first_character_layer + k,
                                       self.resolution, objects))
         self._static_dirty = False
