@@ -153,12 +153,11 @@ float shadow_visibility(vec3 p, vec3 n, out int sampled, out int used) {
 #else
     vec2 g = octahedral(normalize(p - u_frame.light_pos));
 #endif
+    // Outside the grid's rectangle, the nearest edge cell: it lists every map reaching past
+    // that edge (game/shadows/map_grid.py).
     vec2 f = (g - u_frame.grid_rect.xy) / (u_frame.grid_rect.zw - u_frame.grid_rect.xy);
-    if (any(lessThan(f, vec2(0.0))) || any(greaterThan(f, vec2(1.0)))) {
-        return vis;
-    }
     int size = u_frame.grid_size;
-    ivec2 cell = min(ivec2(f * float(size)), ivec2(size - 1));
+    ivec2 cell = clamp(ivec2(floor(f * float(size))), ivec2(0), ivec2(size - 1));
     int c = cell.y * size + cell.x;
     for (int k = u_grid[c]; k < u_grid[c + 1] && vis > 0.0; ++k) {
         int before = sampled;

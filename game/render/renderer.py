@@ -49,6 +49,7 @@ class Renderer(SceneEdits):
         # (game/render/cull.py); ``cull = False`` draws them all, with the same pixels.
         self.cull = cull
         self.last_plan: ShadowPlan | None = None  # for the overlay's map list
+        self.grids = map_grid.GridBuilder()
         # The G-buffer is kept when the caller asks (dumps, soft shadows) and while the method
         # traces its visibility from it.
         self._gbuffer_asked = gbuffer
@@ -176,8 +177,9 @@ class Renderer(SceneEdits):
         # How far the shader may look from a fragment, in texels: the bias offsets (as in
         # shaders/shadow.glsl) plus one PCF tap and one for rounding.
         reach = s.normal_bias + s.depth_bias + s.slope_bias * s.max_slope + 2.0
-        grid = map_grid.build([m.fit for m in plan.maps], light.kind, light.position, s.grid,
-                              [m.cover for m in plan.maps], reach)
+        grid = self.grids.build([m.fit for m in plan.maps], light.kind, light.position, s.grid,
+                                [m.cover for m in plan.maps], reach,
+                                steady=min(plan.render_dynamic, default=len(plan.maps)))
         self.blocks.upload(plan, view, grid, models, self.geom, light, s)
         self.blocks.bind()
         self.last_plan = plan

@@ -8,6 +8,12 @@ list a map that cannot shadow part of it (the shader's own test rejects that), n
 
 The result is one int32 array: ``size * size + 1`` offsets into the same array, then the map
 indices of every cell (read by ``shadow_visibility`` in shaders/shadow.glsl).
+
+The shader clamps a fragment outside the grid's rectangle to the nearest edge cell, and the
+cells of a map reaching past the rectangle are clamped the same way, so the rectangle decides
+only how well the cells split the maps, never which maps a fragment finds. That lets
+:class:`GridBuilder` lay the grid over the maps that stay put (the cached statics) and keep
+their cells from frame to frame, while only the maps that move are placed again.
 """
 
 from __future__ import annotations
@@ -42,31 +48,37 @@ def no_grid() -> MapGrid:
     return MapGrid(GRID_NONE, 1, np.array([0.0, 0.0, 1.0, 1.0]), np.zeros(2, np.int32))
 
 
-def _pack(cell: np.ndarray, owner: np.ndarray, n_maps: int, size: int, mode: int,
-          rect: np.ndarray) -> MapGrid:
-    """(cell, map) pairs, repeats allowed -> offsets + lists, cell by cell, maps ascending."""
+# Map indices stay below this (blocks.MAX_MAPS is far smaller), so a (cell, map) pair packs
+# into one int64 key that sorts by cell, then map.
+KEY_MAPS = 1 << 20
+
+
+def _pack(keys: np.ndarray, size: int, mode: int, rect: np.ndarray) -> MapGrid:
+    """Sorted unique (cell, map) keys -> offsets + lists, cell by cell, maps ascending."""
     cells = size * size
-    pairs = np.unique(np.asarray(cell, np.int64) * n_maps + np.asarray(owner, np.int64))
-    counts = np.bincount(pairs // n_maps, minlength=cells)
+    counts = np.bincount(keys // KEY_MAPS, minlength=cells)
     offsets = (cells + 1) + np.concatenate([[0], np.cumsum(counts)])
-    data = np.concatenate([offsets, pairs % n_maps]).astype(np.int32)
+    data = np.concatenate([offsets, keys % KEY_MAPS]).astype(np.int32)
     return MapGrid(mode, size, rect, data)
 
 
-def build_ortho(fits: list[MapFit], covers: list[np.ndarray | None] | None = None,
-                reach: float = 0.0) -> MapGrid:
-    """Grid over the maps' light-space rectangles (directional light).
+def _union(rects: np.ndarray) -> np.ndarray:
+    return np.array([rects[:, 0].min(), rects[:, 1].min(), rects[:, 2].max(), rects[:, 3].max()])
 
-    ``covers`` may give, per map, the light-space rectangles (K, 4) of the casters in it: a cell
-    then lists the map only where one of them, grown by ``reach`` texels of that map (the bias
-    offsets and a filter tap), overlaps the cell. Depth texels outside every caster's rectangle
-    are empty, so the map could not shadow anything there.
-    """
-    rects = np.array([f.rect for f in fits], float)
-    rect = np.array([rects[:, 0].min(), rects[:, 1].min(), rects[:, 2].max(), rects[:, 3].max()])
-    size = int(np.clip(GRID_CELLS_PER_MAP * np.ceil(np.sqrt(len(fits))), 4, MAX_GRID))
-    owner = np.arange(len(fits))
-    if covers is not None:
+
+def _grid_size(n_maps: int) -> int:
+    return int(np.clip(GRID_CELLS_PER_MAP * np.ceil(np.sqrt(n_maps)), 4, MAX_GRID))
+
+
+def _ortho_pairs(fits: list[MapFit], covers: list[np.ndarray | None] | None, reach: float,
+                 rect: np.ndarray, size: int, first: int = 0) -> np.ndarray:
+    """Sorted unique keys ``cell * KEY_MAPS + map`` of the cells each map's casters touch; the
+    maps are numbered from ``first``."""
+    if not fits:
+        return np.zeros(0, np.int64)
+    if covers is None:
+        rects, owner = np.array([f.rect for f in fits], float), np.arange(len(fits))
+    else:
         parts, owners = [], []
         for j, (fit, cover) in enumerate(zip(fits, covers, strict=True)):
             if cover is None:
@@ -92,7 +104,19 @@ def build_ortho(fits: list[MapFit], covers: list[np.ndarray | None] | None = Non
     cy = lo[which, 1] + k // width[which]
     # Pairs, not a dense (cells, maps) table: with a hundred maps on a large grid that table
     # holds over a million entries to fill every frame.
-    return _pack(cy * size + cx, owner[which], len(fits), size, GRID_ORTHO, rect)
+    return np.unique((cy * size + cx) * KEY_MAPS + owner[which] + first)
+
+
+def build_ortho(fits: list[MapFit], covers: list[np.ndarray | None] | None = None,
+                reach: float = 0.0) -> MapGrid:
+    """Grid over the maps' light-space rectangles (directional light).
+
+    ``covers`` may give, per map, the light-space rectangles (K, 4) of the casters in it: a cell
+    then lists the map only where one of them, grown by ``reach`` texels of that map (the bias
+    offsets and a filter tap), overlaps the cell. Depth texels outside every caster's rectangle
+    are empty, so the map could not shadow anything there.
+    """
+    return GridBuilder().build(fits, "directional", None, "on", covers, reach)
 
 
 def octahedral_decode(e: np.ndarray) -> np.ndarray:
@@ -148,8 +172,8 @@ def _cell_points(size: int) -> np.ndarray:
     return np.stack(corners + extra, axis=1)  # (cells, 8, 2)
 
 
-def build_octahedral(fits: list[MapFit], eye: np.ndarray) -> MapGrid:
-    """Grid over the directions from a spot or point light at ``eye``."""
+def _octahedral_pairs(fits: list[MapFit], eye: np.ndarray, first: int = 0) -> np.ndarray:
+    """As :func:`_ortho_pairs`, over the directions from a spot or point light at ``eye``."""
     size = OCTAHEDRAL_GRID
     pts = _cell_points(size)
     cells = pts.shape[0]
@@ -169,18 +193,65 @@ def build_octahedral(fits: list[MapFit], eye: np.ndarray) -> MapGrid:
         overlap = (lo[:, 0] <= 1) & (hi[:, 0] >= -1) & (lo[:, 1] <= 1) & (hi[:, 1] >= -1)
         hits[:, j] = np.where(all_front, overlap, any_front)
     cell, owner = np.nonzero(hits)
-    return _pack(cell, owner, len(fits), size, GRID_OCTAHEDRAL, np.array([-1.0, -1.0, 1.0, 1.0]))
+    return np.unique(cell.astype(np.int64) * KEY_MAPS + owner + first)
+
+
+def build_octahedral(fits: list[MapFit], eye: np.ndarray) -> MapGrid:
+    """Grid over the directions from a spot or point light at ``eye``."""
+    return GridBuilder().build(fits, "point", eye, "on")
+
+
+class GridBuilder:
+    """Builds each frame's grid, keeping the cells of the steady maps from the frame before.
+
+    The steady maps are the plan's first ones (cached statics); the grid's rectangle is theirs,
+    so maps that move every frame (characters) do not disturb it, and a frame whose steady maps
+    are unchanged only places the others. Holds no GL object.
+    """
+
+    def __init__(self):
+        self._key = None
+        self._keys = np.zeros(0, np.int64)
+
+    def build(self, fits: list[MapFit], light_kind: str, eye: np.ndarray | None,
+              use: str = "auto", covers: list[np.ndarray | None] | None = None,
+              reach: float = 0.0, steady: int | None = None) -> MapGrid:
+        """The grid for these maps, or none when a plain loop is cheap enough.
+
+        ``use`` is "auto" (a grid above LOOP_MAX_MAPS maps), "on" or "off"; ``covers`` and
+        ``reach`` as in :func:`build_ortho`; the first ``steady`` maps (all by default) are
+        the ones whose cells are kept while they do not change.
+        """
+        if not fits or use == "off" or (use == "auto" and len(fits) <= LOOP_MAX_MAPS):
+            return no_grid()
+        steady = len(fits) if steady is None else min(steady, len(fits))
+        ortho = light_kind == "directional"
+        if ortho:
+            rects = np.array([f.rect for f in fits[:steady] or fits], float)
+            rect, size, mode = _union(rects), _grid_size(len(fits)), GRID_ORTHO
+        else:
+            rect, size, mode = np.array([-1.0, -1.0, 1.0, 1.0]), OCTAHEDRAL_GRID, GRID_OCTAHEDRAL
+        cover = covers if covers is not None else [None] * len(fits)
+        key = (mode, size, float(reach), rect.tobytes(),
+               None if ortho else np.asarray(eye, float).tobytes(),
+               tuple(_fit_key(f, c) for f, c in zip(fits[:steady], cover[:steady], strict=True)))
+        if key != self._key:
+            self._keys = (_ortho_pairs(fits[:steady], cover[:steady], reach, rect, size)
+                          if ortho else _octahedral_pairs(fits[:steady], eye))
+            self._key = key
+        moving = (_ortho_pairs(fits[steady:], cover[steady:], reach, rect, size, steady)
+                  if ortho else _octahedral_pairs(fits[steady:], eye, steady))
+        keys = self._keys if not len(moving) else np.sort(np.concatenate([self._keys, moving]))
+        return _pack(keys, size, mode, rect)
+
+
+def _fit_key(fit: MapFit, cover: np.ndarray | None) -> tuple:
+    """What a map's cells depend on."""
+    return (fit.view_proj.tobytes(), fit.rect.tobytes(), float(fit.texel),
+            None if cover is None else np.asarray(cover, float).tobytes())
 
 
 def build(fits: list[MapFit], light_kind: str, eye: np.ndarray | None, use: str = "auto",
           covers: list[np.ndarray | None] | None = None, reach: float = 0.0) -> MapGrid:
-    """The grid for these maps, or none when a plain loop is cheap enough.
-
-    ``use`` is "auto" (a grid above LOOP_MAX_MAPS maps), "on" or "off"; ``covers`` and
-    ``reach`` as in :func:`build_ortho`.
-    """
-    if not fits or use == "off" or (use == "auto" and len(fits) <= LOOP_MAX_MAPS):
-        return no_grid()
-    if light_kind == "directional":
-        return build_ortho(fits, covers, reach)
-    return build_octahedral(fits, eye)
+    """The grid for these maps, built afresh (see :meth:`GridBuilder.build`)."""
+    return GridBuilder().build(fits, light_kind, eye, use, covers, reach)

@@ -9,10 +9,16 @@ from game.shadows.fit import fit_directional, fit_perspective
 
 
 def cell_of(coord, grid):
+    """The cell the shader reads: outside the rectangle, the nearest edge cell."""
     rect = grid.rect
     f = (coord - rect[:2]) / (rect[2:] - rect[:2])
-    cell = np.minimum((f * grid.size).astype(int), grid.size - 1)
+    cell = np.clip(np.floor(f * grid.size).astype(int), 0, grid.size - 1)
     return cell[..., 1] * grid.size + cell[..., 0]
+
+
+def holders_of(p, fits):
+    """The orthographic maps whose rectangle holds world point p."""
+    return {j for j, fit in enumerate(fits) if np.all(np.abs((fit.view_proj @ [*p, 1.0])[:2]) <= 1)}
 
 
 def listed(grid, cell):
@@ -48,11 +54,7 @@ def test_ortho_grid_lists_every_map_that_holds_a_point():
     cells = cell_of(xy, grid)
     inside_grid = np.all((xy >= grid.rect[:2]) & (xy <= grid.rect[2:]), axis=1)
     for p, cell, inside in zip(points, cells, inside_grid, strict=True):
-        holders = set()
-        for j, fit in enumerate(fits):
-            clip = fit.view_proj @ [*p, 1.0]
-            if np.all(np.abs(clip[:2]) <= 1):
-                holders.add(j)
+        holders = holders_of(p, fits)
         if holders:
             assert inside
             assert holders <= listed(grid, cell)
@@ -81,3 +83,40 @@ def test_octahedral_grid_lists_every_map_that_holds_a_point():
     assert missed == 0
     # And the lists are short: the grid is useful, not a list of everything.
     assert grid.mean_list < 0.5 * len(fits)
+
+
+def test_moving_maps_outside_the_steady_ones_are_found_and_steady_cells_are_kept():
+    """The grid lies over the steady maps; maps that move, even far outside them, are still
+    listed for every point they hold (the edge cells take them), frame after frame, and the
+    kept cells equal a fresh build's."""
+    rng = np.random.default_rng(4)
+    rot = transforms.light_rotation(np.array([0.3, -1.0, 0.2]) / np.linalg.norm([0.3, -1, 0.2]))
+
+    def fits_at(centres, spread):
+        return [fit_directional(c + rng.uniform(-spread, spread, (8, 3)), rot, 128)
+                for c in centres]
+
+    steady = fits_at(rng.uniform(-10, 10, (30, 3)), 2.0)
+    builder = map_grid.GridBuilder()
+    for frame in range(3):
+        centres = rng.uniform(-40, 40, (6, 3))
+        moving = fits_at(centres, 1.0)
+        fits = steady + moving
+        grid = builder.build(fits, "directional", None, steady=len(steady))
+        fresh = map_grid.GridBuilder().build(fits, "directional", None, steady=len(steady))
+        assert np.array_equal(grid.data, fresh.data) and np.array_equal(grid.rect, fresh.rect)
+        points = np.concatenate([rng.uniform(-45, 45, (1500, 3)),
+                                 np.repeat(centres, 200, axis=0) + rng.normal(0, 2, (1200, 3))])
+        outside = 0
+        xy = points @ rot[:2].T
+        beyond = np.any((xy < grid.rect[:2]) | (xy > grid.rect[2:]), axis=1)
+        for p, cell, out in zip(points, cell_of(xy, grid), beyond, strict=True):
+            holders = holders_of(p, fits)
+            outside += out and bool(holders)
+            assert holders <= listed(grid, cell), frame
+        assert outside > 50  # points held by moving maps beyond the steady rectangle
+    # A steady map that changes is placed again.
+    steady[0] = fits_at([[30.0, 0.0, 30.0]], 1.0)[0]
+    grid = builder.build(steady + moving, "directional", None, steady=len(steady))
+    fresh = map_grid.GridBuilder().build(steady + moving, "directional", None, steady=len(steady))
+    assert np.array_equal(grid.data, fresh.data)
