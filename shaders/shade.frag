@@ -28,7 +28,7 @@ void main() {
         n = -n;
     }
     int sampled, used;
-    float vis = shadow_visibility(v_world, n, sampled, used);
+    float vis = shadow_visibility(v_world, n, v_object, sampled, used);
 
     vec3 l = to_light(v_world);
     float cone = spot_cone(l);

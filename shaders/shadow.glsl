@@ -20,14 +20,18 @@ bool decided(int i, int sampled_before, int sampled) {
     return sampled > sampled_before && u_maps[i].kind == KIND_CASCADE;
 }
 
-// Depth compare (or 3x3 PCF) in map i at uv (already scaled into the map's share of its layer).
+// Depth compare (or 3x3 PCF) in map i at uv in [0, 1] over the map, whose square is the share
+// uv_scale of its layer from uv_offset (character maps share layers).
 float lookup(int i, vec2 uv, float depth) {
     float layer = float(u_maps[i].layer);
+    vec2 offset = u_maps[i].uv_offset;
+    uv = offset + uv * u_maps[i].uv_scale;
 #if !PCF
     return texture(u_shadow_maps, vec4(uv, layer, depth));
 #else
+    // Taps stay inside the map's own texels: half a texel in from its square's edges.
     vec2 step = 1.0 / vec2(textureSize(u_shadow_maps, 0).xy);
-    vec2 lo = vec2(0.0), hi = vec2(u_maps[i].uv_scale);
+    vec2 lo = offset + 0.5 * step, hi = offset + vec2(u_maps[i].uv_scale) - 0.5 * step;
     float sum = 0.0;
     for (int y = -1; y <= 1; ++y) {
         for (int x = -1; x <= 1; ++x) {
@@ -44,12 +48,30 @@ vec2 bias_offsets(float texel, float sin_t, float tan_t) {
     return vec2(u_frame.normal_bias * sin_t, u_frame.depth_bias + u_frame.slope_bias * tan_t) * texel;
 }
 
+// Whether map i may hold the receiver's own surface. The bias is there so that a surface does
+// not shadow itself through its own depth texels; in a map it is not drawn into, a receiver
+// is compared unbiased, and its contact shadows stay whole. Floors are in no map, a character
+// only in its own map or in a map of everything, a static in no character map.
+bool holds_receiver(int i, int object) {
+    int kind = u_maps[i].kind;
+    if (object < u_frame.floor_count) {
+        return false;
+    }
+    if (object >= u_frame.first_character) {
+        return kind == KIND_CHARACTER
+            ? u_character_maps[object - u_frame.first_character] == i
+            : kind == KIND_ALL || kind == KIND_CASCADE;
+    }
+    return kind != KIND_CHARACTER;
+}
+
 // Visibility of p in orthographic map i (directional light); 1.0 outside the map's rectangle or
 // nearer the light than its caster, with `sampled` false. Works in the common light space:
 // lp and ln are p and its normal there, where light-space +z points at the light.
-float sample_ortho(int i, vec3 lp, vec3 ln, float sin_t, float tan_t, out bool sampled) {
+float sample_ortho(int i, vec3 lp, vec3 ln, float sin_t, float tan_t, float biased,
+                   out bool sampled) {
     sampled = false;
-    vec2 offset = bias_offsets(u_maps[i].texel, sin_t, tan_t);
+    vec2 offset = bias_offsets(u_maps[i].texel, sin_t, tan_t) * biased;
     vec3 q = lp + ln * offset.x + vec3(0.0, 0.0, offset.y);
     vec4 b = u_maps[i].bounds;
     vec2 uv = (q.xy - b.xy) / (b.zw - b.xy);
@@ -60,25 +82,25 @@ float sample_ortho(int i, vec3 lp, vec3 ln, float sin_t, float tan_t, out bool s
     }
     sampled = true;
     // Beyond the caster's far side the fragment is shadowed wherever the caster covers the texel.
-    return lookup(i, uv * u_maps[i].uv_scale, min(depth, 1.0));
+    return lookup(i, uv, min(depth, 1.0));
 }
 
 // Visibility of p in perspective map i (spot and point lights), as sample_ortho.
-float sample_perspective(int i, vec3 p, vec3 n, vec3 l, float sin_t, float tan_t,
+float sample_perspective(int i, vec3 p, vec3 n, vec3 l, float sin_t, float tan_t, float biased,
                          out bool sampled) {
     sampled = false;
     vec4 clip = u_maps[i].view_proj * vec4(p, 1.0);
     if (clip.w <= 0.0) {
         return 1.0;   // behind the map's eye
     }
-    vec2 offset = bias_offsets(u_maps[i].texel * clip.w, sin_t, tan_t);
+    vec2 offset = bias_offsets(u_maps[i].texel * clip.w, sin_t, tan_t) * biased;
     clip = u_maps[i].view_proj * vec4(p + n * offset.x + l * offset.y, 1.0);
     vec3 ndc = clip.xyz / clip.w;
     if (clip.w <= 0.0 || any(greaterThan(abs(ndc.xy), vec2(1.0))) || ndc.z < -1.0) {
         return 1.0;
     }
     sampled = true;
-    return lookup(i, (ndc.xy * 0.5 + 0.5) * u_maps[i].uv_scale, min(ndc.z * 0.5 + 0.5, 1.0));
+    return lookup(i, ndc.xy * 0.5 + 0.5, min(ndc.z * 0.5 + 0.5, 1.0));
 }
 
 // Octahedral coordinates of a direction, in [-1, 1]^2: the light-space of point and spot grids.
@@ -93,6 +115,7 @@ vec2 octahedral(vec3 d) {
 
 // Everything about the fragment that does not depend on the map.
 struct Receiver {
+    int object;         // the receiver's object index
     vec3 p, n, l;       // world position, normal, direction to the light
     vec3 lp, ln;        // directional light: p and n in the common light space
     float sin_t, tan_t; // of the angle between n and l
@@ -104,10 +127,11 @@ void consider(int i, Receiver r, inout float vis, inout int sampled, inout int u
         return;
     }
     bool read;
+    float biased = holds_receiver(i, r.object) ? 1.0 : 0.0;
 #if LIGHT_KIND == LIGHT_DIRECTIONAL
-    float v = sample_ortho(i, r.lp, r.ln, r.sin_t, r.tan_t, read);
+    float v = sample_ortho(i, r.lp, r.ln, r.sin_t, r.tan_t, biased, read);
 #else
-    float v = sample_perspective(i, r.p, r.n, r.l, r.sin_t, r.tan_t, read);
+    float v = sample_perspective(i, r.p, r.n, r.l, r.sin_t, r.tan_t, biased, read);
 #endif
     if (read) {
         sampled += 1;
@@ -119,12 +143,13 @@ void consider(int i, Receiver r, inout float vis, inout int sampled, inout int u
     }
 }
 
-// Visibility of the hard light at p (1 lit, 0 shadowed), the number of maps read, and the
-// map that decided it (-1 when none was read).
-float shadow_visibility(vec3 p, vec3 n, out int sampled, out int used) {
+// Visibility of the hard light at p on object `object` (1 lit, 0 shadowed), the number of maps
+// read, and the map that decided it (-1 when none was read).
+float shadow_visibility(vec3 p, vec3 n, int object, out int sampled, out int used) {
     sampled = 0;
     used = -1;
     Receiver r;
+    r.object = object;
     r.p = p;
     r.n = n;
     r.l = to_light(p);

@@ -5,6 +5,8 @@ game/bench/runner.py.
   front drawn through the runs no other run beats in both;
 - ``scaling_triangles`` / ``scaling_characters``: total ms against static triangles (towns with
   16 walkers) and against walkers (the 4 x 4 town, and the 8 x 8 town), methods at defaults;
+- ``scaling_shadow``: shadow-map ms against walkers on the 4 x 4 town, with a line
+  proportional to the walkers;
 - ``maps_per_fragment`` and ``flicker``: per scene, methods at defaults;
 - ``stability_FACTOR``: error (and failures) against the factor's value, per method; a factor
   with a single value is drawn as one bar per method.
@@ -42,6 +44,7 @@ FACTORS = {"elevation": ("light elevation", "degrees"), "scale": ("scene scale",
 # How a point's label shows a parameter (clump counts aside): the label must fit beside the point.
 SHORT = {"clumping": "{}", "clump_resolution": "clump res {}",
          "character_resolution": "char res {}", "single_resolution": "{}",
+         "character_texels_per_pixel": "{} char texels/px",
          "cascades": "{} cascades", "cascade_lambda": "lambda {}",
          "cascade_resolution": "res {}", "texels_per_metre": "{} texels/m",
          "rerender_static": "rerender"}
@@ -78,6 +81,8 @@ def _label(row: dict) -> str:
         key, _, value = item.partition("=")
         if key == "clump_count":
             parts.append(f"{value} clump" + ("" if value == "1" else "s"))
+        elif key == "character_texels_per_pixel" and float(value) == 0:
+            parts.append("char maps all at most")
         else:
             parts.append(SHORT[key].format(value) if key in SHORT else item)
     return f"{row['method']} {' '.join(parts)}"
@@ -236,11 +241,13 @@ def scaling_figure(plt, rows: list[dict], axis: str) -> Figure | None:
                   and row_number(r, "characters") == 16]
         key, label = "static_triangles", "static triangles in the town (log scale)"
         what = "static triangles: towns of different sizes, 16 walkers each"
-    else:
+    elif axis == "characters":
         picked = [r for r in rows if r["group"] == "town" and _ok(r) and _default(r)
                   and r["scene"].startswith(("town_4x4", "town_8x8"))]
         key, label = "characters", "walkers in the town (log scale)"
         what = "walkers: 4 x 4 town (solid) and 8 x 8 town (dotted)"
+    else:
+        return shadow_scaling_figure(plt, rows)
     picked = [r for r in picked if math.isfinite(row_number(r, key))
               and math.isfinite(row_number(r, "total_ms_median"))]
     if not picked:
@@ -264,6 +271,48 @@ def scaling_figure(plt, rows: list[dict], axis: str) -> Figure | None:
     ax.set_ylabel("per-frame total, ms (median, log scale)")
     ax.set_title(f"per-frame cost against {what}\nmethods at defaults, {_size(picked)}",
                  fontsize=10)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7)
+    return fig
+
+
+def _shadow_ms(row: dict) -> float:
+    return row_number(row, "shadow_static_ms_median") + row_number(row, "shadow_dynamic_ms_median")
+
+
+def shadow_scaling_figure(plt, rows: list[dict]) -> Figure | None:
+    """Shadow-map ms per frame against walkers on the 4 x 4 town, every method at defaults and
+    clumped with every character map at the most; a line proportional to the walkers beside
+    them. None where no run fits."""
+    picked = [r for r in rows if r["group"] == "town" and _ok(r)
+              and (r["scene"] == "town_4x4" or r["scene"].startswith("town_4x4_c"))
+              and (_default(r) or _label(r).endswith("char maps all at most"))
+              and math.isfinite(row_number(r, "characters")) and math.isfinite(_shadow_ms(r))]
+    if not picked:
+        return None
+    _need_two(row_number(r, "characters") for r in picked)
+    fig, ax = plt.subplots(figsize=(6.5, 4.2))
+    series: dict[str, list] = defaultdict(list)
+    for r in picked:
+        series[_label(r)].append((row_number(r, "characters"), _shadow_ms(r)))
+    for name, pts in sorted(series.items()):
+        pts.sort()
+        method = name.split()[0]
+        ax.plot([p[0] for p in pts], [p[1] for p in pts], marker=MARKERS.get(method, "x"),
+                color=COLOURS.get(method, "k"), linestyle="-" if name == method else "--",
+                label=name)
+    if "clumped" in series:
+        x0, y0 = min(series["clumped"])
+        xs = sorted({p[0] for pts in series.values() for p in pts})
+        ax.plot(xs, [y0 * x / x0 for x in xs], color="0.6", linestyle=":", linewidth=1,
+                label="proportional to walkers (from clumped's first point)")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    plain_log_ticks(ax.xaxis)
+    plain_log_ticks(ax.yaxis)
+    ax.set_xlabel("walkers in the 4 x 4 town (log scale)")
+    ax.set_ylabel("shadow-map passes per frame, ms (median, log scale)")
+    ax.set_title(f"shadow-map cost against walkers, 4 x 4 town\n{_size(picked)}", fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
     return fig
@@ -376,7 +425,7 @@ def figures(rows: list[dict]) -> tuple[list[tuple[str, Figure]], dict[str, str]]
     builders: list[tuple[str, Callable[[], Figure | None]]] = []
     for scene in sorted({r["scene"] for r in rows if r["group"] in COMPARED_GROUPS}):
         builders.append((f"pareto_{scene}", lambda s=scene: pareto_figure(plt, rows, s)))
-    for axis in ("triangles", "characters"):
+    for axis in ("triangles", "characters", "shadow"):
         builders.append((f"scaling_{axis}", lambda a=axis: scaling_figure(plt, rows, a)))
     builders.append(("maps_per_fragment", lambda: per_scene_bars_figure(
         plt, rows, "maps_per_fragment", "maps read per shaded pixel, count",

@@ -25,8 +25,10 @@ FLICKER_DEG = 0.25          # camera yaw per flicker frame (time frozen)
 ERROR_SPACING_S = 0.75      # scene seconds between error frames (characters move between them)
 PASSES = ("shadow_static", "shadow_dynamic", "cull", "shade", "total")
 PARAM_KEYS = ("clumping", "clump_count", "texels_per_metre", "clump_resolution",
-              "character_resolution", "single_resolution", "cascades", "cascade_lambda",
-              "cascade_resolution")
+              "character_resolution", "character_texels_per_pixel", "single_resolution",
+              "cascades", "cascade_lambda", "cascade_resolution")
+# Walker counts of the 4 x 4 town's crowd series (16 is town_4x4 itself).
+CROWD_SERIES = (4, 64, 128, 256)
 # Bench-only parameter: re-render every cached map every frame, to measure the cost of many
 # small maps (framebuffer and layer switches, clears) against one map at equal triangles.
 RERENDER = "rerender_static"
@@ -154,16 +156,18 @@ def bench_scenes(quick: bool) -> list[BenchScene]:
         out.append(BenchScene("town_2x2", "town", town_text(2, 16, "town_2x2"), "size", 2))
     else:
         # Town sizes with 16 walkers (the 8 x 8 one is assets/town_1m.toml: 1.06 M triangles),
-        # and the 4 x 4 town with 4, 16 and 64 walkers, plus the 1 M town with 64.
+        # the 4 x 4 town with 4 to 256 walkers, the 1 M town with 64, and a crowd.
         for blocks in (2, 4, 8):
             out.append(BenchScene(f"town_{blocks}x{blocks}", "town",
                                   town_text(blocks, 16, f"town_{blocks}x{blocks}"), "size",
                                   blocks))
-        for n in (4, 64):
+        for n in CROWD_SERIES:
             out.append(BenchScene(f"town_4x4_c{n}", "town", town_text(4, n, f"town_4x4_c{n}"),
                                   "characters", n))
         out.append(BenchScene("town_8x8_c64", "town", town_text(8, 64, "town_8x8_c64"),
                               "characters", 64))
+        # A crowd on one block: 128 walkers in the streets around four buildings.
+        out.append(BenchScene("crowd_128", "town", town_text(1, 128, "crowd_128")))
     for name in REAL_SCENES if not quick else ():
         path = REAL_DIR / f"{name}.toml"
         if path.is_file():
@@ -198,7 +202,7 @@ def parse_param(text: str) -> tuple[str, tuple]:
     if key not in PARAM_KEYS:
         raise ValueError(f"{key!r}: not a swept parameter; valid: {', '.join(PARAM_KEYS)}")
     kind = {"clumping": str, "clump_count": int, "texels_per_metre": float,
-            "cascade_lambda": float}.get(key, int)
+            "cascade_lambda": float, "character_texels_per_pixel": float}.get(key, int)
     out = []
     for v in (v.strip() for v in values.split(",")):
         try:
@@ -208,8 +212,9 @@ def parse_param(text: str) -> tuple[str, tuple]:
             raise ValueError(f"{key}: {v!r} is not {what}") from None
         if kind is str and value not in clumping.STRATEGIES:
             raise ValueError(f"{key}: {v!r} is not one of {', '.join(clumping.STRATEGIES)}")
-        if kind is not str and not (math.isfinite(value) and value > 0):
-            raise ValueError(f"{key}: must be positive, got {v!r}")
+        zero_ok = key == "character_texels_per_pixel"  # 0: every map at the most
+        if kind is not str and not (math.isfinite(value) and (value > 0 or zero_ok and value == 0)):
+            raise ValueError(f"{key}: must be {'0 or more' if zero_ok else 'positive'}, got {v!r}")
         if key == "cascade_lambda" and value > 1:
             raise ValueError(f"{key}: must be 0..1, got {v!r}")
         if value not in out:
@@ -256,6 +261,10 @@ def method_grid(scene: BenchScene, quick: bool, max_texture: int) -> list[RunSpe
         return [*defaults, RunSpec(k, "clumped", _p(clumping="world"))] + [
             RunSpec(k, "clumped", _p(clump_count=n, clump_resolution=r, **{RERENDER: True}))
             for n, r in SWITCH_SERIES]
+    if scene.factor == "characters" or k == "crowd_128":
+        # Every character map at the most, every frame: the scheme before maps were sized by
+        # need, grouped and skipped, measured beside it.
+        return [*defaults, RunSpec(k, "clumped", _p(character_texels_per_pixel=0.0))]
     if k not in ("default", "town_8x8"):
         return [*defaults, RunSpec(k, "clumped", _p(clumping="world"))]
     specs = list(defaults)

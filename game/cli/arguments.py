@@ -186,7 +186,15 @@ def _add_shadow_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--clump-resolution", type=positive_int, default=d.clump_resolution,
                    help="texels per side of each clump map")
     g.add_argument("--character-resolution", type=positive_int,
-                   default=d.character_resolution, help="texels per side of each character map")
+                   default=d.character_resolution,
+                   help="most texels per side of a character map")
+    g.add_argument("--min-character-resolution", type=positive_int,
+                   default=d.min_character_resolution,
+                   help="fewest texels per side of a character map")
+    g.add_argument("--character-texels-per-pixel", type=non_negative,
+                   default=d.character_texels_per_pixel,
+                   help="character map texels per pixel where the shadow can be nearest the "
+                        "camera; 0 keeps every character map at the most, every frame")
     g.add_argument("--single-resolution", type=positive_int, default=d.single_resolution,
                    help="texels per side of the single baseline map")
     g.add_argument("--cascades", type=positive_int, default=d.cascades,
@@ -218,6 +226,8 @@ def shadow_settings(args) -> ShadowSettings:
         method=args.method, clumping=args.clumping, clump_count=args.clumps,
         texels_per_metre=args.texels_per_metre, clump_resolution=args.clump_resolution,
         character_resolution=args.character_resolution,
+        min_character_resolution=args.min_character_resolution,
+        character_texels_per_pixel=args.character_texels_per_pixel,
         single_resolution=args.single_resolution, normal_bias=args.normal_bias,
         depth_bias=args.depth_bias, slope_bias=args.slope_bias, pcf=args.pcf, grid=args.grid,
         cascades=args.cascades, cascade_lambda=args.cascade_lambda,

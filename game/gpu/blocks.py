@@ -56,14 +56,14 @@ MAP_DTYPE = np.dtype([
     ("view_proj", "<f4", (4, 4)),  # world -> the map's clip space
     ("layer", "<i4"),              # layer of the depth array
     ("texel", "<f4"),              # orthographic: metres per texel; perspective: per metre of depth
-    ("uv_scale", "<f4"),           # share of its layer the map uses, from the corner
+    ("uv_scale", "<f4"),           # share of its layer's side the map's square takes
     ("fresh", "<i4"),              # 1: rendered this frame; 0: from the cache (debug view)
     ("eye", "<f4", 3),             # the map's eye (perspective maps)
     ("kind", "<i4"),               # what it holds: KIND_* of game/shadows/plan.py
     ("bounds", "<f4", 4),          # orthographic: light-space rectangle (xmin, ymin, xmax, ymax)
     ("near", "<f4"),               # orthographic: the near plane's distance along the light
     ("inv_depth_range", "<f4"),    # orthographic: 1 / (far - near)
-    ("_pad0", "<f4", 2),
+    ("uv_offset", "<f4", 2),       # where in its layer the map's square starts (uv)
 ])
 assert MAP_DTYPE.itemsize == 128
 

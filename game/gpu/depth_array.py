@@ -104,15 +104,17 @@ class DepthArray:
         """The texture and the framebuffers (one per layer and the layered one)."""
         return (1 if self.texture else 0) + len(self._fbo_ids)
 
-    def clear(self, layer: int, size: int) -> None:
-        """Set the ``size`` x ``size`` corner of a layer to the far depth (1.0).
+    def clear(self, layer: int, size: int, origin: tuple[int, int] = (0, 0)) -> None:
+        """Set the ``size`` x ``size`` square of a layer at texel ``origin`` to the far depth
+        (1.0).
 
         glClearTexSubImage (GL 4.4, GL_ARB_clear_texture) fills texels directly: on llvmpipe,
         this is several times cheaper than drawing one depth quad per corner into the layered
         framebuffer.
         """
         GL = self._gl
-        GL.glClearTexSubImage(self.texture, 0, 0, 0, int(layer), int(size), int(size), 1,
+        GL.glClearTexSubImage(self.texture, 0, int(origin[0]), int(origin[1]), int(layer),
+                              int(size), int(size), 1,
                               GL.GL_DEPTH_COMPONENT, GL.GL_FLOAT, self._far)
 
     def bind(self, unit: int) -> None:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -17,12 +17,13 @@ class View:
 
     view: np.ndarray   # (4, 4) world -> view
     proj: np.ndarray   # (4, 4) view -> clip
+    size: tuple[int, int] | None = None  # pixels (width, height); the renderer fills it in
 
     @staticmethod
     def from_camera(camera: Camera, size: tuple[int, int]) -> View:
         aspect = size[0] / size[1]
         return View(transforms.look_at(camera.position, camera.target),
-                    transforms.perspective(camera.fov, aspect, camera.near, camera.far))
+                    transforms.perspective(camera.fov, aspect, camera.near, camera.far), size)
 
 
 @dataclass
@@ -42,6 +43,8 @@ class Frame:
     gbuffer: dict[str, np.ndarray] | None = None  # position, normal, object, lit (and soft)
     gl_objects: dict[str, int] | None = None  # live GL objects by owner, after the frame
     texels_to_maps: int = 0    # depth texels cleared and rendered into maps this frame
+    # The character maps (ShadowPlan.characters): maps, characters skipped and grouped.
+    characters: dict[str, int] = field(default_factory=dict)
     camera_triangles: int = 0  # triangles the camera pass drew (after culling)
     soft: TraceResult | None = None  # the linear light's trace, when the frame asked for one
 

@@ -20,6 +20,7 @@ from game.scene.model import Light
 from game.shadows.fit import light_rotation_of
 from game.shadows.map_grid import MapGrid
 from game.shadows.plan import (
+    KIND_ALL,
     KIND_CASCADE,
     KIND_CHARACTER,
     KIND_CLUMP,
@@ -33,7 +34,8 @@ def shader_defines(ctx) -> dict:
     """The #defines every shader of the frame is built with."""
     d = {"MAX_MAPS": blocks.max_maps(ctx), "GRID_NONE": blocks.GRID_NONE,
          "GRID_ORTHO": blocks.GRID_ORTHO, "GRID_OCTAHEDRAL": blocks.GRID_OCTAHEDRAL,
-         "KIND_CASCADE": KIND_CASCADE, "KIND_CLUMP": KIND_CLUMP, "KIND_FALLBACK": KIND_FALLBACK}
+         "KIND_CASCADE": KIND_CASCADE, "KIND_CLUMP": KIND_CLUMP, "KIND_FALLBACK": KIND_FALLBACK,
+         "KIND_CHARACTER": KIND_CHARACTER, "KIND_ALL": KIND_ALL}
     d.update({f"DEBUG_{name.upper().replace('-', '_')}": value
               for name, value in blocks.DEBUG_VIEWS.items() if name != "none"})
     d.update({f"LIGHT_{kind.upper()}": value for kind, value in blocks.LIGHT_KINDS.items()})
@@ -81,6 +83,7 @@ class FrameBlocks:
             m["layer"] = rec.layer
             m["texel"] = rec.fit.texel
             m["uv_scale"] = rec.viewport / plan.resolution
+            m["uv_offset"] = np.asarray(rec.origin, float) / plan.resolution
             m["fresh"] = i in fresh
             m["eye"] = rec.fit.eye
             m["kind"] = rec.kind

@@ -10,6 +10,8 @@ soft composite (traced_lighting). Run-time scene edits are in scene_edits.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from game.gpu import blocks, context
@@ -89,7 +91,7 @@ class Renderer(SceneEdits):
         self.settings, self.fit_notes = fit_settings(settings, self.limits,
                                                      self.geom.n_characters)
         self.method = registry.create(self.geom, self.scene.light, self.settings,
-                                      self.limits.max_layers)
+                                      self.limits.max_layers, self.limits.max_maps)
 
     def set_settings(self, settings: ShadowSettings) -> None:
         """Switch method or parameters; every map is planned (and cached) anew."""
@@ -132,6 +134,8 @@ class Renderer(SceneEdits):
         timer = self.timer
         timer.begin_frame()
         models = self.models(t)
+        if view.size != self.size:  # the character maps are sized for this frame's pixels
+            view = dataclasses.replace(view, size=self.size)
         with timer.measure("total", wall=True):
             plan, grid_mode = self._plan(models, view)
             with timer.measure("shadow_static"):
@@ -187,8 +191,11 @@ class Renderer(SceneEdits):
 
     def _frame(self, plan: ShadowPlan, triangles: int, culled: bool, read: bool) -> Frame:
         rendered = len(plan.render_static) + len(plan.render_dynamic)
+        drawn = (*plan.render_static, *plan.render_dynamic)
         counts = {"maps_rendered": rendered, "maps_cached": len(plan.maps) - rendered,
-                  "maps_total": len(plan.maps), "triangles_to_maps": triangles}
+                  "maps_total": len(plan.maps), "triangles_to_maps": triangles,
+                  "texels_to_maps": sum(plan.maps[i].viewport ** 2 for i in drawn),
+                  "characters": dict(plan.characters)}
         if not read:
             return Frame(image=None, covered=None, maps_sampled=None, ms=dict(self.timer.ms),
                          **counts)
@@ -196,14 +203,12 @@ class Renderer(SceneEdits):
             rgba = self.target.read_colour()
             covered = rgba[..., 3] > 0
             gbuffer = self.target.read_gbuffer(covered) if self.target.gbuffer else None
-        drawn = (*plan.render_static, *plan.render_dynamic)
         return Frame(
             image=np.ascontiguousarray(rgba[..., :3]), covered=covered,
             maps_sampled=np.maximum(rgba[..., 3].astype(np.int32) - 1, 0),
             ms=dict(self.timer.ms), gbuffer=gbuffer, gl_objects=self.gl_objects(),
             camera_triangles=(self.culler.kept() if culled
-                              else len(self.buffers.layout.indices) // 3),
-            texels_to_maps=sum(plan.maps[i].viewport ** 2 for i in drawn), **counts)
+                              else len(self.buffers.layout.indices) // 3), **counts)
 
     def trace(self, t: float, settings: TraceSettings, light=None) -> TraceResult:
         """Trace over the last frame's G-buffer: ``light`` is a tracer light tuple, by default

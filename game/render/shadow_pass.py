@@ -11,6 +11,7 @@ from game.shadows.plan import KIND_CHARACTER, ShadowPlan
 
 LAYERED_EXTENSION = "GL_ARB_shader_viewport_layer_array"
 CLEAR_EXTENSION = "GL_ARB_clear_texture"  # DepthArray.clear
+CLIP_PLANES = tuple(0x3000 + k for k in range(4))  # GL_CLIP_DISTANCE0..3: depth_layered.vert
 
 
 class ShadowMapPass:
@@ -57,8 +58,9 @@ class ShadowMapPass:
             rec = plan.maps[index]
             fbo = self.array.framebuffers[rec.layer]
             fbo.use()
-            fbo.viewport = (0, 0, rec.viewport, rec.viewport)
-            fbo.clear(depth=1.0, viewport=(0, 0, rec.viewport, rec.viewport))
+            square = (*rec.origin, rec.viewport, rec.viewport)
+            fbo.viewport = square
+            fbo.clear(depth=1.0, viewport=square)
             self.depth_prog["u_map"].value = index
             ranges = (layout.ranges(rec.objects) if rec.pieces is None
                       else layout.piece_ranges(rec.pieces))
@@ -78,13 +80,17 @@ class ShadowMapPass:
         self._depth_state()
         array = self.array
         for i in indices:
-            array.clear(plan.maps[i].layer, plan.maps[i].viewport)
+            array.clear(plan.maps[i].layer, plan.maps[i].viewport, plan.maps[i].origin)
         fbo = array.layered
         fbo.use()
         fbo.viewport = (0, 0, array.resolution, array.resolution)
         characters = [o for i in indices for o in plan.maps[i].objects]
+        for plane in CLIP_PLANES:
+            self.ctx.enable_direct(plane)
         for first, count in self.buffers.layout.ranges(characters):
             self.layered_vao.render(moderngl.TRIANGLES, vertices=count, first=first)
+        for plane in CLIP_PLANES:
+            self.ctx.disable_direct(plane)
         return sum(self.buffers.geom.triangle_count(plan.maps[i].objects) for i in indices)
 
     def _depth_state(self) -> None:

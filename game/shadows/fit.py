@@ -45,7 +45,9 @@ def _snap_rect(cx: float, cy: float, half: float, texel: float, resolution: int)
 
 def fit_directional(points: np.ndarray, light_rot: np.ndarray, resolution: int,
                     radius: float | None = None,
-                    depth_points: np.ndarray | None = None) -> MapFit:
+                    depth_points: np.ndarray | None = None,
+                    texel: float | None = None,
+                    centre: np.ndarray | None = None) -> MapFit:
     """Orthographic map of ``points`` for a directional light.
 
     Parameters
@@ -63,6 +65,13 @@ def fit_directional(points: np.ndarray, light_rot: np.ndarray, resolution: int,
     depth_points
         More casters drawn into the map where they cross it (faces shared with other maps):
         they widen its depth range, not its rectangle.
+    texel
+        The texel size to keep (a group of moving casters keeps its finest member's, so its
+        texels stay on the same world-fixed grid); the caster must fit ``resolution`` texels.
+    centre
+        With ``radius``: the light-space (x, y) the caster lies within ``radius`` of (a
+        character's origin, about which its radius is measured), instead of the middle of
+        ``points``; then ``points`` only need to bound its depth.
     """
     q = np.asarray(points, float) @ light_rot.T
     lo, hi = q.min(axis=0), q.max(axis=0)
@@ -71,13 +80,17 @@ def fit_directional(points: np.ndarray, light_rot: np.ndarray, resolution: int,
         lo[2], hi[2] = min(lo[2], float(z.min())), max(hi[2], float(z.max()))
     usable = resolution - 2 * MARGIN_TEXELS - 1
     if radius is not None:
-        centre = (lo + hi) / 2
+        centre = (lo + hi) / 2 if centre is None else np.asarray(centre, float)
         half = radius
     else:
         centre = (lo + hi) / 2
         half = max(hi[0] - lo[0], hi[1] - lo[1]) / 2
     half = max(half, 1e-6 * max(1.0, float(np.abs(q).max())))
-    texel = 2 * half / usable
+    if texel is None:
+        texel = 2 * half / usable
+    elif 2 * half > usable * texel * (1 + 1e-9):
+        raise ValueError(f"a caster {2 * half:.4g} wide does not fit {usable} texels of "
+                         f"{texel:.4g}")
     x0, y0, x1, y1 = _snap_rect(centre[0], centre[1], half, texel, resolution)
     depth = hi[2] - lo[2]
     margin = DEPTH_MARGIN * depth + 2 * texel

@@ -42,11 +42,13 @@ class ShadowMethod(ABC):
     budgeted: ClassVar[bool] = False
 
     def __init__(self, geom: PackedGeometry, light: Light, settings: ShadowSettings,
-                 max_layers: int):
+                 max_layers: int, max_maps: int | None = None):
         self.geom = geom
         self.light = light
         self.settings = settings
         self.max_layers = max_layers
+        # Map records the shading pass holds; maps may share layers, so this may be more.
+        self.max_maps = max_layers if max_maps is None else max_maps
         self.notes: list[str] = []   # one line each: how the method degraded, and why
 
     @classmethod
@@ -91,5 +93,5 @@ class ShadowMethod(ABC):
 
     def _restart(self, geom: PackedGeometry) -> None:
         notes = self.notes
-        self.__init__(geom, self.light, self.settings, self.max_layers)
+        self.__init__(geom, self.light, self.settings, self.max_layers, self.max_maps)
         self.notes = notes + [n for n in self.notes if n not in notes]

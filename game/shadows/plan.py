@@ -22,7 +22,10 @@ KIND_CLUMP, KIND_CHARACTER, KIND_ALL, KIND_CASCADE, KIND_FALLBACK = 0, 1, 2, 3, 
 # tuning.
 TEXELS_PER_METRE = 64.0        # clump maps' texel-density target
 CLUMP_RESOLUTION = 1024        # texels per side of a clump map (and of the array's layers)
-CHARACTER_RESOLUTION = 512     # texels per side a character's map uses of its layer
+CHARACTER_RESOLUTION = 512     # most texels per side of a character's map
+MIN_CHARACTER_RESOLUTION = 32  # fewest texels per side of a character's map
+CHARACTER_TEXELS_PER_PIXEL = 8.0  # a character map's texels per screen pixel where its shadow
+#                                  can be nearest the camera (0: always the most, every frame)
 SINGLE_RESOLUTION = 4096       # the baseline's one map
 NORMAL_BIAS_TEXELS = 1.0       # offset along the normal, times sin(angle to the light)
 DEPTH_BIAS_TEXELS = 1.0        # offset towards the light
@@ -44,6 +47,8 @@ class ShadowSettings:
     texels_per_metre: float = TEXELS_PER_METRE
     clump_resolution: int = CLUMP_RESOLUTION
     character_resolution: int = CHARACTER_RESOLUTION
+    min_character_resolution: int = MIN_CHARACTER_RESOLUTION
+    character_texels_per_pixel: float = CHARACTER_TEXELS_PER_PIXEL
     single_resolution: int = SINGLE_RESOLUTION
     normal_bias: float = NORMAL_BIAS_TEXELS
     depth_bias: float = DEPTH_BIAS_TEXELS
@@ -79,6 +84,8 @@ class MapRecord:
     # A clump of parts: the pieces drawn (indices into the plan's ``static_pieces``), where
     # ``objects`` only names the statics they belong to. None: the objects are drawn whole.
     pieces: list[int] | None = None
+    # Texel offset of the map's square in its layer (character maps share layers).
+    origin: tuple[int, int] = (0, 0)
 
 
 @dataclass
@@ -89,3 +96,6 @@ class ShadowPlan:
     render_dynamic: list[int] = field(default_factory=list)
     # The statics' faces in clump order, for the index buffer (game/scene/geometry.layout).
     static_pieces: list[Piece] | None = None
+    # The character maps of the frame, for the stats: maps, characters skipped (no visible
+    # shadow), characters grouped (sharing a map), maps shrunk for want of layers.
+    characters: dict[str, int] = field(default_factory=dict)

@@ -30,6 +30,7 @@ def method_class(name: str) -> type[ShadowMethod]:
 
 
 def create(geom: PackedGeometry, light: Light, settings: ShadowSettings,
-           max_layers: int) -> ShadowMethod:
-    """The planner for ``settings.method``; ``max_layers`` is what the GL allows."""
-    return method_class(settings.method)(geom, light, settings, max_layers)
+           max_layers: int, max_maps: int | None = None) -> ShadowMethod:
+    """The planner for ``settings.method``; ``max_layers`` and ``max_maps`` are what the GL
+    allows (array layers, map records)."""
+    return method_class(settings.method)(geom, light, settings, max_layers, max_maps)

@@ -39,10 +39,11 @@ def test_bench_writes_rows_and_charts_then_skips_them(ctx, tmp_path):
         assert 0.0 <= float(r["flicker"]) <= 1.0
         assert int(float(r["nan_pixels"])) == 0
         assert float(r["shadow_memory_mib"]) > 0
-    # single re-renders its whole map every frame; clumped only its character map.
+    # single re-renders its whole map every frame; clumped only its character map, at most
+    # 512^2 and sized for the view.
     clumped, single = rows
     assert float(single["texels_to_maps"]) == 4096 ** 2
-    assert float(clumped["texels_to_maps"]) == 512 ** 2
+    assert 0 < float(clumped["texels_to_maps"]) <= 512 ** 2
     charts = {p.name for p in (opts.out / "charts").iterdir()}
     assert {"stability_thin.png", "stability_thin.svg"} <= charts
     assert result["rows"] == 2

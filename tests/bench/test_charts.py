@@ -145,3 +145,27 @@ def test_a_stability_factor_with_one_value_is_one_bar_per_method(tmp_path):
     assert "0.01 metres" in ax.get_title()
     assert "failed" in [t.get_text() for t in ax.texts]
     assert tmp_path / "stability_thin.png" in charts.write_all(rows, tmp_path)
+
+
+def test_the_shadow_cost_chart_draws_each_method_against_walkers_and_a_proportional_line():
+    rows = []
+    for n, scene in ((4, "town_4x4_c4"), (16, "town_4x4"), (64, "town_4x4_c64"),
+                     (256, "town_4x4_c256")):
+        for i, m in enumerate(METHODS):
+            rows.append(row(scene, m, group="town", characters=n, total_ms_median=30.0,
+                            shadow_static_ms_median=0.01, shadow_dynamic_ms_median=5.0 + i + n / 8))
+        rows.append(row(scene, "clumped", "character_texels_per_pixel=0.0", group="town",
+                        characters=n, total_ms_median=40.0, shadow_static_ms_median=0.01,
+                        shadow_dynamic_ms_median=n / 2))
+    rows.append(row("town_8x8_c64", "clumped", group="town", characters=64, total_ms_median=9.0,
+                    shadow_static_ms_median=0.0, shadow_dynamic_ms_median=1.0))  # another town
+    fig = charts.scaling_figure(plt, rows, "shadow")
+    ax = fig.axes[0]
+    lines = {line.get_label(): line for line in ax.get_lines()}
+    assert set(lines) == {*METHODS, "clumped char maps all at most",
+                          "proportional to walkers (from clumped's first point)"}
+    assert list(lines["clumped"].get_xdata()) == [4, 16, 64, 256]
+    guide = lines["proportional to walkers (from clumped's first point)"]
+    assert guide.get_ydata()[-1] == pytest.approx((5.01 + 4 / 8) * 64)
+    assert "ms" in ax.get_ylabel() and "walkers" in ax.get_xlabel()
+    assert len(labelled(ax, "x")) >= 2 and len(labelled(ax, "y")) >= 2

@@ -17,7 +17,7 @@ import trimesh
 from game import transforms
 from game.render.renderer import Renderer, View
 from game.scene import Body, Character, Light
-from game.shadows.plan import ShadowSettings
+from game.shadows.plan import KIND_CHARACTER, ShadowSettings
 from tests.conftest import ACCURACY_SIZE as SIZE
 from tests.conftest import MAX_ERROR
 from tests.shadow_check import frame_error, render_and_check
@@ -116,23 +116,25 @@ def test_moving_a_static_re_renders_its_old_and_new_clumps(renderer):
     assert (shadowed(before) != shadowed(after)).sum() > 100
 
 
-def test_removing_a_character_frees_its_layer_and_its_shadow(renderer):
+def test_removing_a_character_drops_its_map_and_its_shadow(renderer):
     method = renderer.method
     good(renderer)
     array = renderer.shadow_array
+    layers = list(method._char_layers)
     name = "character_0"
-    layer = method._char_layers[name]
     renderer.remove_character(name)
     after, _ = good(renderer)  # a stale character shadow would be misclassified
-    assert name not in method._char_layers and layer in method._free
-    assert all(m.layer != layer for m in renderer.method.plan(renderer.models(T)).maps)
-    # A new character takes the freed layer: the array is not re-created.
+    drawn = {renderer.geom.names[o] for m in method.plan(renderer.models(T)).maps
+             if m.kind == KIND_CHARACTER for o in m.objects}
+    assert name not in drawn and len(drawn) == renderer.geom.n_characters
+    # A new character's map goes into the layers the character maps share: the array is not
+    # re-created.
     walker = renderer.scene.characters[0]
     newcomer = Character(name="character_new", mesh=walker.mesh.copy(),
                          path=np.array([[-4.0, 0.9, 4.0], [4.0, 0.9, 4.0]]), speed=1.0,
                          phase=0.0)
     renderer.add_character(newcomer)
-    assert method._char_layers["character_new"] == layer
+    assert method._char_layers == layers
     good(renderer)
     assert renderer.shadow_array is array
     objects = renderer.gl_objects()

@@ -118,20 +118,23 @@ def check(renderer: Renderer, t: float = 0.0):
     return frame
 
 
-def test_characters_beyond_the_layer_limit_share_maps(ctx):
+def test_characters_beyond_the_layer_limit_get_coarser_maps(ctx):
+    """Two layers: one for the clump, one that cannot hold six character maps of 512^2 (it holds
+    four). The largest are halved until all fit; every character still casts, correctly."""
     scene = crowd_scene()
-    limits = GLLimits.of(ctx).tightened(max_array_layers=3)
+    limits = GLLimits.of(ctx).tightened(max_array_layers=2)
     renderer = Renderer(ctx, scene, SIZE, gbuffer=True, limits=limits)
     try:
         method = renderer.method
-        assert method.layers <= 3
-        assert any("share" in note for note in method.notes)
+        assert method.layers <= 2
+        assert any("coarser" in note for note in method.notes)
         frame = check(renderer, 0.5)
-        plan = method.plan(renderer.models(0.5))
+        plan = method.plan(renderer.models(0.5))  # no view: every map asks for the largest
         drawn = sorted(o for m in plan.maps for o in m.objects
                        if m.kind == KIND_CHARACTER)
         assert drawn == [renderer.geom.character_object(i) for i in range(6)]  # none dropped
-        assert frame.maps_total <= 3
+        assert plan.characters["character_maps_shrunk"] >= 2
+        assert frame.maps_total >= 7 and method.layers <= 2  # seven maps in two layers
     finally:
         renderer.release()
 

@@ -26,8 +26,10 @@ class LayerViewer:
         self.texture = ctx.texture((VIEW_SIZE, VIEW_SIZE), 4)
         self.target = ctx.framebuffer([self.texture])
 
-    def draw(self, array, layer: int, extent: float) -> None:
-        """Draw ``layer`` of the depth array (the used ``extent`` of it) into :attr:`texture`."""
+    def draw(self, array, layer: int, extent: float, offset: tuple[float, float] = (0.0, 0.0)
+             ) -> None:
+        """Draw the square of ``layer`` at uv ``offset``, the share ``extent`` of its side,
+        into :attr:`texture`."""
         ctx = self.ctx
         self.target.use()
         self.target.viewport = (0, 0, VIEW_SIZE, VIEW_SIZE)
@@ -37,6 +39,7 @@ class LayerViewer:
         self.program["u_maps"].value = MAPS_UNIT
         self.program["u_layer"].value = int(layer)
         self.program["u_extent"].value = float(extent)
+        self.program["u_offset"].value = tuple(float(v) for v in offset)
         self.vao.render(moderngl.TRIANGLES, vertices=3)
         self.sampler.clear(MAPS_UNIT)  # the shading pass samples with compare on again
 

@@ -69,6 +69,8 @@ class Figures:
     maps_per_fragment: float | None   # None until a frame has been read back
     fps: float | None
     fps_from_total: bool = False      # headless: 1000 / total ms, not frames over wall time
+    texels_to_maps: int = 0
+    characters: dict[str, int] | None = None  # the character maps (ShadowPlan.characters)
 
     @staticmethod
     def of(frame: Frame, clock: str, fps: float | None,
@@ -78,7 +80,8 @@ class Figures:
                        clock=clock, maps_rendered=frame.maps_rendered,
                        maps_cached=frame.maps_cached,
                        triangles_to_maps=frame.triangles_to_maps,
-                       maps_per_fragment=mpf if mpf is not None else maps_per_fragment, fps=fps)
+                       maps_per_fragment=mpf if mpf is not None else maps_per_fragment, fps=fps,
+                       texels_to_maps=frame.texels_to_maps, characters=frame.characters)
 
 
 @dataclass
@@ -250,7 +253,12 @@ class Overlay:
             imgui.end_table()
         mpf = f"{f.maps_per_fragment:.3f}" if f.maps_per_fragment is not None else "-"
         imgui.text(f"maps rendered {f.maps_rendered}, cached {f.maps_cached}")
-        imgui.text(f"triangles into maps {f.triangles_to_maps}")
+        imgui.text(f"triangles into maps {f.triangles_to_maps}, texels {f.texels_to_maps}")
+        if f.characters:
+            c = f.characters
+            imgui.text(f"character maps {c['character_maps']}: skipped "
+                       f"{c['characters_skipped']}, grouped {c['characters_grouped']}, "
+                       f"shrunk {c['character_maps_shrunk']}")
         imgui.text(f"maps per fragment {mpf}")
 
     def _draw_graph(self) -> None:
@@ -334,7 +342,8 @@ class Overlay:
                    f"{len(rec.objects)} object(s), {state}")
         if self._viewer is None:
             self._viewer = LayerViewer(renderer.ctx)
-        self._viewer.draw(array, rec.layer, rec.viewport / array.resolution)
+        self._viewer.draw(array, rec.layer, rec.viewport / array.resolution,
+                          tuple(v / array.resolution for v in rec.origin))
         side = min(LAYER_VIEW_PIXELS, imgui.get_content_region_avail().x)
         # GL textures start at the bottom row: flip v.
         imgui.image(imgui.ImTextureRef(self._viewer.texture.glo), imgui.ImVec2(side, side),

@@ -114,8 +114,8 @@ class CascadedShadows(ShadowMethod):
         return settings.cascades
 
     def __init__(self, geom: PackedGeometry, light: Light, settings: ShadowSettings,
-                 max_layers: int):
-        super().__init__(geom, light, settings, max_layers)
+                 max_layers: int, max_maps: int | None = None):
+        super().__init__(geom, light, settings, max_layers, max_maps)
         bounds = (geom.positions.min(axis=0), geom.positions.max(axis=0)) if len(
             geom.positions) else (np.zeros(3), np.zeros(3))
         self._corners = np.array([[x, y, z] for x in (bounds[0][0], bounds[1][0])

@@ -13,7 +13,7 @@ import numpy as np
 from game import transforms
 from game.scene import Light
 from game.scene.geometry import PackedGeometry
-from game.shadows import clumping
+from game.shadows import clumping, crowd
 from game.shadows.fit import (
     MapFit,
     fit_cube_faces,
@@ -59,6 +59,13 @@ def _footprint(light: Light, statics: list[np.ndarray]):
     return point, 1.0 / (typical * math.pi / 2)
 
 
+def _box_corners(points: np.ndarray) -> np.ndarray:
+    """The 8 corners of the axis-aligned box of ``points``."""
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    return np.array([[(lo, hi)[i][0], (lo, hi)[j][1], (lo, hi)[k][2]]
+                     for i in (0, 1) for j in (0, 1) for k in (0, 1)])
+
+
 class ClumpedShadows(ShadowMethod):
     """The multi-map method: cached clump maps plus per-character maps in one array.
 
@@ -87,8 +94,8 @@ class ClumpedShadows(ShadowMethod):
         return 1 + min(n_characters, 1)  # one clump and one (shared) character map
 
     def __init__(self, geom: PackedGeometry, light: Light, settings: ShadowSettings,
-                 max_layers: int):
-        super().__init__(geom, light, settings, max_layers)
+                 max_layers: int, max_maps: int | None = None):
+        super().__init__(geom, light, settings, max_layers, max_maps)
         layer_bytes = 4 * settings.clump_resolution ** 2
         budget_layers = int(settings.budget_mib * 2**20 // layer_bytes)
         self.layer_limit = max(2, min(budget_layers, max_layers))
@@ -99,8 +106,11 @@ class ClumpedShadows(ShadowMethod):
         self._dirty: set[int] = set()             # clumps (indices) whose maps must be drawn
         self._free: list[int] = []                # layers given back, reused lowest first
         self._high = 0                            # layers ever handed out
-        self._char_layers: dict[str, int] = {}    # a character's own layer, by name
-        self._shared: list[tuple[int, list[str]]] = []  # (layer, names) of shared maps
+        self._char_layers: list[int] = []         # the layers the character maps share
+        self._char_boxes: np.ndarray | None = None  # (n, 8, 3) local bounding-box corners
+        self.crowd = crowd.CrowdPlanner(
+            min(settings.min_character_resolution, self._character_resolution),
+            self._character_resolution, settings.character_texels_per_pixel)
         self._assign_characters()
         self.set_light(light)
 
@@ -117,7 +127,7 @@ class ClumpedShadows(ShadowMethod):
 
     @property
     def max_clumps(self) -> int:
-        return max(1, self.layer_limit - len(self._char_layers) - len(self._shared))
+        return max(1, self.layer_limit - len(self._char_layers))
 
     @property
     def layers(self) -> int:
@@ -131,43 +141,50 @@ class ClumpedShadows(ShadowMethod):
         g = self.geom
         return [g.names[g.character_object(i)] for i in range(g.n_characters)]
 
+    @property
+    def _character_resolution(self) -> int:
+        return min(self.settings.character_resolution, self.settings.clump_resolution)
+
     def _assign_characters(self) -> None:
-        """Give every character a layer: its own while layers last, else shared maps."""
-        names = self._character_names()
-        for layer, _ in self._shared:
-            self._give_layer(layer)
-        self._shared = []
-        for name in [n for n in self._char_layers if n not in names]:
-            self._give_layer(self._char_layers.pop(name))  # a removed character frees its layer
-        # Leave at least one layer for the clumps.
+        """Hold enough layers for every character's map at the largest size (the maps are
+        packed into them anew each frame, game/shadows/crowd.py), as far as the clumps leave
+        room; fewer layers make the frame's largest maps coarser, never drop one."""
+        n = self.geom.n_characters
+        square = crowd.layer_square(self.settings.clump_resolution)
+        per_layer = max(1, (square // crowd.pow2_at_least(self._character_resolution)) ** 2)
+        want = -(-n // per_layer)
         room = self.layer_limit - max(1, sum(len(ls) for ls in self._clump_layers))
-        if len(names) <= room:
-            for name in names:
-                if name not in self._char_layers:
-                    self._char_layers[name] = self._take_layer()
-            return
-        for layer in self._char_layers.values():
-            self._give_layer(layer)
-        self._char_layers = {}
-        groups = max(1, room)
-        self._shared = [(self._take_layer(), names[g::groups]) for g in range(groups)]
-        note = (f"{len(names)} characters but {groups} free shadow-map layers (GL or memory "
-                f"limit): characters share {groups} map(s), at coarser texels")
-        if note not in self.notes:
-            self.notes.append(note)
+        count = min(want, max(room, 1)) if n else 0
+        while len(self._char_layers) > count:
+            self._give_layer(self._char_layers.pop())
+        while len(self._char_layers) < count:
+            self._char_layers.append(self._take_layer())
+        if count < want:
+            note = (f"{n} characters' maps at {self._character_resolution}^2 need {want} "
+                    f"shadow-map layers, {count} are free (GL or memory limit): the largest "
+                    "maps of a frame are made coarser when they do not fit")
+            if note not in self.notes:
+                self.notes.append(note)
 
     # -- statics ----------------------------------------------------------------------------
     def set_light(self, light: Light) -> None:
         """A new light invalidates every clump map (and light-space clumps themselves)."""
         self.light = light
         self._light_rot = light_rotation_of(light)
+        self._ground = self._ground_height()
         self._build_static()
 
-    def _fit(self, points: np.ndarray, resolution: int, radius: float | None = None
-             ) -> MapFit | None:
+    def _ground_height(self) -> float:
+        """The lowest height of the floors and statics: no shadow falls below it."""
+        g = self.geom
+        fixed = g.objects < g.first_character
+        return float(g.positions[fixed, 1].min()) if fixed.any() else math.inf
+
+    def _fit(self, points: np.ndarray, resolution: int, radius: float | None = None,
+             centre: np.ndarray | None = None) -> MapFit | None:
         light = self.light
         if light.kind == "directional":
-            return fit_directional(points, self._light_rot, resolution, radius)
+            return fit_directional(points, self._light_rot, resolution, radius, centre=centre)
         if light.kind == "spot" and outside_cone(points, light.position, light.direction,
                                                  light.cone):
             return None
@@ -387,6 +404,7 @@ class ClumpedShadows(ShadowMethod):
         re-rendered.
         """
         self.geom = geom
+        self._ground = self._ground_height()
         self._make_units()
         index = {key: u for u, key in enumerate(self._unit_keys)}
         for k, keys in enumerate(self._clump_keys):
@@ -455,6 +473,7 @@ class ClumpedShadows(ShadowMethod):
     def update_characters(self, geom: PackedGeometry) -> None:
         """Characters were added or removed: free and hand out their layers."""
         self.geom = geom
+        self._char_boxes = None
         self._assign_characters()
 
     # -- frame ------------------------------------------------------------------------------
@@ -465,34 +484,78 @@ class ClumpedShadows(ShadowMethod):
         render_static = sorted(i for k in self._dirty for i in self._map_of_clump.get(k, []))
         render_dynamic = []
         resolution = s.clump_resolution
-        char_res = min(s.character_resolution, resolution)
-        names = self._character_names()
-        slots = [(self._char_layers[n], [i], char_res) for i, n in enumerate(names)
-                 if n in self._char_layers]
-        position = {n: i for i, n in enumerate(names)}
-        slots += [(layer, [position[n] for n in group], resolution)
-                  for layer, group in self._shared if group]
-        for layer, members, res in slots:
-            placed = [transforms.transform_points(models[i], self.geom.character_points[i])
-                      for i in members]
-            points = np.concatenate(placed)
-            radius = float(self.geom.character_radius[members[0]]) if len(members) == 1 else None
-            fit = self._fit(points, res, radius)
-            if fit is None:
-                continue
-            cover = None
-            if self.light.kind == "directional":
-                xy = [p @ self._light_rot[:2].T for p in placed]
-                cover = np.array([np.concatenate([q.min(axis=0), q.max(axis=0)]) for q in xy])
-            render_dynamic.append(len(maps))
-            maps.append(MapRecord(name=f"character_{members[0]}", kind=KIND_CHARACTER, fit=fit,
-                                  layer=layer, viewport=res,
-                                  objects=[self.geom.character_object(i) for i in members],
-                                  cover=cover))
+        counts = self._character_maps(models, view, maps, render_dynamic)
         self._dirty = set()
         return ShadowPlan(resolution=resolution, maps=maps,
                           render_static=render_static, render_dynamic=render_dynamic,
-                          static_pieces=self.static_pieces)
+                          static_pieces=self.static_pieces, characters=counts)
+
+    def _character_maps(self, models: np.ndarray, view, maps: list[MapRecord],
+                        render_dynamic: list[int]) -> dict[str, int]:
+        """Append this frame's character maps (game/shadows/crowd.py) to ``maps``; returns
+        their counts for the stats."""
+        g, s, light = self.geom, self.settings, self.light
+        n = g.n_characters
+        if not n:
+            return {}
+        names = self._character_names()
+        self.crowd.forget(set(names))
+        # Each character's bounding box, posed: its map's fit and cover need no more.
+        if self._char_boxes is None or len(self._char_boxes) != n:
+            self._char_boxes = np.stack([_box_corners(p) for p in g.character_points])
+        models = np.asarray(models, float)
+        placed = (np.einsum("nij,nkj->nki", models[:, :3, :3], self._char_boxes)
+                  + models[:, None, :3, 3])
+        centres = models[:, :3, 3]
+        radii = np.asarray(g.character_radius, float)
+        visible = np.ones(n, bool)
+        needed = np.full(n, np.inf)
+        if view is not None and view.size is not None and s.character_texels_per_pixel > 0:
+            ground = min(self._ground, float(placed[..., 1].min()))
+            eye = None if light.kind == "directional" else np.asarray(light.position, float)
+            volumes, bounded = crowd.shadow_volumes(centres, radii, light.kind, light.direction,
+                                                    eye, ground)
+            visible = ~(bounded & crowd.outside_view(volumes, view.proj @ view.view))
+            needed = crowd.texels_needed(volumes, centres, radii, view.view, view.proj,
+                                         view.size[1], s.character_texels_per_pixel, eye)
+        shown = np.flatnonzero(visible)
+        sizes = self.crowd.sizes([names[i] for i in shown], needed[shown])
+        rects = None
+        if light.kind == "directional":
+            xy = centres[shown] @ self._light_rot[:2].T
+            r = radii[shown][:, None]
+            rects = np.concatenate([xy - r, xy + r], axis=1)
+        room = self.max_maps - len(maps)
+        planned = crowd.group(sizes, rects, self._character_resolution, room,
+                              merge=s.character_texels_per_pixel > 0)
+        shrunk = crowd.pack(planned, len(self._char_layers), s.clump_resolution)
+        covers = None
+        if light.kind == "directional":
+            xy = placed @ self._light_rot[:2].T
+            covers = np.concatenate([xy.min(axis=1), xy.max(axis=1)], axis=1)
+        drawn = 0
+        for m in planned:
+            members = [int(shown[k]) for k in m.members]
+            points = placed[members].reshape(-1, 3)
+            if light.kind == "directional" and m.square is not None:
+                # The members lie within their bounding spheres: the square holds them all;
+                # the box corners bound the depth.
+                fit = fit_directional(points, self._light_rot, m.resolution, m.square[2],
+                                      texel=m.texel, centre=m.square[:2])
+            else:
+                fit = self._fit(points, m.resolution)
+            if fit is None:
+                continue
+            render_dynamic.append(len(maps))
+            maps.append(MapRecord(name=f"character_{members[0]}", kind=KIND_CHARACTER, fit=fit,
+                                  layer=self._char_layers[m.layer], viewport=m.resolution,
+                                  objects=[g.character_object(i) for i in members],
+                                  cover=None if covers is None else covers[members],
+                                  origin=m.origin))
+            drawn += 1
+        return {"character_maps": drawn, "characters_skipped": int(n - len(shown)),
+                "characters_grouped": sum(len(m.members) for m in planned if len(m.members) > 1),
+                "character_maps_shrunk": shrunk}
 
     def mark_rendered_lost(self) -> None:
         """The array was re-created (resized): every cached layer must be drawn again."""

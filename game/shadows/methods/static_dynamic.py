@@ -43,8 +43,8 @@ class StaticDynamicShadows(ShadowMethod):
         return 2
 
     def __init__(self, geom: PackedGeometry, light: Light, settings: ShadowSettings,
-                 max_layers: int):
-        super().__init__(geom, light, settings, max_layers)
+                 max_layers: int, max_maps: int | None = None):
+        super().__init__(geom, light, settings, max_layers, max_maps)
         self.set_light(light)
 
     @property

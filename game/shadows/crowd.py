@@ -1,0 +1,283 @@
+"""The characters' maps for one frame: sized by what the view needs of them, skipped where no
+shadow of theirs can be seen, grouped where one map costs less than several, and packed into
+the layers of the depth array.
+
+Pure arithmetic on the characters' bounding spheres and the view; the clumped method turns the
+result into map records (game/shadows/methods/clumped.py). Holds no GL object.
+
+- **Need.** A character's shadow lies in its shadow volume: its bounding box swept along the
+  light down to the scene's lowest surface. The nearest point of that volume to the camera sets
+  the finest detail any pixel can ask of the map: ``texels_per_pixel`` texels per pixel there.
+  Resolutions are powers of two between the settings' minimum and maximum; a map grows at once
+  and shrinks only when it needs well under the smaller size (hysteresis), so sizes do not flip
+  between frames.
+- **Skip.** A volume wholly outside one plane of the view frustum casts no visible shadow.
+- **Group.** Two maps become one when one map at the finer member's texels costs less (texels
+  plus a fixed cost per map) than both; texels stay world-fixed per size, so a group's members
+  keep their texel density.
+- **Pack.** Square maps of power-of-two sides, largest first, fill each layer in Z order: no
+  gaps, so the layers needed are the texels over the layer's texels, rounded up.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from game.shadows.fit import MARGIN_TEXELS
+
+# A map's fixed cost in texel units: the clear call, its record and fit on the CPU, its entry
+# in the map grid. Measured against the per-texel cost on llvmpipe (docs/design/crowds.md).
+MAP_COST_TEXELS = 128 * 128
+# A map shrinks a size only when it needs under this share of the smaller size.
+SHRINK_BELOW = 0.75
+# The texels a fitted map gives up to its margins (fit.fit_directional): usable = res - SPARE.
+SPARE_TEXELS = 2 * MARGIN_TEXELS + 1
+
+
+@dataclass
+class CrowdMap:
+    """One character map of the frame."""
+
+    members: list[int]           # character indices
+    resolution: int              # texels per side
+    # Directional light: the light-space square (centre x, centre y, half side) that holds
+    # the members' bounding spheres, and the texel size to keep (None: fit to the square).
+    square: tuple[float, float, float] | None = None
+    texel: float | None = None
+    layer: int = 0               # index into the layers given to :func:`pack`
+    origin: tuple[int, int] = (0, 0)  # texel offset of its square in that layer
+
+
+@dataclass
+class CrowdPlan:
+    maps: list[CrowdMap] = field(default_factory=list)
+    skipped: int = 0       # characters whose shadow cannot be seen: no map
+    grouped: int = 0       # characters that share a map with another
+    shrunk: int = 0        # maps made coarser than asked, for want of layers
+
+
+def pow2_at_least(x: float, lo: int = 1, hi: int = 1 << 30) -> int:
+    """The smallest power of two >= x, then held within [lo, hi]."""
+    if not math.isfinite(x) or x >= hi:
+        return hi
+    return min(hi, max(lo, 1 << max(0, math.ceil(math.log2(max(x, 1.0))))))
+
+
+def shadow_volumes(centres: np.ndarray, radii: np.ndarray, light_kind: str,
+                   direction: np.ndarray | None, eye: np.ndarray | None, ground: float
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Per character, 16 points whose convex hull holds its shadow volume down to ``ground``
+    (the lowest height anything lies at), and whether the volume is bounded (False where the
+    light's rays through the character do not go down: its shadow may reach anywhere)."""
+    n = len(centres)
+    corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+    box = centres[:, None, :] + radii[:, None, None] * corners[None]  # (n, 8, 3)
+    if light_kind == "directional":
+        d = np.broadcast_to(np.asarray(direction, float), box.shape)
+    else:
+        d = box - np.asarray(eye, float)
+    down = d[..., 1] < -1e-6
+    bounded = down.all(axis=1)
+    t = np.where(down, (box[..., 1] - ground) / np.where(down, -d[..., 1], 1.0), 0.0)
+    swept = box + d * np.maximum(t, 0.0)[..., None]
+    return np.concatenate([box, swept], axis=1).reshape(n, 16, 3), bounded
+
+
+def outside_view(points: np.ndarray, view_proj: np.ndarray) -> np.ndarray:
+    """(n,) True where all of a character's points lie beyond one plane of the frustum."""
+    hom = np.concatenate([points, np.ones(points.shape[:-1] + (1,))], axis=-1)
+    clip = hom @ view_proj.T
+    x, y, z, w = clip[..., 0], clip[..., 1], clip[..., 2], clip[..., 3]
+    out = np.zeros(len(points), bool)
+    for plane in (x - w, -x - w, y - w, -y - w, z - w, -z - w):
+        out |= (plane > 0).all(axis=1)
+    return out
+
+
+def texels_needed(points: np.ndarray, centres: np.ndarray, radii: np.ndarray,
+                  view: np.ndarray, proj: np.ndarray, height: int, texels_per_pixel: float,
+                  eye: np.ndarray | None) -> np.ndarray:
+    """(n,) texels per side each map needs: its footprint (the bounding sphere's width, as
+    the map's fit uses) at ``texels_per_pixel`` times the screen's pixel density at the
+    volume's nearest point; a perspective map also by how much its shadow grows beyond the
+    caster (farthest volume point over the centre, from the light)."""
+    hom = np.concatenate([points, np.ones(points.shape[:-1] + (1,))], axis=-1)
+    depth = -(hom @ view[2])                                # (n, 16) view-space depth
+    near = proj[2, 3] / (proj[2, 2] - 1.0)                 # a perspective projection's
+    nearest = np.maximum(depth.min(axis=1), max(near, 1e-6))
+    pixels_per_metre = 0.5 * height * proj[1, 1] / nearest
+    grow = np.ones(len(points))
+    if eye is not None:
+        to_centre = np.linalg.norm(centres - eye, axis=1)
+        farthest = np.linalg.norm(points - eye, axis=2).max(axis=1)
+        grow = farthest / np.maximum(to_centre, 1e-9)
+    return 2.0 * radii * pixels_per_metre * texels_per_pixel * grow + SPARE_TEXELS
+
+
+class CrowdPlanner:
+    """Plans the character maps frame after frame; keeps each character's last size (by name)
+    for the hysteresis."""
+
+    def __init__(self, min_resolution: int, max_resolution: int, texels_per_pixel: float):
+        self.min_resolution = min_resolution
+        self.max_resolution = max_resolution
+        self.texels_per_pixel = texels_per_pixel
+        self._size: dict[str, int] = {}
+
+    def sizes(self, names: list[str], needed: np.ndarray) -> list[int]:
+        """Power-of-two sides for these needs, with the hysteresis."""
+        out = []
+        for name, need in zip(names, needed, strict=True):
+            size = pow2_at_least(float(need), self.min_resolution, self.max_resolution)
+            last = self._size.get(name)
+            if last is not None and size < last and need > SHRINK_BELOW * last / 2:
+                size = last
+            self._size[name] = size
+            out.append(size)
+        return out
+
+    def forget(self, keep: set[str]) -> None:
+        """Drop the sizes of characters that no longer exist."""
+        self._size = {n: s for n, s in self._size.items() if n in keep}
+
+
+def group(sizes: list[int], rects: np.ndarray | None, max_resolution: int,
+          max_maps: int | None = None, merge: bool = True) -> list[CrowdMap]:
+    """Maps for characters of these sizes: one each, merged in pairs where the cost model says
+    one map is cheaper (``merge``), and merged further while there are more than ``max_maps``
+    (those groups get coarser texels: degrade, never drop a shadow).
+
+    ``rects`` (n, 4) are the light-space squares of the bounding spheres (directional light);
+    without them, maps are only merged to meet ``max_maps``, round robin.
+    """
+    n = len(sizes)
+    limit = n if max_maps is None else max(1, max_maps)
+    if rects is None:
+        if n <= limit:
+            return [CrowdMap([i], sizes[i]) for i in range(n)]
+        return [CrowdMap(list(range(g, n, limit)), max_resolution) for g in range(limit)]
+    half = 0.5 * (rects[:, 2:] - rects[:, :2]).max(axis=1)
+    texel = 2.0 * half / (np.asarray(sizes, float) - SPARE_TEXELS)  # as fit_directional's
+    groups = {k: _Group([k], rects[k].copy(), float(texel[k]), sizes[k]) for k in range(n)}
+    if merge and n > 1:
+        _merge_by_cost(groups, rects, max_resolution)
+    while len(groups) > limit:
+        _merge_nearest(groups, max_resolution)
+    out = []
+    for g in groups.values():
+        centre = 0.5 * (g.box[:2] + g.box[2:])
+        side = 0.5 * float((g.box[2:] - g.box[:2]).max())
+        single = len(g.members) == 1
+        out.append(CrowdMap(sorted(g.members), g.size, (float(centre[0]), float(centre[1]), side),
+                            None if single else g.texel))
+    return out
+
+
+@dataclass
+class _Group:
+    members: list[int]
+    box: np.ndarray        # light-space rectangle of the members' spheres
+    texel: float | None    # the finest member's texel; None once merged past the largest map
+    size: int
+
+
+def _union(a: _Group, b: _Group) -> np.ndarray:
+    return np.concatenate([np.minimum(a.box[:2], b.box[:2]), np.maximum(a.box[2:], b.box[2:])])
+
+
+def _merge_by_cost(groups: dict[int, _Group], rects: np.ndarray, max_resolution: int) -> None:
+    """Merge pairs, nearest first, where one map at the finer texel costs less than two."""
+    centre = 0.5 * (rects[:, :2] + rects[:, 2:])
+    reach = 0.5 * (rects[:, 2:] - rects[:, :2]).max(axis=1)
+    # Candidate pairs: footprints at most one footprint apart.
+    gap = np.linalg.norm(centre[:, None] - centre[None], axis=2) - reach[:, None] - reach[None]
+    i, j = np.nonzero(np.triu(gap < 2.0 * np.maximum(reach[:, None], reach[None]), 1))
+    owner = list(range(len(rects)))
+
+    def root(k: int) -> int:
+        while owner[k] != k:
+            owner[k] = owner[owner[k]]
+            k = owner[k]
+        return k
+
+    order = np.argsort(gap[i, j], kind="stable")
+    for a, b in zip(i[order], j[order], strict=True):
+        ra, rb = root(int(a)), root(int(b))
+        if ra == rb:
+            continue
+        ga, gb = groups[ra], groups[rb]
+        box = _union(ga, gb)
+        t = min(ga.texel, gb.texel)
+        need = float((box[2:] - box[:2]).max()) / t + SPARE_TEXELS
+        if need > max_resolution:
+            continue
+        size = pow2_at_least(need, 1, max_resolution)
+        if size ** 2 >= ga.size ** 2 + gb.size ** 2 + MAP_COST_TEXELS:
+            continue
+        owner[rb] = ra
+        groups[ra] = _Group(ga.members + gb.members, box, t, size)
+        del groups[rb]
+
+
+def _merge_nearest(groups: dict[int, _Group], max_resolution: int) -> None:
+    """Merge the two groups whose union is smallest (too many maps for the records)."""
+    keys = list(groups)
+    boxes = np.array([groups[k].box for k in keys])
+    lo = np.minimum(boxes[:, None, :2], boxes[None, :, :2])
+    hi = np.maximum(boxes[:, None, 2:], boxes[None, :, 2:])
+    side = (hi - lo).max(axis=2)
+    np.fill_diagonal(side, np.inf)
+    a, b = np.unravel_index(int(np.argmin(side)), side.shape)
+    ga, gb = groups[keys[a]], groups[keys[b]]
+    box = _union(ga, gb)
+    texel = None if ga.texel is None or gb.texel is None else min(ga.texel, gb.texel)
+    need = (float((box[2:] - box[:2]).max()) / texel + SPARE_TEXELS) if texel else math.inf
+    if need > max_resolution:
+        texel = None  # coarser than asked: fitted to the square at the largest size
+    size = max_resolution if texel is None else pow2_at_least(need, 1, max_resolution)
+    groups[keys[a]] = _Group(ga.members + gb.members, box, texel, size)
+    del groups[keys[b]]
+
+
+def layer_square(layer_resolution: int) -> int:
+    """The largest power-of-two square of a layer: where its character maps are packed."""
+    return 1 << int(math.floor(math.log2(layer_resolution)))
+
+
+def pack(maps: list[CrowdMap], layers: int, layer_resolution: int) -> int:
+    """Place the maps in ``layers`` layers (sets their layer and origin); where they cannot all
+    fit, halve the largest until they do. Returns how many maps were shrunk.
+
+    Each map takes the power-of-two square at least its size (its slot) in the largest
+    power-of-two square of the layer; slots go largest first, in Z order.
+    """
+    square = layer_square(layer_resolution)
+    capacity = layers * square ** 2
+
+    def slot(m: CrowdMap) -> int:
+        return pow2_at_least(m.resolution)
+
+    shrunk = set()
+    while maps and sum(slot(m) ** 2 for m in maps) > capacity:
+        big = max(range(len(maps)), key=lambda k: maps[k].resolution)
+        if maps[big].resolution <= 1:
+            raise ValueError(f"{len(maps)} character maps cannot fit {layers} layers")
+        maps[big].resolution = slot(maps[big]) // 2
+        maps[big].texel = None  # a shrunk group is fitted to its members at the new size
+        shrunk.add(big)
+    layer, used = 0, 0
+    for m in sorted(maps, key=lambda m: -slot(m)):
+        area = slot(m) ** 2
+        if used + area > square ** 2:
+            layer, used = layer + 1, 0
+        k = used // area            # Z-order index at this slot size
+        x = y = 0
+        for bit in range(16):
+            x |= ((k >> (2 * bit)) & 1) << bit
+            y |= ((k >> (2 * bit + 1)) & 1) << bit
+        m.layer, m.origin = layer, (x * slot(m), y * slot(m))
+        used += area
+    return len(shrunk)
