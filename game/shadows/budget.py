@@ -8,8 +8,8 @@ note, never crash and never drop a shadow. The degradations, in order:
 2. a budgeted depth array (clumped) over the budget gets coarser layers: the resolution halves
    until the fewest layers it needs fit; the baselines keep the resolution asked for;
 3. the clumped method then shares layers (game/shadows/methods/clumped.py): fewer, larger
-   clumps, and when even the characters outnumber the free layers, several characters share one
-   map.
+   clumps; character maps packed into the layers left, the largest halved where they do not
+   fit, and merged into shared maps where they outnumber the map records.
 
 Each step adds a one-line note that the command line prints as ``note: ...`` and the stats file
 records under ``notes``.

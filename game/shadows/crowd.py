@@ -192,10 +192,19 @@ def _merge_by_cost(groups: dict[int, _Group], rects: np.ndarray, max_resolution:
     """Merge pairs, nearest first, where one map at the finer texel costs less than two."""
     centre = 0.5 * (rects[:, :2] + rects[:, 2:])
     reach = 0.5 * (rects[:, 2:] - rects[:, :2]).max(axis=1)
-    # Candidate pairs: footprints at most one footprint apart.
+    # Candidate pairs: footprints at most one footprint apart, and worth one map as they are
+    # (two single maps): a group's union only grows, so few pairs that fail here would pass.
     gap = np.linalg.norm(centre[:, None] - centre[None], axis=2) - reach[:, None] - reach[None]
     i, j = np.nonzero(np.triu(gap < 2.0 * np.maximum(reach[:, None], reach[None]), 1))
-    owner = list(range(len(rects)))
+    n = len(rects)
+    texel = np.array([groups[k].texel for k in range(n)])
+    size = np.array([groups[k].size for k in range(n)], float)
+    side = (np.maximum(rects[i, 2:], rects[j, 2:]) - np.minimum(rects[i, :2], rects[j, :2])).max(1)
+    need = side / np.minimum(texel[i], texel[j]) + SPARE_TEXELS
+    merged = 2.0 ** np.ceil(np.log2(np.maximum(need, 1.0)))
+    keep = (need <= max_resolution) & (merged ** 2 < size[i] ** 2 + size[j] ** 2 + MAP_COST_TEXELS)
+    i, j = i[keep], j[keep]
+    owner = list(range(n))
 
     def root(k: int) -> int:
         while owner[k] != k:

@@ -1,7 +1,8 @@
 """``clumped``: the multi-map method of "Some Ideas on Shadow Algorithms".
 
-One cached map per clump of statics, one map per character re-rendered every frame, all in one
-depth texture array. Floors are never drawn into any map.
+One cached map per clump of statics and tight character maps re-rendered every frame (sized for
+the view, skipped, grouped and packed by game/shadows/crowd.py), all in one depth texture array.
+Floors are never drawn into any map.
 """
 
 from __future__ import annotations
@@ -71,22 +72,23 @@ class ClumpedShadows(ShadowMethod):
 
     The number of clumps follows the texel-density target, within the layers that the memory
     budget and the GL limits allow; when the target needs more, the clumps grow (and their
-    texel density falls) and ``notes`` says so. When even the characters outnumber the layers
-    left, several characters share one map (degrade, never drop a shadow).
+    texel density falls) and ``notes`` says so. The character maps share a few layers, packed
+    anew each frame; when the layers or the map records run short, maps get coarser or are
+    merged (degrade, never drop a shadow).
 
-    Layers are handed out from a pool: a clump or a character
-    keeps its layer while it exists, a removed one gives it back, and a new one takes the lowest
-    free layer, so the array only grows when every layer is in use. Clumps are kept by member
+    Layers are handed out from a pool: a clump keeps its layers while it exists, a removed one
+    gives them back, and a new one takes the lowest free layer, so the array only grows when
+    every layer is in use. Clumps are kept by member
     name, so a static added, removed or moved at run time (:meth:`update_statics`) re-renders
     only the clump maps it leaves or joins.
     """
 
     name = "clumped"
-    summary = ("one cached map per clump of statics and one map per character, in one depth "
-               "array")
+    summary = ("one cached map per clump of statics and tight character maps sized for the view, "
+               "in one depth array")
     resolution_fields = ("clump_resolution", "character_resolution")
     parameters = ("clumping", "clump_count", "texels_per_metre", "clump_resolution",
-                  "character_resolution")
+                  "character_resolution", "character_texels_per_pixel")
     budgeted = True
 
     @classmethod
