@@ -76,20 +76,25 @@ class FrameBlocks:
     @staticmethod
     def _maps(plan: ShadowPlan) -> np.ndarray:
         block = np.zeros(max(1, len(plan.maps)), MAP_DTYPE)
+        maps = plan.maps
+        if not maps:
+            return block
         fresh = set(plan.render_static) | set(plan.render_dynamic)  # for the "cache" view
-        for i, rec in enumerate(plan.maps):
-            m = block[i]
-            m["view_proj"] = rec.fit.view_proj.T
-            m["layer"] = rec.layer
-            m["texel"] = rec.fit.texel
-            m["uv_scale"] = rec.viewport / plan.resolution
-            m["uv_offset"] = np.asarray(rec.origin, float) / plan.resolution
-            m["fresh"] = i in fresh
-            m["eye"] = rec.fit.eye
-            m["kind"] = rec.kind
-            m["bounds"] = rec.fit.rect
-            m["near"] = rec.fit.near
-            m["inv_depth_range"] = 1.0 / (rec.fit.far - rec.fit.near)
+        fits = [rec.fit for rec in maps]
+        n = len(maps)
+        # Column by column: a crowd's frame has hundreds of records.
+        block["view_proj"][:n] = np.stack([f.view_proj for f in fits]).transpose(0, 2, 1)
+        block["layer"][:n] = [rec.layer for rec in maps]
+        block["texel"][:n] = [f.texel for f in fits]
+        block["uv_scale"][:n] = np.array([rec.viewport for rec in maps], float) / plan.resolution
+        block["uv_offset"][:n] = np.array([rec.origin for rec in maps], float) / plan.resolution
+        block["fresh"][:n] = [i in fresh for i in range(n)]
+        block["eye"][:n] = np.stack([f.eye for f in fits])
+        block["kind"][:n] = [rec.kind for rec in maps]
+        block["bounds"][:n] = np.stack([f.rect for f in fits])
+        near = np.array([f.near for f in fits])
+        block["near"][:n] = near
+        block["inv_depth_range"][:n] = 1.0 / (np.array([f.far for f in fits]) - near)
         return block
 
     def _frame(self, view: View, n_maps: int, grid: MapGrid, geom: PackedGeometry,

@@ -279,14 +279,21 @@ def pack(maps: list[CrowdMap], layers: int, layer_resolution: int) -> int:
         shrunk.add(big)
     layer, used = 0, 0
     for m in sorted(maps, key=lambda m: -slot(m)):
-        area = slot(m) ** 2
-        if used + area > square ** 2:
+        side = slot(m)
+        if used + side * side > square ** 2:
             layer, used = layer + 1, 0
-        k = used // area            # Z-order index at this slot size
-        x = y = 0
-        for bit in range(16):
-            x |= ((k >> (2 * bit)) & 1) << bit
-            y |= ((k >> (2 * bit + 1)) & 1) << bit
-        m.layer, m.origin = layer, (x * slot(m), y * slot(m))
-        used += area
+        x, y = _z_order(used // (side * side))  # the slot's index at its size
+        m.layer, m.origin = layer, (x * side, y * side)
+        used += side * side
     return len(shrunk)
+
+
+def _z_order(k: int) -> tuple[int, int]:
+    """Column and row of the k-th square in Z (Morton) order: the even and odd bits of k."""
+    x = y = 0
+    bit = 0
+    while k >> (2 * bit):
+        x |= ((k >> (2 * bit)) & 1) << bit
+        y |= ((k >> (2 * bit + 1)) & 1) << bit
+        bit += 1
+    return x, y
