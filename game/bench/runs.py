@@ -262,8 +262,8 @@ def method_grid(scene: BenchScene, quick: bool, max_texture: int) -> list[RunSpe
             RunSpec(k, "clumped", _p(clump_count=n, clump_resolution=r, **{RERENDER: True}))
             for n, r in SWITCH_SERIES]
     if scene.factor == "characters" or k == "crowd_128":
-        # Every character map at the most, every frame: the scheme before maps were sized by
-        # need, grouped and skipped, measured beside it.
+        # Every character map at the most, every frame, none skipped or grouped: what sizing
+        # the maps by need saves, measured beside it.
         return [*defaults, RunSpec(k, "clumped", _p(character_texels_per_pixel=0.0))]
     if k not in ("default", "town_8x8"):
         return [*defaults, RunSpec(k, "clumped", _p(clumping="world"))]

@@ -182,11 +182,11 @@ class ClumpedShadows(ShadowMethod):
         fixed = g.objects < g.first_character
         return float(g.positions[fixed, 1].min()) if fixed.any() else math.inf
 
-    def _fit(self, points: np.ndarray, resolution: int, radius: float | None = None,
-             centre: np.ndarray | None = None) -> MapFit | None:
+    def _fit(self, points: np.ndarray, resolution: int, radius: float | None = None
+             ) -> MapFit | None:
         light = self.light
         if light.kind == "directional":
-            return fit_directional(points, self._light_rot, resolution, radius, centre=centre)
+            return fit_directional(points, self._light_rot, resolution, radius)
         if light.kind == "spot" and outside_cone(points, light.position, light.direction,
                                                  light.cone):
             return None
