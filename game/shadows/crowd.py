@@ -121,10 +121,9 @@ class CrowdPlanner:
     """Plans the character maps frame after frame; keeps each character's last size (by name)
     for the hysteresis."""
 
-    def __init__(self, min_resolution: int, max_resolution: int, texels_per_pixel: float):
+    def __init__(self, min_resolution: int, max_resolution: int):
         self.min_resolution = min_resolution
         self.max_resolution = max_resolution
-        self.texels_per_pixel = texels_per_pixel
         self._size: dict[str, int] = {}
 
     def sizes(self, names: list[str], needed: np.ndarray) -> list[int]:

@@ -54,7 +54,7 @@ def test_pack_halves_the_largest_maps_when_the_layers_are_short():
 
 # -- sizes ---------------------------------------------------------------------------------------
 def test_sizes_are_powers_of_two_in_range_and_do_not_flicker():
-    planner = crowd.CrowdPlanner(32, 512, 8.0)
+    planner = crowd.CrowdPlanner(32, 512)
     assert planner.sizes(["a", "b", "c"], np.array([10.0, 70.0, 1e9])) == [32, 128, 512]
     # A need that wobbles about a power of two moves the size once, not every frame.
     sizes = [planner.sizes(["a"], np.array([need]))[0]

@@ -112,7 +112,7 @@ class ClumpedShadows(ShadowMethod):
         self._char_boxes: np.ndarray | None = None  # (n, 8, 3) local bounding-box corners
         self.crowd = crowd.CrowdPlanner(
             min(settings.min_character_resolution, self._character_resolution),
-            self._character_resolution, settings.character_texels_per_pixel)
+            self._character_resolution)
         self._assign_characters()
         self.set_light(light)
 
