@@ -19,6 +19,7 @@ import numpy as np
 from game.gpu import blocks, context, glsl, resources
 from game.gpu.blocks import TRACE_DTYPE, TRACE_RESULT_DTYPE
 from game.gpu.timing import PassTimer
+from game.reference.hard import RAY_OFFSET_DISTANCE, RAY_OFFSET_SCENE
 from game.scene import Scene
 from game.scene.geometry import PackedGeometry
 from game.soft.grid import BIN_PAD_CELLS, CELLS_PER_TRIANGLE, SceneGrid
@@ -26,11 +27,6 @@ from game.soft.methods import METHODS, TraceSettings
 
 COUNTERS = ("ray_triangle_tests", "triangle_triangle_tests", "voxels_visited", "candidates",
             "overflows")
-# Ray start offset along the normal (receiver self-occlusion): a share of the grid's diagonal
-# plus a share of the distance from the origin (float32 positions lose absolute precision there).
-# The same rule as the Embree reference (game/reference/hard.py), so both see the same receivers.
-RAY_OFFSET_SCENE = 1e-5
-RAY_OFFSET_DISTANCE = 1e-5
 LOCAL_SIZE = 8            # invocations per side of a workgroup; keep in sync with trace.comp
 RAY_ID_LIMIT = 1 << 31    # tri-cache ids use 31 bits of the state word
 POINTS_PER_ROW = 1024      # trace_points: G-buffer width
@@ -183,6 +179,8 @@ class SoftTracer:
         p = np.zeros(1, TRACE_DTYPE)
         p["grid_origin"], p["grid_cell"], p["grid_dims"] = spec.origin, spec.cell, spec.dims
         p["light_a"], p["light_b"], p["light_mode"] = a, b, mode
+        # Rays start off the receiver by the reference's own rule (a share of the scene's
+        # diagonal plus a share of the distance from the origin), so both see the same receivers.
         p["ray_offset"] = RAY_OFFSET_SCENE * spec.diagonal
         p["ray_offset_per_metre"] = RAY_OFFSET_DISTANCE
         p["directional_far"] = 4.0 * (spec.diagonal + float(np.linalg.norm(spec.origin)))
