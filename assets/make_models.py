@@ -93,8 +93,21 @@ def gable_roof(length: float, width: float, rise: float) -> trimesh.Trimesh:
     return _outward(_checked(mesh))
 
 
+# The cottage's parts' colours, sRGB: glTF stores a material's base colour as linear RGB.
+HOUSE_COLOURS = {"walls": (0.90, 0.84, 0.70), "roof": (0.68, 0.30, 0.20),
+                 "chimney": (0.56, 0.36, 0.28), "door": (0.42, 0.26, 0.14)}
+
+
+def _material(srgb) -> trimesh.visual.TextureVisuals:
+    c = np.asarray(srgb, dtype=np.float64)
+    linear = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+    material = trimesh.visual.material.PBRMaterial(baseColorFactor=[*linear, 1.0])
+    return trimesh.visual.TextureVisuals(material=material)
+
+
 def house() -> trimesh.Scene:
-    """A cottage: walls, a gable roof resting on them, a chimney and a door, as separate nodes."""
+    """A cottage: walls, a gable roof resting on them, a chimney and a door, as separate nodes,
+    each with its own base colour."""
     walls = trimesh.creation.box(extents=(4.0, 2.6, 3.0))
     walls.apply_translation((0.0, 1.3, 0.0))
     roof = gable_roof(length=4.6, width=3.6, rise=1.5)
@@ -105,6 +118,7 @@ def house() -> trimesh.Scene:
     door.apply_translation((-0.6, 0.95, 1.52))
     scene = trimesh.Scene()
     for name, mesh in (("walls", walls), ("roof", roof), ("chimney", chimney), ("door", door)):
+        mesh.visual = _material(HOUSE_COLOURS[name])
         scene.add_geometry(mesh, node_name=name, geom_name=name)
     return scene
 

@@ -4,8 +4,9 @@ used, sizes checked before anything is read.
 trimesh resolves the URIs a glTF or GLB names (its buffers and images) and decodes every image,
 whatever its version; a file could so make it read files anywhere, or unpack a few kilobytes
 of PNG into gigabytes. Here the JSON is read first, its URIs are checked, and what trimesh gets
-is the same file with its images, textures, samplers and materials taken out: the geometry is
-all the renderer and the reference use.
+is the same file with its images, textures and samplers taken out, and each material cut down to
+its base colour factor (four numbers): the geometry and the parts' colours are all the renderer
+and the reference use.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ MAX_JSON_DEPTH = 64              # nesting of the JSON, so the parser cannot rec
 MAX_ZERO_ACCESSOR_BYTES = 64 * 2**20
 # Parts that trimesh would decode or resolve but that the geometry does not need.
 UNUSED = ("images", "textures", "samplers", "materials")
+BASE_COLOUR_COMPONENTS = 4    # a material's baseColorFactor: linear RGBA
 
 
 class GltfError(ValueError):
@@ -185,15 +187,44 @@ def check_accessors(document: dict, binary_length: int | None = None) -> None:
                             "view holds")
 
 
+def base_colour(material) -> list[float] | None:
+    """A material's ``pbrMetallicRoughness.baseColorFactor`` if it is four numbers in [0, 1]."""
+    pbr = material.get("pbrMetallicRoughness") if isinstance(material, dict) else None
+    factor = pbr.get("baseColorFactor") if isinstance(pbr, dict) else None
+    if (isinstance(factor, list) and len(factor) == BASE_COLOUR_COMPONENTS
+            and all(isinstance(v, int | float) and not isinstance(v, bool) and 0.0 <= v <= 1.0
+                    for v in factor)):
+        return [float(v) for v in factor]
+    return None
+
+
 def geometry_only(document: dict) -> dict:
-    """The document without :data:`UNUSED` parts and the references to them."""
+    """The document without :data:`UNUSED` parts, and its materials as base colours alone.
+
+    A primitive keeps its material only when that material has a valid base colour factor:
+    trimesh then reads nothing but those four numbers.
+    """
     out = {k: v for k, v in document.items() if k not in UNUSED}
+    materials = document.get("materials")
+    factors = ([base_colour(m) for m in materials] if isinstance(materials, list) else [])
+    kept = {i: n for n, i in enumerate(i for i, f in enumerate(factors) if f is not None)}
+    if kept:
+        out["materials"] = [{"pbrMetallicRoughness": {"baseColorFactor": factors[i]}}
+                            for i in kept]
+
+    def primitive(p):
+        if not isinstance(p, dict):
+            return p
+        plain = {k: v for k, v in p.items() if k != "material"}
+        index = p.get("material")
+        if isinstance(index, int) and not isinstance(index, bool) and index in kept:
+            plain["material"] = kept[index]
+        return plain
+
     meshes = []
     for mesh in out.get("meshes", []) or []:
         if isinstance(mesh, dict) and isinstance(mesh.get("primitives"), list):
-            mesh = {**mesh, "primitives": [
-                {k: v for k, v in p.items() if k != "material"} if isinstance(p, dict) else p
-                for p in mesh["primitives"]]}
+            mesh = {**mesh, "primitives": [primitive(p) for p in mesh["primitives"]]}
         meshes.append(mesh)
     if meshes:
         out["meshes"] = meshes

@@ -2,14 +2,16 @@
 // The soft composite: the frame lit again through a traced visibility, from its G-buffer alone
 // (the scene is not drawn again). HARD 0: the linear light's soft shadows, its direction taken
 // from the segment's midpoint; HARD 1: the hard light's exact shadows (the traced method).
-// The arithmetic is the shading pass's (shade.frag), so a pixel lit by the same visibility gets
-// the same colour.
+// The arithmetic is the shading pass's (shade.frag, lighting.glsl), so a pixel lit by the same
+// visibility gets the same colour.
 #include "blocks/frame.glsl"
 #include "lighting.glsl"
 
 uniform sampler2D u_position;    // xyz world position; w object index
-uniform sampler2D u_normal;      // xyz unit normal facing the camera
+uniform sampler2D u_normal;      // xyz geometric unit normal facing the camera
 uniform sampler2D u_colour;      // the shaded frame: a > 0 where geometry covers the pixel
+uniform sampler2D u_shading;     // xyz shading normal
+uniform sampler2D u_albedo;      // rgb sqrt of the linear base colour
 uniform sampler2D u_visibility;  // the traced visibility of the pixel's surface point
 #if !HARD
 uniform vec3 u_soft_light;       // the segment's midpoint
@@ -24,9 +26,10 @@ void main() {
         out_color = frame;   // no geometry: the sky, as the shading pass cleared it
         return;
     }
-    vec4 position = texelFetch(u_position, px, 0);
-    vec3 p = position.xyz;
-    vec3 n = texelFetch(u_normal, px, 0).xyz;
+    vec3 p = texelFetch(u_position, px, 0).xyz;
+    vec3 g = texelFetch(u_normal, px, 0).xyz;
+    vec3 n = texelFetch(u_shading, px, 0).xyz;
+    vec3 albedo = texelFetch(u_albedo, px, 0).rgb;
     float vis = texelFetch(u_visibility, px, 0).r;
 #if HARD
     vec3 l = to_light(p);
@@ -35,7 +38,6 @@ void main() {
     vec3 l = normalize(u_soft_light - p);
     float cone = 1.0;
 #endif
-    vec3 base = base_colour(int(position.w));
-    vec3 colour = base * (AMBIENT + (1.0 - AMBIENT) * max(dot(n, l), 0.0) * vis * cone);
-    out_color = vec4(colour, frame.a);
+    float direct = dot(g, l) > 0.0 ? vis * cone : 0.0;
+    out_color = vec4(display(lit_colour(albedo * albedo, n, l, direct)), frame.a);
 }

@@ -1,19 +1,13 @@
 // Lighting shared by the shading pass and the soft composite (needs blocks/frame.glsl, and
-// LIGHT_KIND as a #define): the objects' colours, the direction to the hard light, its cone.
+// LIGHT_KIND as a #define): the direction to the hard light, its cone, and how a surface is lit
+// and shown. Lighting is computed in linear RGB; `display` is the one output transform.
 
-const float AMBIENT = 0.25;
-
-vec3 palette(int i) {
-    // Distinct, stable colours for object and map indices.
-    float h = fract(float(i) * 0.618034 + 0.11);
-    vec3 k = clamp(abs(fract(h + vec3(0.0, 2.0 / 3.0, 1.0 / 3.0)) * 6.0 - 3.0) - 1.0, 0.0, 1.0);
-    return mix(vec3(0.85), k, 0.55);
-}
-
-vec3 base_colour(int object) {
-    bool floor_object = object < u_frame.floor_count;
-    return floor_object ? vec3(0.62, 0.64, 0.58) : palette(object);
-}
+// Light reaching the scene, linear RGB. The sun is warm, the sky's ambient blue from above and
+// the ground's a warm bounce from below; the tone map rolls off what exceeds 1.
+const vec3 SUN_RADIANCE = vec3(1.00, 0.93, 0.82) * 1.6;
+const vec3 SKY_AMBIENT = vec3(0.45, 0.55, 0.75) * 0.6;
+const vec3 GROUND_AMBIENT = vec3(0.40, 0.34, 0.27) * 0.4;
+const float EXPOSURE = 1.0;
 
 vec3 to_light(vec3 p) {
 #if LIGHT_KIND == LIGHT_DIRECTIONAL
@@ -31,4 +25,32 @@ float spot_cone(vec3 l) {
     cone = smoothstep(u_frame.cos_half_cone, u_frame.cos_half_cone + 0.02, dot(-l, u_frame.light_dir));
 #endif
     return cone;
+}
+
+// The shading normal made to agree with the geometric one: interpolated across a triangle it may
+// tip past the surface's own side, and a surface seen from behind (an open mesh) shades as its
+// side facing the camera.
+vec3 shading_normal(vec3 interpolated, vec3 geometric) {
+    float len = length(interpolated);
+    if (len < 1e-6) {
+        return geometric;
+    }
+    vec3 n = interpolated / len;
+    return dot(n, geometric) < 0.0 ? -n : n;
+}
+
+// Linear radiance of a diffuse surface: hemispheric ambient plus the light, scaled by how much of
+// the light the surface sees (`direct`: visibility times the spot's cone).
+vec3 lit_colour(vec3 albedo, vec3 n, vec3 l, float direct) {
+    vec3 ambient = mix(GROUND_AMBIENT, SKY_AMBIENT, 0.5 + 0.5 * n.y);
+    return albedo * (ambient + SUN_RADIANCE * max(dot(n, l), 0.0) * direct);
+}
+
+// Linear radiance to the display: exposure, a filmic tone map (Narkowicz's fit of the ACES curve),
+// then the sRGB transfer function.
+vec3 display(vec3 radiance) {
+    vec3 x = radiance * EXPOSURE;
+    vec3 mapped = clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0);
+    return mix(mapped * 12.92, 1.055 * pow(mapped, vec3(1.0 / 2.4)) - 0.055,
+               step(0.0031308, mapped));
 }

@@ -1,17 +1,22 @@
 #version 430
-// Shading pass: flat shading, the hard light's visibility from the maps, and the G-buffer the
-// dumps read (position, geometric normal, object, visibility).
+// Shading pass: the hard light's visibility from the maps, the surface lit with its shading
+// normal, and the G-buffer the dumps and the soft composite read. The dumps' normal and the
+// shadow lookup's bias use the geometric normal, so shading cannot move a shadow.
 #include "world.glsl"
 #include "lighting.glsl"
 #include "shadow.glsl"
 
 in vec3 v_world;
+in vec3 v_normal;
 flat in int v_object;
+flat in vec3 v_colour;
 
-layout(location = 0) out vec4 out_color;     // rgb shaded; a = (1 + maps read) / 255
+layout(location = 0) out vec4 out_color;     // rgb shown; a = (1 + maps read) / 255
 #if GBUFFER
 layout(location = 1) out vec4 out_position;  // xyz world position; w object index
-layout(location = 2) out vec4 out_normal;    // xyz unit normal facing the camera; w visibility
+layout(location = 2) out vec4 out_normal;    // xyz geometric unit normal facing the camera; w visibility
+layout(location = 3) out vec4 out_shading;   // xyz shading normal
+layout(location = 4) out vec4 out_albedo;    // rgb sqrt of the linear base colour
 #endif
 
 vec3 heat(float t) {
@@ -19,21 +24,22 @@ vec3 heat(float t) {
 }
 
 void main() {
-    // Flat shading: the geometric normal from the screen derivatives of the world position
-    // (exact for a triangle's plane), turned to face the camera.
-    vec3 n = cross(dFdx(v_world), dFdy(v_world));
-    float len = length(n);
-    n = len > 0.0 ? n / len : normalize(u_frame.camera_pos - v_world);
-    if (dot(n, u_frame.camera_pos - v_world) < 0.0) {
-        n = -n;
+    // The geometric normal from the screen derivatives of the world position (exact for a
+    // triangle's plane), turned to face the camera.
+    vec3 g = cross(dFdx(v_world), dFdy(v_world));
+    float len = length(g);
+    g = len > 0.0 ? g / len : normalize(u_frame.camera_pos - v_world);
+    if (dot(g, u_frame.camera_pos - v_world) < 0.0) {
+        g = -g;
     }
     int sampled, used;
-    float vis = shadow_visibility(v_world, n, v_object, sampled, used);
+    float vis = shadow_visibility(v_world, g, v_object, sampled, used);
 
+    vec3 n = shading_normal(v_normal, g);
     vec3 l = to_light(v_world);
-    float cone = spot_cone(l);
-    vec3 base = base_colour(v_object);
-    vec3 colour = base * (AMBIENT + (1.0 - AMBIENT) * max(dot(n, l), 0.0) * vis * cone);
+    // Light a surface turned away from it gets none, whatever its shading normal says.
+    float direct = dot(g, l) > 0.0 ? vis * spot_cone(l) : 0.0;
+    vec3 colour = display(lit_colour(v_colour, n, l, direct));
     // The debug view, like the shadow lookup's switches, is a #define (DEBUG_VIEW).
 #if DEBUG_VIEW == DEBUG_MAP
     colour = (used < 0 ? vec3(0.5) : palette(used + 7)) * (0.55 + 0.45 * vis);
@@ -47,6 +53,8 @@ void main() {
     out_color = vec4(colour, float(1 + sampled) / 255.0);
 #if GBUFFER
     out_position = vec4(v_world, float(v_object));
-    out_normal = vec4(n, vis);
+    out_normal = vec4(g, vis);
+    out_shading = vec4(n, 0.0);
+    out_albedo = vec4(sqrt(v_colour), 1.0);
 #endif
 }

@@ -4,12 +4,18 @@
 
 in vec3 in_position;
 in int in_object;
+in vec3 in_normal;   // the shading normal (game/scene/normals.py)
+in vec3 in_colour;   // the object's base colour, linear RGB; negative: the palette's
 
 out vec3 v_world;
+out vec3 v_normal;
 flat out int v_object;
+flat out vec3 v_colour;
 
 void main() {
     v_world = world_position(in_position, in_object);
+    v_normal = world_direction(in_normal, in_object);
     v_object = in_object;
+    v_colour = in_colour.r < 0.0 ? base_colour(in_object) : in_colour;
     gl_Position = u_frame.view_proj * vec4(v_world, 1.0);
 }

@@ -209,7 +209,9 @@ def _add_shadow_options(p: argparse.ArgumentParser) -> None:
                    help="constant depth bias in texels")
     g.add_argument("--slope-bias", type=non_negative, default=d.slope_bias,
                    help="slope-scaled depth bias in texels")
-    g.add_argument("--pcf", action="store_true", help="3x3 percentage-closer filtering")
+    g.add_argument("--pcf", action=argparse.BooleanOptionalAction, default=None,
+                   help="3x3 percentage-closer filtering (default: on in the window, off in "
+                        "captures and the benchmark)")
     g.add_argument("--grid", choices=("auto", "on", "off"), default=d.grid,
                    help="light-space grid of map lists (auto: when there are many maps)")
     g.add_argument("--debug-view", choices=list(DEBUG_VIEWS),
@@ -229,7 +231,8 @@ def shadow_settings(args) -> ShadowSettings:
         min_character_resolution=args.min_character_resolution,
         character_texels_per_pixel=args.character_texels_per_pixel,
         single_resolution=args.single_resolution, normal_bias=args.normal_bias,
-        depth_bias=args.depth_bias, slope_bias=args.slope_bias, pcf=args.pcf, grid=args.grid,
+        depth_bias=args.depth_bias, slope_bias=args.slope_bias,
+        pcf=args.pcf if args.pcf is not None else args.command == "play", grid=args.grid,
         cascades=args.cascades, cascade_lambda=args.cascade_lambda,
         cascade_resolution=args.cascade_resolution)
 
@@ -241,8 +244,8 @@ def _add_play_parser(sub) -> None:
     play = sub.add_parser(
         "play", help="the walkaround window",
         description="WASD move, right mouse button (or Tab) looks, Shift faster, Q/E down/up, "
-                    "R resets the view, P pauses the characters, M next method, F12 screenshot, "
-                    "Esc quits. See docs/window.md.")
+                    "R resets the view, P pauses the characters, M next method, F1 overlay panel, "
+                    "F12 screenshot, Esc quits. See docs/window.md.")
     play.add_argument("scene", nargs="?", help="scene file (default: the built-in scene)")
     play.add_argument("--frames", type=positive_int, help="quit by itself after N frames")
     play.add_argument("--screenshot", type=Path, metavar="FILE",
@@ -258,6 +261,12 @@ def _add_play_parser(sub) -> None:
                       help="render the scene at S times the window's size per side, then "
                            "scale it up (0.25..1; llvmpipe is fill-bound)")
     play.add_argument("--no-overlay", action="store_true", help="hide the timing overlay")
+    play.add_argument("--panel", action="store_true",
+                      help="open with the overlay's full panel rather than its HUD (F1 "
+                           "switches)")
+    play.add_argument("--aa", choices=("fxaa", "none"), default="fxaa",
+                      help="anti-aliasing of the picture shown (FXAA); the scene's own frame "
+                           "and its G-buffer are never filtered")
     _add_cull_option(play)
     play.add_argument("--soft", action="store_true",
                       help="start with soft shadows of the scene's [linear_light], traced at a "

@@ -38,9 +38,10 @@ def cmd_play(args) -> int:
     opts = window.PlayOptions(
         size=args.size, frames=args.frames, screenshot=args.screenshot, stats=args.stats,
         time_step=None if args.fps is None else 1.0 / args.fps, overlay=not args.no_overlay,
+        panel=args.panel,
         clock=args.clock, platform=args.platform, settings=shadow_settings(args),
         debug_view=args.debug_view, render_scale=args.render_scale, soft=args.soft,
-        cull=not args.no_cull)
+        cull=not args.no_cull, antialias=args.aa == "fxaa")
     stats = window.play(scene, opts)
     if args.frames is not None:
         say(f"played {len(stats['frames'])} frame(s): {window.summary(stats)}")

@@ -45,6 +45,8 @@ TEXTURE_UNITS = {
     "trace_normal": 2,
     "trace_colour": 3,
     "soft_visibility": 4,    # the traced visibility (soft composite)
+    "composite_shading": 5,  # the G-buffer's shading normal and base colour (soft composite)
+    "composite_albedo": 6,
     "layer_view": 0,         # the overlay's layer viewer reads the depth array
     "present_frame": 0,      # the window's picture of the frame
 }

@@ -50,8 +50,10 @@ class ShadingPass:
                        "DEBUG_VIEW": variant.debug_view}
             prog = self.ctx.program(vertex_shader=glsl.build("shade.vert", self.defines),
                                     fragment_shader=glsl.build("shade.frag", defines))
-            culled = None if culler is None else self.buffers.vertex_array(prog, culler.output)
-            self._programs[variant] = (prog, self.buffers.vertex_array(prog), culled)
+            culled = (None if culler is None
+                      else self.buffers.vertex_array(prog, culler.output, surface=True))
+            self._programs[variant] = (prog, self.buffers.vertex_array(prog, surface=True),
+                                       culled)
         return self._programs[variant]
 
     def draw(self, target: FrameTarget, array: DepthArray, variant: Variant,

@@ -9,9 +9,10 @@ from game.errors import GameError
 SKY = (0.58, 0.68, 0.80)   # the clear colour: pixels with no geometry
 
 
-# Bytes per pixel of the target on the GPU (colour and depth; the G-buffer's two RGBA32F
-# textures), and the most a frame may take: what is read back to the host is larger still.
-BYTES_PER_PIXEL = {False: 8, True: 40}
+# Bytes per pixel of the target on the GPU (colour and depth; the G-buffer's two RGBA32F, one
+# RGBA16F and one RGBA8 texture), and the most a frame may take: what is read back to the host is
+# larger still.
+BYTES_PER_PIXEL = {False: 8, True: 52}
 MAX_FRAME_BYTES = 2 * 2**30
 
 
@@ -32,7 +33,9 @@ def check_size(ctx, size: tuple[int, int], gbuffer: bool) -> None:
 class FrameTarget:
     """Colour (RGBA8; alpha is 1 + the maps a pixel read, over 255, and 0 where there is no
     geometry), and with ``gbuffer`` two RGBA32F textures: world position and object index, unit
-    normal and the hard light's visibility. Owns its textures, renderbuffer and framebuffer."""
+    geometric normal and the hard light's visibility; and what the soft composite lights again:
+    the shading normal (RGBA16F) and the base colour (RGBA8, square-rooted). Owns its textures,
+    renderbuffer and framebuffer."""
 
     def __init__(self, ctx, size: tuple[int, int], gbuffer: bool):
         self.ctx = ctx
@@ -43,12 +46,14 @@ class FrameTarget:
         check_size(ctx, size, gbuffer)
         self.size, self.gbuffer = size, gbuffer
         self.colour = ctx.texture(size, 4)
-        self.position = self.normal = None
+        self.position = self.normal = self.shading = self.albedo = None
         attachments = [self.colour]
         if gbuffer:
             self.position = ctx.texture(size, 4, dtype="f4")
             self.normal = ctx.texture(size, 4, dtype="f4")
-            attachments += [self.position, self.normal]
+            self.shading = ctx.texture(size, 4, dtype="f2")
+            self.albedo = ctx.texture(size, 4)
+            attachments += [self.position, self.normal, self.shading, self.albedo]
         self.depth = ctx.depth_renderbuffer(size)
         self.framebuffer = ctx.framebuffer(attachments, self.depth)
 
@@ -88,12 +93,13 @@ class FrameTarget:
 
     def gl_objects(self) -> int:
         """Textures, the depth renderbuffer and the framebuffer."""
-        return 3 + 2 * self.gbuffer
+        return 3 + 4 * self.gbuffer
 
     def release(self) -> None:
         # moderngl re-binds the framebuffer it last used after creating one; leave it the
         # default framebuffer, not one whose name is about to be deleted.
         self.ctx.detect_framebuffer(0).use()
-        for obj in (self.framebuffer, self.depth, self.colour, self.position, self.normal):
+        for obj in (self.framebuffer, self.depth, self.colour, self.position, self.normal,
+                    self.shading, self.albedo):
             if obj is not None:
                 obj.release()

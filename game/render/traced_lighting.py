@@ -70,7 +70,8 @@ class TracedLighting:
         result = self.trace(target, geom, models, settings, light)
         before = self.timer.ms.get("composite", 0.0)
         with self.timer.measure("composite"):
-            self.composite.draw((target.position, target.normal, target.colour), target.size,
+            self.composite.draw((target.position, target.normal, target.colour, target.shading,
+                                 target.albedo), target.size,
                                 result.visibility, blocks.LIGHT_KINDS[self.scene.light.kind],
                                 hard=soft_light is None, soft_light=soft_light)
         if read:

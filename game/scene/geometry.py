@@ -11,9 +11,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from game.scene.mesh_files import FILE_PART
+from game.scene.mesh_files import FILE_COLOUR, FILE_PART
 from game.scene.model import Scene
+from game.scene.normals import split_by_normal
 from game.scene.parts import mesh_parts
+
+NO_COLOUR = -1.0   # a colour component that says "no colour given: the shader's palette"
 
 
 @dataclass
@@ -22,6 +25,13 @@ class PackedGeometry:
 
     positions: np.ndarray        # (V, 3) float32
     objects: np.ndarray          # (V,) int32
+    # (V, 3) float32: the shading normal (game/scene/normals.py); a vertex is split where its
+    # corners' normals differ, so positions repeat across creases.
+    normals: np.ndarray
+    # (V, 3) float32: the base colour of each vertex's faces, linear RGB: the file's material's,
+    # else the scene's `color`; negative: neither (the shader's palette). Vertices are split
+    # where colours differ.
+    colours: np.ndarray
     triangles: list[np.ndarray]  # per object: (Fi, 3) uint32 indices into positions
     names: list[str]
     n_floors: int
@@ -71,15 +81,21 @@ def pack(scene: Scene) -> PackedGeometry:
     """Pack every mesh of the scene."""
     meshes = ([b.mesh for b in scene.floors] + [b.mesh for b in scene.statics]
               + [c.mesh for c in scene.characters])
-    positions, objects, triangles = [], [], []
+    bodies = [*scene.floors, *scene.statics, *scene.characters]
+    positions, objects, triangles, shading, colours = [], [], [], [], []
     base = 0
     for index, mesh in enumerate(meshes):
-        v = np.asarray(mesh.vertices, dtype=np.float32)
-        f = np.asarray(mesh.faces, dtype=np.int64)
-        positions.append(v)
-        objects.append(np.full(len(v), index, dtype=np.int32))
+        face_colour = _face_colours(mesh, bodies[index].colour)
+        source, n, f = split_by_normal(mesh.vertices, mesh.faces, face_key=face_colour)
+        positions.append(np.asarray(mesh.vertices, dtype=np.float32)[source])
+        shading.append(n)
+        # Every corner of a split vertex shares its faces' colour (the colour is in the key).
+        vertex_colour = np.empty((len(source), 3), np.float32)
+        vertex_colour[f.reshape(-1)] = np.repeat(face_colour, 3, axis=0)
+        colours.append(vertex_colour)
+        objects.append(np.full(len(source), index, dtype=np.int32))
         triangles.append((f + base).astype(np.uint32))
-        base += len(v)
+        base += len(source)
     character_points = [np.asarray(c.mesh.vertices, float) for c in scene.characters]
     # Back faces of closed volumes can never be seen from outside them: the shading pass culls
     # them (on llvmpipe that halved the shading time of the 1 M-triangle town).
@@ -87,6 +103,8 @@ def pack(scene: Scene) -> PackedGeometry:
     return PackedGeometry(
         positions=np.concatenate(positions) if positions else np.zeros((0, 3), np.float32),
         objects=np.concatenate(objects) if objects else np.zeros(0, np.int32),
+        normals=np.concatenate(shading) if shading else np.zeros((0, 3), np.float32),
+        colours=np.concatenate(colours) if colours else np.zeros((0, 3), np.float32),
         triangles=triangles,
         names=scene.object_names(),
         n_floors=len(scene.floors),
@@ -99,6 +117,24 @@ def pack(scene: Scene) -> PackedGeometry:
         closed=closed,
         static_parts=[_parts(b.mesh) for b in scene.statics],
     )
+
+
+def _face_colours(mesh, colour) -> np.ndarray:
+    """(F, 3) float32 linear base colours: the file's materials', else the scene's ``colour``
+    (sRGB, or None: :data:`NO_COLOUR`)."""
+    given = np.full(3, NO_COLOUR) if colour is None else _linear(colour)
+    faces = np.tile(given.astype(np.float32), (len(mesh.faces), 1))
+    if FILE_COLOUR in mesh.face_attributes:
+        from_file = np.asarray(mesh.face_attributes[FILE_COLOUR], np.float32).reshape(-1, 3)
+        has = from_file[:, 0] >= 0.0
+        faces[has] = from_file[has]
+    return faces
+
+
+def _linear(srgb) -> np.ndarray:
+    """sRGB components in [0, 1] as linear RGB (the sRGB transfer function, inverted)."""
+    c = np.clip(np.asarray(srgb, np.float64), 0.0, 1.0)
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
 
 
 def _parts(mesh) -> np.ndarray:

@@ -70,8 +70,8 @@ LIGHT_KEYS: dict[str, tuple[str, ...]] = {
     "point": ("position",),
 }
 LINEAR_LIGHT_KEYS = ("a", "b")
-BODY_KEYS = ("shape", "position", "rotation", "scale")
-CHARACTER_KEYS = ("shape", "path", "speed", "phase", "rotation", "scale")
+BODY_KEYS = ("shape", "position", "rotation", "scale", "color")
+CHARACTER_KEYS = ("shape", "path", "speed", "phase", "rotation", "scale", "color")
 
 def _shape_mesh(table: Table, extra_keys: Iterable[str]) -> trimesh.Trimesh:
     """The local mesh of a floor, static or character table, checking its keys."""
@@ -183,7 +183,7 @@ def _parse_body(ctx: Context, kind: str, index: int, data: Any) -> Body:
     linear = euler_xyz(rotation) @ np.diag(scale)
     mesh = transform_mesh(local, linear, position)
     _check_extent(table, mesh)
-    return Body(name=f"{kind}_{index}", kind=kind, mesh=mesh)
+    return Body(name=f"{kind}_{index}", kind=kind, mesh=mesh, colour=_colour(table))
 
 
 def _check_extent(table: Table, mesh) -> None:
@@ -231,7 +231,19 @@ def _parse_character(ctx: Context, index: int, data: Any) -> Character:
     scale = table.scale()
     mesh = transform_mesh(local, euler_xyz(rotation) @ np.diag(scale))
     _check_extent(table, mesh)
-    return Character(name=f"character_{index}", mesh=mesh, path=path, speed=speed, phase=phase)
+    return Character(name=f"character_{index}", mesh=mesh, path=path, speed=speed, phase=phase,
+                     colour=_colour(table))
+
+
+def _colour(table: Table) -> np.ndarray | None:
+    """The optional ``color``: three sRGB components in [0, 1]; None when not given."""
+    if not table.has("color"):
+        return None
+    colour = table.vec3("color")
+    if np.any(colour < 0.0) or np.any(colour > 1.0):
+        table.fail("color", f"must be three numbers in [0, 1] (sRGB), got "
+                            f"{describe(table.data['color'])}")
+    return colour
 
 
 def _add_generated(ctx: Context, data: Any, floors: list[Body], statics: list[Body],

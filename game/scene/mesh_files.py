@@ -23,6 +23,10 @@ MAX_MESH_FILE_BYTES = 512 * 2**20  # one mesh file (with a glTF's buffer files)
 MAX_FILE_COORDINATE = 1e9  # a vertex coordinate in the file's own units, before its scale
 FILE_PART = "file_part"
 """The face attribute that holds each face's part of the file's own structure (an index)."""
+FILE_COLOUR = "file_colour"
+"""The face attribute that holds each face's base colour from the file's material, linear RGB
+(glTF's baseColorFactor; :data:`NO_FILE_COLOUR` where the part has none)."""
+NO_FILE_COLOUR = -1.0
 
 
 def inside(base_dir: Path, relative: str, fail: Callable[[str], NoReturn]) -> Path:
@@ -153,6 +157,8 @@ def load_mesh_file(relative: str, base_dir: Path, label: str,
     faces = np.concatenate([np.asarray(p.faces, dtype=np.int64) + offset
                             for p, offset in zip(pieces, offsets, strict=False)])
     parts = np.repeat(np.arange(len(pieces)), [len(p.faces) for p in pieces])
+    colours = np.repeat(np.array([_piece_colour(p) for p in pieces]).reshape(-1, 3),
+                        [len(p.faces) for p in pieces], axis=0)
     if not np.all(np.isfinite(vertices)):
         fail(f"non-finite vertex coordinates in {relative}")
     reach = float(np.abs(vertices).max())
@@ -173,6 +179,22 @@ def load_mesh_file(relative: str, base_dir: Path, label: str,
             fail(f"every triangle in {relative} has zero area")
         warnings.warn(f"{label}: {relative}: removed {int((~keep).sum())} "
                       f"zero-area triangles", stacklevel=2)
-        faces, parts = faces[keep], parts[keep]
+        faces, parts, colours = faces[keep], parts[keep], colours[keep]
+    attributes = {FILE_PART: parts}
+    if np.any(colours >= 0.0):
+        attributes[FILE_COLOUR] = colours
     return trimesh.Trimesh(vertices=vertices, faces=faces, process=False,
-                           face_attributes={FILE_PART: parts})
+                           face_attributes=attributes)
+
+
+def _piece_colour(piece: trimesh.Trimesh) -> tuple[float, float, float]:
+    """The base colour of a loaded piece's material (linear RGB), if the file gave one: only
+    glTF materials reach here, cut down to their colour factor (game/gltf.py)."""
+    material = getattr(piece.visual, "material", None)
+    factor = getattr(material, "baseColorFactor", None)
+    if factor is None:
+        return (NO_FILE_COLOUR,) * 3
+    rgb = np.asarray(factor, dtype=np.float64).reshape(-1)[:3]
+    if np.asarray(factor).dtype == np.uint8:   # trimesh keeps the factor as bytes
+        rgb = rgb / 255.0
+    return tuple(float(v) for v in np.clip(rgb, 0.0, 1.0))

@@ -63,6 +63,7 @@ class Body:
     name: str
     kind: str
     mesh: trimesh.Trimesh
+    colour: np.ndarray | None = None   # sRGB in [0, 1] (the file's `color`); None: a palette's
 
 
 @dataclass
@@ -79,6 +80,7 @@ class Character:
     path: np.ndarray
     speed: float
     phase: float
+    colour: np.ndarray | None = None   # sRGB in [0, 1] (the file's `color`); None: a palette's
 
     def pose(self, t: float) -> tuple[np.ndarray, float]:
         """Position (3,) and yaw in radians about +Y at scene time ``t`` seconds.

@@ -13,8 +13,11 @@ import numpy as np
 from game.gpu import blocks, glsl, resources
 from game.soft.tracer import TEXTURE_UNITS
 
-# The G-buffer on the tracer's units, and the traced visibility.
-UNITS = {**TEXTURE_UNITS, "u_visibility": blocks.TEXTURE_UNITS["soft_visibility"]}
+# The G-buffer on the tracer's units, the surface the frame is lit again with, and the traced
+# visibility.
+UNITS = {**TEXTURE_UNITS, "u_shading": blocks.TEXTURE_UNITS["composite_shading"],
+         "u_albedo": blocks.TEXTURE_UNITS["composite_albedo"],
+         "u_visibility": blocks.TEXTURE_UNITS["soft_visibility"]}
 
 
 class SoftComposite:
@@ -52,14 +55,15 @@ class SoftComposite:
              hard: bool, soft_light: np.ndarray | None = None) -> None:
         """Light the frame through ``visibility`` ((H, W), row 0 at the top; NaN where no
         geometry) into :attr:`framebuffer`. ``textures`` are the frame's (position, normal,
-        colour); the Frame block must be bound as the frame left it."""
+        colour, shading normal, albedo); the Frame block must be bound as the frame left it."""
         self._resize(size)
         vis = np.nan_to_num(visibility[::-1], nan=1.0).astype(np.float32)
         self.visibility.write(np.ascontiguousarray(vis).tobytes())
         prog, vao = self._program(light_kind, hard)
         for tex, (name, unit) in zip((*textures, self.visibility), UNITS.items(), strict=True):
             tex.use(unit)
-            prog[name].value = unit
+            if name in prog:  # a directional light needs no position: the compiler drops it
+                prog[name].value = unit
         if not hard:
             prog["u_soft_light"].value = tuple(float(x) for x in soft_light)
         fb = self.framebuffer

@@ -25,6 +25,7 @@ SIZE = (320, 180)
 WIDE = (1280, 720)  # room beside the overlay's panel for comparing shadows
 COARSE = 64         # texels per side of the maps in traced_and_soft
 STEP_S = 1.0 / 30.0
+MODES_SIZES = ((640, 360), (960, 540))  # the window before and after a resize, overlay_modes
 NO_WINDOW = 77  # exit status: this machine cannot open a null-platform EGL window
 
 
@@ -91,10 +92,11 @@ def traced_and_soft(scene_path: str, out: str) -> None:
     game.app.window.walkaround.SCREENSHOT_DIR = Path(out)
     scene = load_scene(Path(scene_path))
     try:
-        # Coarse maps, so that the maps' hard shadows differ visibly from the traced ones.
+        # Coarse maps, so that the maps' hard shadows differ visibly from the traced ones; no
+        # FXAA, so that the frames compare pixel for pixel with captures.
         coarse = ShadowSettings(clump_resolution=COARSE, character_resolution=COARSE)
         app = Walkaround(scene, PlayOptions(size=WIDE, time_step=0.0, platform="null",
-                                            settings=coarse))
+                                            settings=coarse, antialias=False))
     except GameError as exc:
         print(exc, file=sys.stderr)
         sys.exit(NO_WINDOW)
@@ -134,6 +136,54 @@ def traced_and_soft(scene_path: str, out: str) -> None:
                 counts[state].append(app.gl_objects())
         seen["gl_objects"] = counts
         seen["gl_error"] = app.ctx.error
+    finally:
+        app.close()
+    print(json.dumps(seen))
+
+
+def overlay_modes(scene_path: str) -> None:
+    """F1 through the key callback: the overlay's HUD, its panel at two window sizes, the HUD
+    again; then a window opened with the panel (``play --panel``). Prints what it saw."""
+    import dataclasses as dc
+
+    from game.app.window.glfw_setup import KEY_NAMES
+
+    scene = load_scene(Path(scene_path))
+    seen: dict = {"f1": KEY_NAMES.get(glfw.KEY_F1)}
+    try:
+        app = Walkaround(scene, PlayOptions(size=MODES_SIZES[0], time_step=0.0,
+                                            platform="null"))
+    except GameError as exc:
+        print(exc, file=sys.stderr)
+        sys.exit(NO_WINDOW)
+
+    def look(name: str) -> None:
+        for _ in range(3):  # imgui measures a window's content in one frame, uses it the next
+            app.step(0.0)
+        o = app.overlay
+        seen[name] = {"panel": o.panel, "rect": list(o.rect), "size": list(app.framebuffer_size()),
+                      "layout": dc.asdict(o.layout) if o.panel else None,
+                      "bar": [b.name for b in o.bar]}
+
+    def f1() -> None:  # as glfw reports it
+        app._on_key(app.window, glfw.KEY_F1, 0, glfw.PRESS, 0)
+        app._on_key(app.window, glfw.KEY_F1, 0, glfw.RELEASE, 0)
+
+    try:
+        app.paused = True
+        look("hud")
+        f1()
+        look("panel")
+        glfw.set_window_size(app.window, *MODES_SIZES[1])
+        look("panel_resized")
+        f1()
+        look("hud_resized")
+    finally:
+        app.close()
+    app = Walkaround(scene, PlayOptions(size=(160, 90), time_step=0.0, platform="null",
+                                        panel=True))
+    try:
+        look("opened_with_panel")
     finally:
         app.close()
     print(json.dumps(seen))
@@ -202,7 +252,9 @@ def main(scene_path: str) -> None:
 
 
 if __name__ == "__main__":
-    if len(sys.argv) > 3 and sys.argv[3] == "traced-soft":
+    if len(sys.argv) > 2 and sys.argv[2] == "overlay-modes":
+        overlay_modes(sys.argv[1])
+    elif len(sys.argv) > 3 and sys.argv[3] == "traced-soft":
         traced_and_soft(sys.argv[1], sys.argv[2])
     elif len(sys.argv) > 2:
         screen_matches_screenshot(sys.argv[1], sys.argv[2])

@@ -551,3 +551,50 @@ def test_unreadable_scene_file(tmp_path):
     (tmp_path / "binary.toml").write_bytes(b"name = 'x'\n\xff\xfe")
     with pytest.raises(SceneError, match=r"binary\.toml:2: not a UTF-8"):
         load_scene(tmp_path / "binary.toml")
+
+
+# --------------------------------------------------------------------------------------------
+# Colours: the scene's `color`, and the base colours of a glTF's materials
+
+
+def test_color_is_an_optional_srgb_triple_per_object():
+    s = scene_with('[[static]]\nshape = "sphere"\nradius = 1\ncolor = [0.2, 0.4, 1]\n'
+                   '[[static]]\nshape = "sphere"\nradius = 1\n'
+                   f'[[character]]\n{CAPSULE}path = [[0, 0.9, 0]]\ncolor = [1, 0, 0]\n')
+    assert np.allclose(s.statics[0].colour, [0.2, 0.4, 1.0])
+    assert s.statics[1].colour is None
+    assert np.allclose(s.characters[0].colour, [1.0, 0.0, 0.0])
+
+
+def test_a_color_outside_zero_to_one_is_refused(tmp_path):
+    expect_error(tmp_path, HEAD + '[[static]]\nshape = "sphere"\nradius = 1\n'
+                 f'color = [0.5, 1.5, 0.0]  {MARK}\n', "static[0].color", "[0, 1]")
+
+
+def test_gltf_materials_give_their_parts_base_colours(default_scene):
+    """The cottage's parts (walls, roof, chimney, door) carry their own colours, linear RGB."""
+    from game.scene.mesh_files import FILE_COLOUR, FILE_PART
+
+    cottage = default_scene.statics[20].mesh
+    colours = np.asarray(cottage.face_attributes[FILE_COLOUR])
+    parts = np.asarray(cottage.face_attributes[FILE_PART])
+    per_part = {tuple(np.round(colours[parts == p], 3)[0]) for p in np.unique(parts)}
+    assert len(per_part) == 4
+    for p in np.unique(parts):  # one colour per part
+        assert len(np.unique(colours[parts == p], axis=0)) == 1
+
+
+def test_a_material_whose_colour_is_not_four_numbers_is_left_out(tmp_path):
+    from game import gltf
+
+    document = {"materials": [{"pbrMetallicRoughness": {"baseColorFactor": [2, 0, 0, 1]}},
+                              {"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1]},
+                               "normalTexture": {"index": 0}}],
+                "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "material": 0},
+                                           {"attributes": {"POSITION": 0}, "material": 1},
+                                           {"attributes": {"POSITION": 0}, "material": "x"}]}]}
+    kept = gltf.geometry_only(document)
+    # Only the valid factor survives, alone, and only its primitive keeps a material.
+    assert kept["materials"] == [{"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5,
+                                                                                1.0]}}]
+    assert [p.get("material") for p in kept["meshes"][0]["primitives"]] == [None, 0, None]

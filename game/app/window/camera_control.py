@@ -7,8 +7,9 @@ The window (game/app/window/walkaround.py) turns glfw events into the key names 
 Controls: W/S forward and back, A/D left and right, Q/E down and up (world Y), Shift moves
 faster; mouse look while the right button is held or while the cursor is captured (Tab toggles);
 R resets to the scene's camera. Keys that are commands rather than motion (Esc quits, F12 saves a
-screenshot, P pauses the characters, M cycles the shadow method) come back from :meth:`key` as
-command names for the window to act on.
+screenshot, P pauses the characters, M cycles the shadow method, F1 switches the overlay between
+its HUD and its full panel) come back from :meth:`key` as command names for the window to act
+on.
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ MOTION_KEYS = {  # key name -> (right, up, forward) direction in camera terms
     "q": (0, -1, 0), "e": (0, 1, 0),
 }
 COMMAND_KEYS = {"escape": "quit", "f12": "screenshot", "p": "pause", "r": "reset",
-                "tab": "capture_cursor", "m": "next_method"}
+                "tab": "capture_cursor", "m": "next_method", "f1": "toggle_panel"}
 
 
 @dataclass

@@ -16,7 +16,7 @@ GL_VERSION = (4, 3)
 KEY_NAMES = {
     glfw.KEY_W: "w", glfw.KEY_A: "a", glfw.KEY_S: "s", glfw.KEY_D: "d", glfw.KEY_Q: "q",
     glfw.KEY_E: "e", glfw.KEY_R: "r", glfw.KEY_P: "p", glfw.KEY_M: "m", glfw.KEY_TAB: "tab",
-    glfw.KEY_ESCAPE: "escape", glfw.KEY_F12: "f12",
+    glfw.KEY_ESCAPE: "escape", glfw.KEY_F1: "f1", glfw.KEY_F12: "f12",
     glfw.KEY_LEFT_SHIFT: "shift", glfw.KEY_RIGHT_SHIFT: "shift",
 }
 

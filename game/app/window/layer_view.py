@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import moderngl
 
-from game.gpu import blocks, glsl
+from game.gpu import blocks, context, glsl
 
 VIEW_SIZE = 256          # texels per side of the viewer's image
 MAPS_UNIT = blocks.TEXTURE_UNITS["layer_view"]
@@ -44,6 +44,7 @@ class LayerViewer:
         self.sampler.clear(MAPS_UNIT)  # the shading pass samples with compare on again
 
     def release(self) -> None:
+        context.unbind_program()  # a program in use would outlive its release
         self.ctx.detect_framebuffer(0).use()
         for obj in (self.target, self.texture, self.sampler, self.vao, self.program):
             obj.release()

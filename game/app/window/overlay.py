@@ -1,8 +1,13 @@
 """The timing overlay: imgui + implot through imgui-bundle's own GLFW and OpenGL3 backends.
 
-It shows, every frame, the milliseconds of each pass now and as a rolling graph, the clock that
-timed them, maps rendered and cached, triangles drawn into maps, maps read per shaded pixel and
-the frame rate; and it edits the hard-shadow settings (the method among them, ``traced``
+It has two modes. The HUD (the window's default) is a small corner box that covers at most
+:data:`HUD_MAX_SHARE` of the window: the frame rate, the frame's milliseconds and a thin bar of
+the passes, each a segment as long as its share of the frame. The panel (F1 in the window,
+always in ``capture --overlay``) covers at most :data:`PANEL_MAX_SHARE` of the window, is sized
+as a fraction of it, and scrolls what does not fit. The panel shows, every frame, the
+milliseconds of each pass now and as a rolling graph, the clock that timed them, maps rendered
+and cached, triangles drawn into maps, maps read per shaded pixel and the frame rate; and it
+edits the hard-shadow settings (the method among them, ``traced``
 included), the sun, the debug view and, in a window, whether soft shadows are traced.
 
 The same overlay draws into a window (``window`` given: the GLFW backend feeds it input) or into
@@ -32,13 +37,34 @@ from game.shadows.plan import ShadowSettings
 
 GLSL_VERSION = "#version 430"
 HISTORY_FRAMES = 300               # frames in the rolling graph
-PANEL_WIDTH = 400                  # pixels; the panel sits at the top-left corner
-PANEL_MARGIN = 6
-GRAPH_HEIGHT = 150
+PANEL_MARGIN = 6                   # pixels between the overlay and the window's top-left corner
+# The panel: a fraction of the window's width (no narrower than PANEL_MIN_WIDTH where the window
+# allows), the window's height less the margins, and never more than PANEL_MAX_SHARE of the
+# window's area (a narrow window gets a shorter panel). What does not fit scrolls.
+PANEL_WIDTH_FRACTION = 0.3
+PANEL_MIN_WIDTH = 240              # pixels
+PANEL_MAX_SHARE = 1 / 3
+PANEL_ALPHA = 0.8
+# The HUD: one line of figures, the bar of the passes, a line with the method and the F1 hint
+# (left out, and then the font shrunk, where the box would cover more than HUD_MAX_SHARE).
+HUD_MAX_SHARE = 1 / 12
+HUD_ALPHA = 0.55
+HUD_PADDING = (5.0, 4.0)           # pixels inside the box, x and y
+HUD_SPACING = 3.0                  # pixels between its lines
+HUD_BAR_HEIGHT = 6.0               # pixels at font scale 1
+HUD_FONT_STEPS = (1.0, 0.8, 0.65)  # font sizes tried, relative to the overlay's
+# The figures line is at least this wide (a monospace font), so that the box keeps its size as
+# the figures change.
+HUD_FPS_TEMPLATE = "FPS 0000.0  frame 000.0 ms"
+BAR_BACKGROUND = imgui.ImVec4(0.0, 0.0, 0.0, 0.6)
+# The font is scaled with the window, relative to the size the overlay is laid out for.
+REFERENCE_SIZE = (960, 540)
+FONT_SCALE_RANGE = (0.75, 2.0)
+GRAPH_HEIGHT = 150                 # pixels at font scale 1, without the legend above it
 GRAPH_PERCENTILE = 98              # the y axis spans this percentile of the plotted ms ...
 GRAPH_HEADROOM = 1.25              # ... times this
 GRAPH_MIN_MS = 1.0
-LABELLED_ITEM_WIDTH = 170          # pixels for a control, the rest of the row for its label
+MIN_ITEM_FRACTION = 0.4            # of the panel's row: a control's least width beside its label
 # Passes in display order; any other pass a renderer times follows them. The tracer's passes are
 # prefixed ``traced_`` (the traced method) or ``soft_`` (soft shadows); ``composite`` lights the
 # frame again through the traced visibility (game/render/traced_lighting.py).
@@ -51,10 +77,30 @@ HIDDEN_SUFFIXES = ("_total", "_build_static", "_build_dynamic", "_trace_discarde
 WINDOW_PASSES = ("present", "overlay")      # CPU copy for files, not part of drawing a frame
 MIN_RENDER_SCALE = 0.25
 TABS = ("view", "shadows", "maps")  # the tabs of controls under the figures
-LAYER_VIEW_PIXELS = 200            # on-screen side of the layer viewer
-MAP_LIST_HEIGHT = 110
+# The labels beside the controls of the view and maps tabs (their widths set the controls').
+VIEW_LABELS = ("debug view", "sun azimuth", "sun elevation", "render scale")
+MAPS_LABELS = ("map",)
+LAYER_VIEW_PIXELS = 200            # on-screen side of the layer viewer, at font scale 1
+MAP_LIST_HEIGHT = 110              # pixels at font scale 1
 RENDERED_COLOUR = imgui.ImVec4(1.0, 0.45, 0.4, 1.0)
 CACHED_COLOUR = imgui.ImVec4(0.5, 0.95, 0.5, 1.0)
+# One colour per pass, the same in the graph and in the HUD's bar: PASS_ORDER, "total" and
+# WINDOW_PASSES in turn (Tableau 10 and two more); any other pass takes the next one round.
+PASS_COLOURS = tuple(imgui.ImVec4(((c >> 16) & 255) / 255, ((c >> 8) & 255) / 255,
+                                  (c & 255) / 255, 1.0)
+                     for c in (0x4E79A7, 0xF28E2B, 0xE15759, 0x76B7B2, 0x59A14F, 0xEDC948,
+                               0xB07AA1, 0xFF9DA7, 0x9C755F, 0xBAB0AC, 0xD37295, 0x8CD17D))
+HUD_FLAGS = (imgui.WindowFlags_.no_title_bar.value | imgui.WindowFlags_.no_resize.value
+             | imgui.WindowFlags_.no_move.value | imgui.WindowFlags_.no_scrollbar.value
+             | imgui.WindowFlags_.no_saved_settings.value | imgui.WindowFlags_.no_inputs.value
+             | imgui.WindowFlags_.no_focus_on_appearing.value)
+# Sized by the window, not by its contents: those scroll up and down when they do not fit. Its
+# rows fit its width (controls shrink beside their labels, text wraps) down to PANEL_MIN_WIDTH;
+# only a narrower panel scrolls sideways too. (imgui's horizontal scrollbar stretches the rows
+# that fill the width to the widest one seen, so it is not on where rows fit anyway.)
+PANEL_FLAGS = (imgui.WindowFlags_.no_resize.value | imgui.WindowFlags_.no_move.value
+               | imgui.WindowFlags_.no_collapse.value
+               | imgui.WindowFlags_.no_saved_settings.value)
 
 
 @dataclass
@@ -109,6 +155,24 @@ def shown_pass(name: str) -> bool:
     return name not in HIDDEN_PASSES and not name.endswith(HIDDEN_SUFFIXES)
 
 
+def font_scale(size: tuple[int, int]) -> float:
+    """The overlay's font scale in a window of ``size``: 1 at :data:`REFERENCE_SIZE`."""
+    scale = min(size[0] / REFERENCE_SIZE[0], size[1] / REFERENCE_SIZE[1])
+    return min(max(scale, FONT_SCALE_RANGE[0]), FONT_SCALE_RANGE[1])
+
+
+def panel_extent(size: tuple[int, int]) -> tuple[int, int]:
+    """The panel's width and height in a window of ``size``, pixels.
+
+    A fraction of the window's width and its height less the margins, cut shorter where that
+    would cover more than :data:`PANEL_MAX_SHARE` of the window.
+    """
+    room_w, room_h = max(1, size[0] - 2 * PANEL_MARGIN), max(1, size[1] - 2 * PANEL_MARGIN)
+    width = int(min(room_w, max(PANEL_WIDTH_FRACTION * size[0], PANEL_MIN_WIDTH)))
+    height = int(min(room_h, size[0] * size[1] * PANEL_MAX_SHARE / width))
+    return width, max(1, height)
+
+
 def sun_angles(direction: np.ndarray) -> tuple[float, float]:
     """Azimuth (degrees clockwise from -Z seen from above) and elevation of the sun.
 
@@ -126,18 +190,52 @@ def sun_direction(azimuth: float, elevation: float) -> np.ndarray:
     return -np.array([math.sin(a) * math.cos(e), math.sin(e), -math.cos(a) * math.cos(e)])
 
 
-class Overlay:
-    """The panel, drawn into whatever framebuffer is bound when :meth:`render` runs."""
+@dataclass
+class BarSegment:
+    """One pass's segment of the HUD's bar, window pixels."""
 
-    def __init__(self, window=None, open_tab: str = TABS[0]):
+    name: str
+    x0: float
+    x1: float
+    y0: float
+    y1: float
+    colour: tuple[float, float, float]   # RGB, 0..1
+
+
+@dataclass
+class PanelLayout:
+    """How the panel's content sat in it when it was last drawn, window pixels (tests read it).
+
+    ``content`` is imgui's measure of everything the panel holds, ``inner`` the room inside
+    its borders and scrollbars, ``padding`` the margin inside that room, ``scroll_max`` how far
+    it scrolls and ``scrollbars`` whether each scrollbar (x, y) is shown; ``legend`` and
+    ``legend_shown`` are the graph's legend whole and as far as its plot shows it
+    (x0, y0, x1, y1).
+    """
+
+    content: tuple[float, float]
+    inner: tuple[float, float]
+    scroll_max: tuple[float, float]
+    scrollbars: tuple[bool, bool]
+    padding: tuple[float, float]
+    legend: tuple[float, float, float, float] | None = None
+    legend_shown: tuple[float, float, float, float] | None = None
+
+
+class Overlay:
+    """The HUD or the panel, drawn into whatever framebuffer is bound when :meth:`render` runs."""
+
+    def __init__(self, window=None, open_tab: str = TABS[0], panel: bool = True):
         """``window``: a glfw window whose context is current, or None to draw headless.
 
-        ``open_tab`` is the tab of controls shown first (one of :data:`TABS`).
+        ``open_tab`` is the tab of controls shown first (one of :data:`TABS`); ``panel``
+        whether the full panel is shown first rather than the HUD (:meth:`toggle_panel`).
         """
         if open_tab not in TABS:
             raise ValueError(f"unknown overlay tab {open_tab!r}; valid: {', '.join(TABS)}")
         self.window = window
         self.open_tab = open_tab
+        self.panel = panel
         self._first_frame = True
         self.context = imgui.create_context()
         self.plot_context = implot.create_context()
@@ -151,12 +249,20 @@ class Overlay:
         imgui.backends.opengl3_init(GLSL_VERSION)
         self.history = {}
         self.frames_seen = 0
-        self.rect = (0, 0, 0, 0)   # x, y, w, h of the panel last drawn, window pixels
+        self.rect = (0, 0, 0, 0)   # x, y, w, h of the HUD or panel last drawn, window pixels
+        self.bar: list[BarSegment] = []          # the HUD's bar as last drawn
+        self.layout: PanelLayout | None = None   # the panel as last drawn
+        self._colour_index = {name: i for i, name in
+                              enumerate((*PASS_ORDER, "total", *WINDOW_PASSES))}
         self._azimuth_elevation: tuple[float, float] | None = None
         self._settings = SettingsEditor()
         self._viewer: LayerViewer | None = None
         self._map_index = 0
         self.message = ""   # the last change the renderer refused, shown in the panel
+
+    def toggle_panel(self) -> None:
+        """Switch between the HUD and the full panel (F1 in the window)."""
+        self.panel = not self.panel
 
     # -- input ------------------------------------------------------------------------------
     @property
@@ -189,10 +295,17 @@ class Overlay:
         window = [n for n in WINDOW_PASSES if n in self.history]
         return known + others + (["total"] if "total" in self.history else []) + window
 
+    def pass_colour(self, name: str) -> imgui.ImVec4:
+        """The colour of a pass, the same in the graph and the HUD's bar."""
+        if name not in self._colour_index:
+            self._colour_index[name] = len(self._colour_index)
+        return PASS_COLOURS[self._colour_index[name] % len(PASS_COLOURS)]
+
     def draw(self, figures: Figures, renderer: Renderer, paused: bool, size: tuple[int, int],
              dt: float | None = None, render_scale: float | None = None,
              soft: bool | None = None) -> Changes:
-        """Build this frame's panel; ``size`` is the framebuffer's, ``dt`` the frame time.
+        """Build this frame's HUD or panel; ``size`` is the framebuffer's, ``dt`` the frame
+        time.
 
         ``render_scale`` (the window's scene-to-window pixel ratio) adds a slider for it;
         ``soft`` (whether the window traces soft shadows) a checkbox.
@@ -202,6 +315,7 @@ class Overlay:
         imgui.set_current_context(self.context)
         implot.set_current_context(self.plot_context)
         io = imgui.get_io()
+        imgui.get_style().font_scale_main = font_scale(size)
         imgui.backends.opengl3_new_frame()
         if self.window is not None:
             imgui.backends.glfw_new_frame()
@@ -211,37 +325,131 @@ class Overlay:
         imgui.new_frame()
         self._record(figures.ms)
         changes = Changes()
-        imgui.set_next_window_pos(imgui.ImVec2(PANEL_MARGIN, PANEL_MARGIN),
-                                  imgui.Cond_.first_use_ever.value)
-        # As tall as its contents, within the framebuffer; a fixed width.
-        imgui.set_next_window_size_constraints(
-            imgui.ImVec2(PANEL_WIDTH, 0),
-            imgui.ImVec2(PANEL_WIDTH, max(1.0, size[1] - 2 * PANEL_MARGIN)))
-        imgui.set_next_window_bg_alpha(0.8)
-        imgui.begin("shadows", None, imgui.WindowFlags_.always_auto_resize.value)
-        imgui.push_item_width(LABELLED_ITEM_WIDTH)
-        self._draw_figures(figures)
-        if self.message:
-            imgui.text_colored(RENDERED_COLOUR, self.message)
-        self._draw_graph()
-        self._draw_controls(renderer, paused, render_scale, soft, changes)
-        pos, extent = imgui.get_window_pos(), imgui.get_window_size()
-        self.rect = (int(pos.x), int(pos.y), int(math.ceil(extent.x)), int(math.ceil(extent.y)))
-        imgui.pop_item_width()
-        imgui.end()
+        if self.panel:
+            self._draw_panel(figures, renderer, paused, size, render_scale, soft, changes)
+        else:
+            self._draw_hud(figures, renderer, size, soft)
         imgui.render()
         return changes
 
     def render(self) -> None:
-        """Draw the panel built by :meth:`draw` into the bound framebuffer."""
+        """Draw the HUD or panel built by :meth:`draw` into the bound framebuffer."""
         imgui.set_current_context(self.context)
         imgui.backends.opengl3_render_draw_data(imgui.get_draw_data())
+
+    def _keep_rect(self) -> None:
+        pos, extent = imgui.get_window_pos(), imgui.get_window_size()
+        self.rect = (int(pos.x), int(pos.y), int(math.ceil(extent.x)), int(math.ceil(extent.y)))
+
+    # -- the HUD ------------------------------------------------------------------------------
+    def _hud_extent(self, texts: list[str], lines: int) -> tuple[float, float]:
+        """The HUD's size at the current font size: as wide as the widest of ``texts``, with
+        ``lines`` lines of text and the bar."""
+        text_w = max(imgui.calc_text_size(text).x for text in texts)
+        line_h = imgui.get_text_line_height()
+        bar_h = HUD_BAR_HEIGHT * self._font_ratio()
+        return (math.ceil(text_w + 2 * HUD_PADDING[0]),
+                math.ceil(2 * HUD_PADDING[1] + lines * line_h + bar_h + lines * HUD_SPACING))
+
+    def _draw_hud(self, figures: Figures, renderer: Renderer, size: tuple[int, int],
+                  soft: bool | None) -> None:
+        """The frame rate, the frame's ms and the bar of the passes, in a corner box that
+        covers at most :data:`HUD_MAX_SHARE` of the window."""
+        total = figures.ms.get("total")
+        fps = f"{figures.fps:.1f}" if figures.fps else "-"
+        first = f"FPS {fps}  frame {total:.1f} ms" if total is not None else f"FPS {fps}"
+        method = renderer.settings.method + (" + soft" if soft else "")
+        second = f"{method}  F1: panel" if self.window is not None else method
+        budget = size[0] * size[1] * HUD_MAX_SHARE
+        base = imgui.get_style().font_size_base
+        # The fullest layout that fits: both lines, then the figures alone, in smaller fonts.
+        layouts = [(1.0, True)] + [(step, False) for step in HUD_FONT_STEPS]
+        for step, with_second in layouts:
+            imgui.push_font(None, base * step)
+            w, h = self._hud_extent([HUD_FPS_TEMPLATE, first] + ([second] if with_second else []),
+                                    2 if with_second else 1)
+            imgui.pop_font()
+            if w * h <= budget:
+                break
+        # A window too small for any of them: the box keeps to its share all the same.
+        w = max(1, min(w, size[0] - 2 * PANEL_MARGIN))
+        h = max(1, min(h, int(budget // w)))
+        imgui.set_next_window_pos(imgui.ImVec2(PANEL_MARGIN, PANEL_MARGIN),
+                                  imgui.Cond_.always.value)
+        imgui.set_next_window_size(imgui.ImVec2(w, h), imgui.Cond_.always.value)
+        imgui.set_next_window_bg_alpha(HUD_ALPHA)
+        imgui.push_style_var(imgui.StyleVar_.window_padding.value, imgui.ImVec2(*HUD_PADDING))
+        imgui.push_style_var(imgui.StyleVar_.item_spacing.value,
+                             imgui.ImVec2(HUD_SPACING, HUD_SPACING))
+        imgui.push_style_var(imgui.StyleVar_.window_min_size.value, imgui.ImVec2(1, 1))
+        imgui.begin("hud", None, HUD_FLAGS)
+        imgui.push_font(None, base * step)
+        imgui.text(first)
+        self._draw_bar(figures.ms, w - 2 * HUD_PADDING[0], HUD_BAR_HEIGHT * self._font_ratio())
+        if with_second:
+            imgui.text_disabled(second)
+        imgui.pop_font()
+        self._keep_rect()
+        imgui.end()
+        imgui.pop_style_var(3)
+
+    def _draw_bar(self, ms: dict[str, float], width: float, height: float) -> None:
+        """The frame's passes as one bar, each a segment as long as its share of the frame."""
+        names = [n for n in self._pass_names()
+                 if n != "total" and n not in WINDOW_PASSES and ms.get(n) is not None]
+        parts = [(n, max(0.0, ms[n])) for n in names]
+        whole = max(ms.get("total") or 0.0, sum(v for _, v in parts))
+        origin = imgui.get_cursor_screen_pos()
+        draw_list = imgui.get_window_draw_list()
+        draw_list.add_rect_filled(origin, imgui.ImVec2(origin.x + width, origin.y + height),
+                                  imgui.get_color_u32(BAR_BACKGROUND))
+        self.bar = []
+        x = origin.x
+        for name, value in parts:
+            length = width * value / whole if whole > 0 else 0.0
+            colour = self.pass_colour(name)
+            draw_list.add_rect_filled(imgui.ImVec2(x, origin.y),
+                                      imgui.ImVec2(x + length, origin.y + height),
+                                      imgui.get_color_u32(colour))
+            self.bar.append(BarSegment(name, x, x + length, origin.y, origin.y + height,
+                                       (colour.x, colour.y, colour.z)))
+            x += length
+        imgui.dummy(imgui.ImVec2(width, height))
+
+    # -- the panel ----------------------------------------------------------------------------
+    def _draw_panel(self, figures: Figures, renderer: Renderer, paused: bool,
+                    size: tuple[int, int], render_scale: float | None, soft: bool | None,
+                    changes: Changes) -> None:
+        w, h = panel_extent(size)
+        imgui.set_next_window_pos(imgui.ImVec2(PANEL_MARGIN, PANEL_MARGIN),
+                                  imgui.Cond_.always.value)
+        imgui.set_next_window_size(imgui.ImVec2(w, h), imgui.Cond_.always.value)
+        imgui.set_next_window_bg_alpha(PANEL_ALPHA)
+        title = "shadows  (F1: HUD)" if self.window is not None else "shadows"
+        sideways = imgui.WindowFlags_.horizontal_scrollbar.value if w < PANEL_MIN_WIDTH else 0
+        imgui.begin(f"{title}###shadows", None, PANEL_FLAGS | sideways)
+        self._draw_figures(figures)
+        if self.message:
+            imgui.text_colored(RENDERED_COLOUR, self.message)
+        legend = self._draw_graph()
+        self._draw_controls(renderer, paused, render_scale, soft, changes)
+        self._keep_rect()
+        window = imgui.internal.get_current_window()
+        inner = window.inner_rect
+        self.layout = PanelLayout(
+            content=(window.content_size.x, window.content_size.y),
+            inner=(inner.get_width(), inner.get_height()),
+            scroll_max=(window.scroll_max.x, window.scroll_max.y),
+            scrollbars=(window.scrollbar_x, window.scrollbar_y),
+            padding=(window.window_padding.x, window.window_padding.y),
+            legend=legend[0] if legend else None, legend_shown=legend[1] if legend else None)
+        imgui.end()
 
     def _draw_figures(self, f: Figures) -> None:
         fps = f"{f.fps:.1f}" if f.fps else "-"
         if f.fps_from_total:
             fps += " (1000/total)"
-        imgui.text(f"FPS {fps}   clock {f.clock}")
+        imgui.text_wrapped(f"FPS {fps}   clock {f.clock}")
         if imgui.begin_table("passes", 2):
             for name in self._pass_names():
                 imgui.table_next_row()
@@ -252,34 +460,61 @@ class Overlay:
                 imgui.text(f"{value:7.2f} ms" if value is not None else "      -")
             imgui.end_table()
         mpf = f"{f.maps_per_fragment:.3f}" if f.maps_per_fragment is not None else "-"
-        imgui.text(f"maps rendered {f.maps_rendered}, cached {f.maps_cached}")
-        imgui.text(f"triangles into maps {f.triangles_to_maps}, texels {f.texels_to_maps}")
+        imgui.text_wrapped(f"maps rendered {f.maps_rendered}, cached {f.maps_cached}")
+        imgui.text_wrapped(f"triangles into maps {f.triangles_to_maps}, "
+                           f"texels {f.texels_to_maps}")
         if f.characters:
             c = f.characters
-            imgui.text(f"character maps {c['character_maps']}: skipped "
-                       f"{c['characters_skipped']}, grouped {c['characters_grouped']}, "
-                       f"shrunk {c['character_maps_shrunk']}")
-        imgui.text(f"maps per fragment {mpf}")
+            imgui.text_wrapped(f"character maps {c['character_maps']}: skipped "
+                               f"{c['characters_skipped']}, grouped "
+                               f"{c['characters_grouped']}, shrunk "
+                               f"{c['character_maps_shrunk']}")
+        imgui.text_wrapped(f"maps per fragment {mpf}")
 
-    def _draw_graph(self) -> None:
+    def _graph_height(self, entries: int) -> float:
+        """The plot's height: its legend of ``entries`` lines above a plot area of
+        :data:`GRAPH_HEIGHT` (both scaled with the font)."""
+        style, line_h = implot.get_style(), imgui.get_text_line_height()
+        legend = (entries * line_h + (entries - 1) * style.legend_spacing.y
+                  + 2 * style.legend_inner_padding.y + style.legend_padding.y)
+        return math.ceil(GRAPH_HEIGHT * self._font_ratio() + legend)
+
+    def _draw_graph(self) -> tuple[tuple, tuple] | None:
+        """The rolling graph; returns its legend's rectangle whole and as shown."""
         if not self.history:
-            return
-        if implot.begin_plot("ms per pass", imgui.ImVec2(-1, GRAPH_HEIGHT)):
-            implot.setup_axes("", "ms", implot.AxisFlags_.no_tick_labels.value, 0)
-            implot.setup_legend(implot.Location_.east.value, implot.LegendFlags_.outside.value)
-            implot.setup_axis_limits(implot.ImAxis_.x1.value, 0, HISTORY_FRAMES,
-                                     implot.Cond_.always.value)
-            # Fit the y axis to the usual frames, not to a one-off spike (the first frame
-            # compiles shaders and renders every map).
-            recent = np.concatenate([v for v in self.history.values()])
-            recent = recent[np.isfinite(recent)]
-            top = float(np.percentile(recent, GRAPH_PERCENTILE)) if len(recent) else 1.0
-            implot.setup_axis_limits(implot.ImAxis_.y1.value, 0.0,
-                                     max(GRAPH_MIN_MS, top * GRAPH_HEADROOM),
-                                     implot.Cond_.always.value)
-            for name in self._pass_names():
-                implot.plot_line(name, self.history[name])
-            implot.end_plot()
+            return None
+        names = self._pass_names()
+        # The legend goes above the plot, not beside it: the plot keeps the panel's width, and
+        # the plot is made taller by the legend's height, so that implot never clips it.
+        imgui.text("ms per pass")
+        if not implot.begin_plot("##ms per pass",
+                                 imgui.ImVec2(-1, self._graph_height(len(names))),
+                                 implot.Flags_.no_title.value):
+            return None
+        plot = implot.internal.get_current_plot()
+        implot.setup_axes("", "ms", implot.AxisFlags_.no_tick_labels.value, 0)
+        implot.setup_legend(implot.Location_.north.value, implot.LegendFlags_.outside.value)
+        implot.setup_axis_limits(implot.ImAxis_.x1.value, 0, HISTORY_FRAMES,
+                                 implot.Cond_.always.value)
+        # Fit the y axis to the usual frames, not to a one-off spike (the first frame
+        # compiles shaders and renders every map).
+        recent = np.concatenate([v for v in self.history.values()])
+        recent = recent[np.isfinite(recent)]
+        top = float(np.percentile(recent, GRAPH_PERCENTILE)) if len(recent) else 1.0
+        implot.setup_axis_limits(implot.ImAxis_.y1.value, 0.0,
+                                 max(GRAPH_MIN_MS, top * GRAPH_HEADROOM),
+                                 implot.Cond_.always.value)
+        for name in names:
+            spec = implot.Spec()
+            spec.line_color = self.pass_colour(name)
+            implot.plot_line(name, self.history[name], spec=spec)
+        implot.end_plot()
+        legend = plot.items.legend
+
+        def corners(rect) -> tuple[float, float, float, float]:
+            return (rect.min.x, rect.min.y, rect.max.x, rect.max.y)
+
+        return corners(legend.rect), corners(legend.rect_clamped)
 
     # -- controls -----------------------------------------------------------------------------
     def _draw_controls(self, renderer: Renderer, paused: bool, render_scale: float | None,
@@ -287,18 +522,35 @@ class Overlay:
         if not imgui.begin_tab_bar("controls"):
             return
         if self._tab("view"):
+            self._push_item_width(VIEW_LABELS)
             self._draw_view(renderer, paused, render_scale, soft, changes)
+            imgui.pop_item_width()
             imgui.end_tab_item()
         if self._tab("shadows"):
+            self._push_item_width(self._settings.labels(renderer.settings))
             self._settings.draw(renderer.settings, changes)
+            imgui.pop_item_width()
             for note in renderer.notes[-2:]:
                 imgui.text_wrapped(f"note: {note}")
             imgui.end_tab_item()
         if self._tab("maps"):
+            self._push_item_width(MAPS_LABELS)
             self._draw_maps(renderer)
+            imgui.pop_item_width()
             imgui.end_tab_item()
         imgui.end_tab_bar()
         self._first_frame = False
+
+    @staticmethod
+    def _push_item_width(labels) -> None:
+        """Controls as wide as the row less the longest label beside them (so that no label
+        runs past the panel), but no narrower than :data:`MIN_ITEM_FRACTION` of the row."""
+        avail = imgui.get_content_region_avail().x
+        label = (max(imgui.calc_text_size(text).x for text in labels)
+                 + imgui.get_style().item_inner_spacing.x)
+        # Negative: up to that far from the row's right edge, also after a checkbox on the row.
+        imgui.push_item_width(-label if avail - label >= MIN_ITEM_FRACTION * avail
+                              else MIN_ITEM_FRACTION * avail)
 
     def _draw_view(self, renderer: Renderer, paused: bool, render_scale: float | None,
                    soft: bool | None, changes: Changes) -> None:
@@ -322,6 +574,11 @@ class Overlay:
             if changed:
                 changes.render_scale = scale
 
+    @staticmethod
+    def _font_ratio() -> float:
+        """The font's size now over its size at scale 1: pixel sizes grow with it."""
+        return imgui.get_font_size() / imgui.get_style().font_size_base
+
     def _tab(self, name: str) -> bool:
         flags = (imgui.TabItemFlags_.set_selected.value
                  if self._first_frame and name == self.open_tab else 0)
@@ -338,18 +595,19 @@ class Overlay:
         _, self._map_index = imgui.slider_int("map", self._map_index, 0, len(plan.maps) - 1)
         rec = plan.maps[self._map_index]
         state = "re-rendered" if self._map_index in rendered else "cached"
-        imgui.text(f"{rec.name}: layer {rec.layer}, {rec.viewport}^2 texels, "
-                   f"{len(rec.objects)} object(s), {state}")
+        imgui.text_wrapped(f"{rec.name}: layer {rec.layer}, {rec.viewport}^2 texels, "
+                           f"{len(rec.objects)} object(s), {state}")
         if self._viewer is None:
             self._viewer = LayerViewer(renderer.ctx)
         self._viewer.draw(array, rec.layer, rec.viewport / array.resolution,
                           tuple(v / array.resolution for v in rec.origin))
-        side = min(LAYER_VIEW_PIXELS, imgui.get_content_region_avail().x)
+        side = min(LAYER_VIEW_PIXELS * self._font_ratio(), imgui.get_content_region_avail().x)
         # GL textures start at the bottom row: flip v.
         imgui.image(imgui.ImTextureRef(self._viewer.texture.glo), imgui.ImVec2(side, side),
                     imgui.ImVec2(0, 1), imgui.ImVec2(1, 0))
         # Every map this frame: red re-rendered, green served from the cache.
-        if imgui.begin_child("map list", imgui.ImVec2(0, MAP_LIST_HEIGHT)):
+        if imgui.begin_child("map list", imgui.ImVec2(0, MAP_LIST_HEIGHT * self._font_ratio()),
+                             0, imgui.WindowFlags_.horizontal_scrollbar.value):
             for i, m in enumerate(plan.maps):
                 fresh = i in rendered
                 imgui.text_colored(RENDERED_COLOUR if fresh else CACHED_COLOUR,
@@ -374,8 +632,8 @@ class Overlay:
                                                 direction=sun_direction(azimuth, elevation))
 
     def draw_over_frame(self, renderer: Renderer, frame: Frame, dt: float) -> np.ndarray:
-        """Headless: draw the panel over the frame's picture (``renderer.display``) and read it
-        back.
+        """Headless: draw the panel (or the HUD) over the frame's picture
+        (``renderer.display``) and read it back.
 
         The frame rate shown is ``1000 / total`` ms, the rate this frame's work alone would allow.
         """

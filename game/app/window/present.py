@@ -1,4 +1,6 @@
-"""The window's picture: the scene frame, scaled to the window when it was rendered smaller.
+"""The window's picture: the scene frame, scaled to the window when it was rendered smaller and
+anti-aliased with FXAA (``antialias``; shaders/present.frag). FXAA works on the finished picture,
+so the renderer's target, its G-buffer and every dump stay exactly as they are.
 
 Rendering the scene below the window's resolution (``play --render-scale``) is the usual answer
 to a fill-bound renderer, and Mesa llvmpipe is fill-bound: the shading pass costs about the
@@ -16,7 +18,7 @@ from __future__ import annotations
 
 import moderngl
 
-from game.gpu import blocks, glsl
+from game.gpu import blocks, context, glsl
 
 FRAME_UNIT = blocks.TEXTURE_UNITS["present_frame"]
 
@@ -24,10 +26,12 @@ FRAME_UNIT = blocks.TEXTURE_UNITS["present_frame"]
 class Presenter:
     """A window-sized colour target that the scene frame is copied or scaled into."""
 
-    def __init__(self, ctx):
+    def __init__(self, ctx, antialias: bool = True):
         self.ctx = ctx
+        self.antialias = antialias
         self.program = ctx.program(vertex_shader=glsl.build("fullscreen.vert"),
-                                   fragment_shader=glsl.build("present.frag"))
+                                   fragment_shader=glsl.build("present.frag",
+                                                              {"FXAA": antialias}))
         self.vao = ctx.vertex_array(self.program, [])
         self.size: tuple[int, int] | None = None
         self.texture = None
@@ -42,16 +46,18 @@ class Presenter:
         self.target = self.ctx.framebuffer([self.texture])
 
     def show(self, frame_target, frame_texture) -> None:
-        """Put the renderer's frame into :attr:`target`: a copy, or a scaled draw."""
+        """Put the renderer's frame into :attr:`target`: a copy, or a draw (scaled, or
+        anti-aliased)."""
         # A copy needs the same attachments: a target with a G-buffer is drawn instead.
-        if (tuple(frame_texture.size) == self.size
+        if (not self.antialias and tuple(frame_texture.size) == self.size
                 and len(frame_target.color_attachments) == 1):
             self.ctx.copy_framebuffer(self.target, frame_target)
             return
         self.draw(frame_texture, self.target, self.size)
 
     def draw(self, frame_texture, into, size: tuple[int, int]) -> None:
-        """Draw the frame over all of ``into`` (``size`` pixels), filtered linearly."""
+        """Draw the frame over all of ``into`` (``size`` pixels), filtered linearly (and
+        anti-aliased, with :attr:`antialias`)."""
         into.use()
         into.viewport = (0, 0, *size)
         self.ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE | moderngl.BLEND)
@@ -68,6 +74,8 @@ class Presenter:
         self.target = self.texture = None
 
     def release(self) -> None:
+        # A program still in use is only flagged for deletion, its shaders kept alive with it.
+        context.unbind_program()
         self._release_target()
         self.vao.release()
         self.program.release()

@@ -26,6 +26,14 @@ MAX_FLOAT_EDIT = 1e6
 EDIT_RANGES = {"texels_per_metre": (0.01, 4096.0), "cascade_lambda": (0.0, 1.0),
                "max_slope": (0.0, 1000.0), "budget_mib": (1.0, 65536.0), "cascades": (1, 16),
                "clump_count": (1, 1024)}
+# Words shortened in the labels, so that the labels leave the controls room in a narrow panel;
+# a shortened label shows the field's name as its tooltip.
+SHORT_WORDS = {"character": "char"}
+
+
+def label_of(name: str) -> str:
+    """The label of a settings field: its name in words, long words shortened."""
+    return " ".join(SHORT_WORDS.get(word, word) for word in name.split("_"))
 
 
 class SettingsEditor:
@@ -35,12 +43,17 @@ class SettingsEditor:
     def __init__(self) -> None:
         self._pending: dict[str, float] = {}   # drags in progress on re-planning fields
 
+    @staticmethod
+    def labels(settings: ShadowSettings) -> list[str]:
+        """The labels beside the controls, in order."""
+        return [label_of(field.name) for field in dataclasses.fields(settings)]
+
     def draw(self, settings: ShadowSettings, changes) -> None:
         """One control per settings field, chosen by the field's name and default's type."""
         new = {}
         for field in dataclasses.fields(settings):
             name, value = field.name, getattr(settings, field.name)
-            label = name.replace("_", " ")
+            label = label_of(name)
             if name in SETTING_CHOICES:
                 items = list(SETTING_CHOICES[name]())
                 if value not in items:
@@ -65,6 +78,8 @@ class SettingsEditor:
                 self._edit_number(label, name, value, False, new)
             else:
                 imgui.text(f"{label}: {value}")
+            if label != name.replace("_", " "):
+                imgui.set_item_tooltip(name)
         shading = {k: v for k, v in new.items() if k in SHADING_ONLY}
         for key, value in shading.items():
             setattr(settings, key, value)  # read by the shading pass every frame

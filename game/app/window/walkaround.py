@@ -65,14 +65,17 @@ class PlayOptions:
     stats: Path | None = None
     time_step: float | None = None       # scene seconds per frame; None: real time
     overlay: bool = True
+    panel: bool = False                  # open with the overlay's full panel, not its HUD (F1)
     clock: str = "auto"
     debug_view: str = "none"
     render_scale: float = 1.0            # scene pixels per window pixel, per side
     soft: bool = False                   # trace the linear light's soft shadows
     cull: bool = True                    # camera pass: only triangles that can show
     platform: str = "auto"               # "null": no display (tests)
+    antialias: bool = True               # FXAA on the picture shown (never on the dumps)
+    # The window filters its shadow edges (PCF) unless told otherwise; captures keep theirs.
     settings: ShadowSettings = dataclasses.field(
-        default_factory=ShadowSettings)
+        default_factory=lambda: ShadowSettings(pcf=True))
 
 
 class Walkaround:
@@ -107,13 +110,13 @@ class Walkaround:
             raise
         self.renderer.debug_view = opts.debug_view
         self.render_scale = opts.render_scale
-        self.presenter = Presenter(self.ctx)
+        self.presenter = Presenter(self.ctx, opts.antialias)
         # Our callbacks first: the imgui backend chains to the ones installed before it.
         glfw.set_key_callback(self.window, self._on_key)
         glfw.set_mouse_button_callback(self.window, self._on_mouse_button)
         glfw.set_cursor_pos_callback(self.window, self._on_cursor)
         glfw.set_window_focus_callback(self.window, self._on_focus)
-        self.overlay = Overlay(self.window) if opts.overlay else None
+        self.overlay = Overlay(self.window, panel=opts.panel) if opts.overlay else None
         self.paused = False
         self.scene_time = 0.0
         self.frames = 0
@@ -149,6 +152,8 @@ class Walkaround:
             self._screenshot_next = True
         elif command == "next_method":
             self.next_method()
+        elif command == "toggle_panel" and self.overlay is not None:
+            self.overlay.toggle_panel()
         elif command == "capture_cursor":
             mode = glfw.CURSOR_DISABLED if self.controller.captured else glfw.CURSOR_NORMAL
             glfw.set_input_mode(self.window, glfw.CURSOR, mode)
