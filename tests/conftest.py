@@ -12,12 +12,13 @@ from pathlib import Path
 
 import pytest
 
-from game.scene import default_scene_path, load_scene
+from game.scene import default_scene_path, load_scene, reference_scene_path
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENES = ROOT / "tests" / "scenes"
 ASSETS = ROOT / "assets"
-DEFAULT = default_scene_path()
+DEFAULT = default_scene_path()        # the built-in town square
+COURTYARD = reference_scene_path()     # the reference scene of the benchmark and most tests
 TINY = SCENES / "tiny.toml"
 POINT = SCENES / "point.toml"
 SPOT = SCENES / "spot.toml"
@@ -28,8 +29,8 @@ ACCURACY_SIZE = (320, 180)   # frames scored against Embree
 SMALL_SIZE = (160, 90)       # frames compared with each other
 MAX_ERROR = 0.05             # the shadow-error bound every method holds on ACCURACY_SCENES
 # The scenes the accuracy bound is asserted on, for every method.
-ACCURACY_SCENES = {"default": DEFAULT, "spot": SPOT, "point": POINT, "low_sun": LOW_SUN,
-                   "point_among": POINT_AMONG}
+ACCURACY_SCENES = {"courtyard": COURTYARD, "square": DEFAULT, "spot": SPOT, "point": POINT,
+                   "low_sun": LOW_SUN, "point_among": POINT_AMONG}
 
 
 def stoppable() -> None:
@@ -69,6 +70,6 @@ def tiny():
 
 
 @pytest.fixture
-def default_scene():
-    """The built-in scene, loaded afresh (tests may edit it)."""
-    return load_scene(DEFAULT)
+def courtyard():
+    """The courtyard, loaded afresh (tests may edit it)."""
+    return load_scene(COURTYARD)

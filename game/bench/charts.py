@@ -326,7 +326,7 @@ def per_scene_bars_figure(plt, rows: list[dict], column: str, ylabel: str, what:
               and math.isfinite(row_number(r, column))]
     if not picked:
         return None
-    scenes = sorted({r["scene"] for r in picked}, key=lambda s: (s != "default", s))
+    scenes = sorted({r["scene"] for r in picked}, key=lambda s: (s != "courtyard", s))
     _need_two(scenes)
     methods = [m for m in COLOURS if any(r["method"] == m for r in picked)]
     fig, ax = plt.subplots(figsize=(max(6.0, 1.3 * len(scenes)), 4.0))

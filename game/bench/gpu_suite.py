@@ -4,7 +4,7 @@ command that keeps to a time budget.
 A machine with a GPU may be lent for a few minutes only, so the suite runs what the project's
 figures rest on, in this order, and starts no new work once its budget is spent:
 
-1. ``hard``: clumped against every baseline (game/bench/acceptance.py) on the default scene, the
+1. ``hard``: clumped against every baseline (game/bench/acceptance.py) on the courtyard, the
    1 M-triangle town and, once fetched (``python assets/fetch_real.py``), a real level;
 2. ``window``: the walkaround's frame rate on GLFW's null platform, overlay on;
 3. ``soft``: the soft-shadow sweep at N = 1..64, Embree on the same rays beside it.
@@ -27,7 +27,7 @@ import numpy as np
 from game.app import outputs
 from game.bench import runner, runs, soft_sweep
 from game.gpu import context
-from game.scene import default_scene_path, load_scene
+from game.scene import default_scene_path, load_scene, reference_scene_path
 
 BUDGET_S = 480.0     # the whole suite: 8 minutes
 # A real level, where assets/fetch_real.py has fetched it (it is not part of the wheel).
@@ -39,7 +39,7 @@ class SuitePlan:
     """How big each part is."""
 
     size: tuple[int, int]                 # hard shadows: frame size
-    towns: tuple[str, ...]                # bench scene keys beside the default scene
+    towns: tuple[str, ...]                # bench scene keys beside the courtyard
     single_resolutions: tuple[int, ...]   # extra runs of single and static-dynamic
     frames: int
     warmup: int
@@ -103,7 +103,7 @@ def _hard(suite: Suite, deadline: float) -> dict:
     opts = runs.BenchOptions(
         out=suite.out / "hard", quick=plan.quick, size=plan.size, frames=plan.frames,
         warmup=plan.warmup, error_frames=plan.error_frames, flicker_frames=0,
-        scenes=["default", *plan.towns], user_scenes=users,
+        scenes=["courtyard", *plan.towns], user_scenes=users,
         params={"single_resolution": plan.single_resolutions}, progress=suite.progress,
         log=suite.log, deadline=deadline)
     opts.reference = runner.reference_available()
@@ -122,7 +122,7 @@ def _window(suite: Suite, deadline: float) -> dict:
     stats_path = suite.out / "window.json"
     opts = walkaround.PlayOptions(size=plan.window_size, frames=plan.window_frames,
                                   stats=stats_path, platform="null", time_step=1.0 / 30.0)
-    stats = walkaround.play(load_scene(default_scene_path()), opts)
+    stats = walkaround.play(load_scene(reference_scene_path()), opts)
     frames = stats["frames"][1:] or stats["frames"]
     total = [f["ms"]["total"] for f in frames if "total" in f["ms"]]
     return {"renderer": stats["renderer"], "clock": stats["clock"], "size": stats["size"],
@@ -133,7 +133,7 @@ def _window(suite: Suite, deadline: float) -> dict:
 
 def _soft(suite: Suite, deadline: float) -> dict:
     plan = suite.plan
-    scene = load_scene(default_scene_path())
+    scene = load_scene(reference_scene_path())
     ctx = context.create_headless()
     try:
         rows, header = soft_sweep.sweep(ctx, scene, plan.soft_size, plan.soft_samples,

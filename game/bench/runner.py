@@ -22,7 +22,7 @@ from game.bench.rows import read_rows, write_rows
 from game.bench.runs import BenchOptions, BenchScene, plan_runs
 from game.errors import GameError
 from game.gpu import context
-from game.scene import Scene, default_scene_path, parse_scene
+from game.scene import Scene, parse_scene
 
 
 def run(opts: BenchOptions, ctx=None) -> dict:
@@ -95,11 +95,8 @@ def reference_available() -> bool:
 
 def _load(bscene: BenchScene, folder: Path) -> Scene:
     """Parse a bench scene; generated ones are also written to ``folder`` for ``capture``."""
-    if bscene.path is not None:  # a user's file: its meshes lie beside it
+    if bscene.path is not None:  # a file: its meshes lie beside it
         return parse_scene(bscene.text, source=bscene.path, base_dir=bscene.path.parent)
-    if bscene.key == "default":
-        return parse_scene(bscene.text, source=default_scene_path(),
-                           base_dir=default_scene_path().parent)
     path = folder / f"{bscene.key}.toml"
     if not path.exists():
         outputs.write_bytes(path, bscene.text.encode())

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from game.bench import stability
 from game.data import ASSET_DIR
-from game.scene import default_scene_path
+from game.scene import default_scene_path, reference_scene_path
 from game.shadows import clumping, registry
 from game.shadows.plan import ShadowSettings
 
@@ -70,7 +70,7 @@ class BenchScene:
     factor: str = ""         # stability factor, or the scaling axis of a town
     value: float = 0.0
     accuracy_expected: bool = True
-    path: Path | None = None  # a user's scene file (group "user"), loaded where it lies
+    path: Path | None = None  # a scene file loaded where it lies (its meshes beside it)
 
     @property
     def sha256(self) -> str:
@@ -149,9 +149,11 @@ characters          = {characters}
 
 
 def bench_scenes(quick: bool) -> list[BenchScene]:
-    """The default scene, towns at three sizes (and three walker counts), the real corpus where
-    it is fetched, stability scenes."""
-    out = [BenchScene("default", "main", default_scene_path().read_text())]
+    """The courtyard (the reference scene) and the built-in town square, towns at three sizes
+    (and three walker counts), the real corpus where it is fetched, stability scenes."""
+    out = [BenchScene(key, "main", path.read_text(encoding="utf-8"), path=path)
+           for key, path in (("courtyard", reference_scene_path()),
+                             ("default", default_scene_path()))]
     if quick:
         out.append(BenchScene("town_2x2", "town", town_text(2, 16, "town_2x2"), "size", 2))
     else:
@@ -238,7 +240,7 @@ def _p(**kw) -> tuple[tuple[str, object], ...]:
 
 
 def method_grid(scene: BenchScene, quick: bool, max_texture: int) -> list[RunSpec]:
-    """Methods x parameters for one scene; the full grid on the default scene and the 1 M town."""
+    """Methods x parameters for one scene; the full grid on the courtyard and the 1 M town."""
     k = scene.key
     defaults = [RunSpec(k, method) for method in registry.MAP_METHODS]
     if scene.group == "stability":
@@ -265,7 +267,7 @@ def method_grid(scene: BenchScene, quick: bool, max_texture: int) -> list[RunSpe
         # Every character map at the most, every frame, none skipped or grouped: what sizing
         # the maps by need saves, measured beside it.
         return [*defaults, RunSpec(k, "clumped", _p(character_texels_per_pixel=0.0))]
-    if k not in ("default", "town_8x8"):
+    if k not in ("courtyard", "town_8x8"):
         return [*defaults, RunSpec(k, "clumped", _p(clumping="world"))]
     specs = list(defaults)
     for space in clumping.STRATEGIES:

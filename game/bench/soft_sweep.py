@@ -25,7 +25,7 @@ from game.errors import GameError
 from game.gpu import context
 from game.reference import soft as sr
 from game.render.renderer import Renderer, View
-from game.scene import default_scene_path, load_scene
+from game.scene import load_scene, reference_scene_path
 from game.soft.methods import SAMPLED_METHODS
 from game.soft.tracer import COUNTERS, RAY_OFFSET_DISTANCE, RAY_OFFSET_SCENE, TraceSettings
 
@@ -224,7 +224,8 @@ def write_counter_chart(path: Path, rows: list[dict], header: dict) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m game.bench.soft_sweep", description=__doc__)
-    parser.add_argument("scene", nargs="?", help="scene file (default: the built-in scene)")
+    parser.add_argument("scene", nargs="?",
+                        help="scene file (default: the courtyard, assets/courtyard.toml)")
     parser.add_argument("--size", default="160x90", help="WxH of the G-buffer")
     parser.add_argument("--out", type=Path, default=Path("docs/images"))
     parser.add_argument("--samples", default=",".join(map(str, SAMPLES)),
@@ -249,7 +250,7 @@ def main(argv: list[str] | None = None) -> int:
               file=sys.stderr)
         return 2
     try:
-        scene = load_scene(Path(args.scene) if args.scene else default_scene_path())
+        scene = load_scene(Path(args.scene) if args.scene else reference_scene_path())
     except GameError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1

@@ -351,5 +351,12 @@ def load_scene(path: str | Path) -> Scene:
 
 
 def default_scene_path() -> Path:
-    """The built-in default scene, assets/default.toml."""
+    """The built-in scene, assets/default.toml: the town square that ``python -m game`` opens
+    and every command takes without a SCENE."""
     return ASSET_DIR / "default.toml"
+
+
+def reference_scene_path() -> Path:
+    """The courtyard, assets/courtyard.toml: the scene the benchmark, the soft sweep and the GPU
+    suite measure beside the towns, and the one docs/results.md gives figures for."""
+    return ASSET_DIR / "courtyard.toml"

@@ -48,11 +48,11 @@ def stability(factor: str, values: list[float]) -> list[dict]:
     return rows
 
 
-def default_scene(ms: list[float]) -> list[dict]:
-    """Runs on the default scene costing ``ms`` (20 to 35 ms: less than a decade)."""
-    out = [row("default", m, total_ms_median=x, error=0.004 * (i + 1), maps_per_fragment=2,
+def courtyard(ms: list[float]) -> list[dict]:
+    """Runs on the courtyard costing ``ms`` (20 to 35 ms: less than a decade)."""
+    out = [row("courtyard", m, total_ms_median=x, error=0.004 * (i + 1), maps_per_fragment=2,
                flicker=0.002) for i, (m, x) in enumerate(zip(METHODS, ms, strict=False))]
-    out += [row("default", "single", f"single_resolution={r}", total_ms_median=x,
+    out += [row("courtyard", "single", f"single_resolution={r}", total_ms_median=x,
                 error=0.05 / (k + 1)) for k, (r, x) in enumerate(zip((1024, 8192), ms[4:],
                                                                       strict=False))]
     return out
@@ -72,7 +72,7 @@ def labelled(ax, axis: str) -> list[str]:
                                 [8.0, 11.0, 14.0, 18.0, 7.0, 16.0],   # across 10 ms
                                 [60.0, 70.0, 90.0, 110.0, 140.0, 150.0]])
 def test_pareto_spanning_less_than_a_decade_labels_two_plain_ticks(ms):
-    ax = charts.pareto_figure(plt, default_scene(ms), "default").axes[0]
+    ax = charts.pareto_figure(plt, courtyard(ms), "courtyard").axes[0]
     xs = labelled(ax, "x")
     assert len(xs) >= 2, xs
     assert all("$" not in t and "^" not in t for t in xs), xs  # 20, not 2x10^1
@@ -80,18 +80,18 @@ def test_pareto_spanning_less_than_a_decade_labels_two_plain_ticks(ms):
 
 
 def test_the_pareto_title_names_scene_size_and_points_and_the_axes_their_units():
-    ax = charts.pareto_figure(plt, default_scene([8.0, 11.0, 14.0, 18.0]), "default").axes[0]
+    ax = charts.pareto_figure(plt, courtyard([8.0, 11.0, 14.0, 18.0]), "courtyard").axes[0]
     title = ax.get_title()
-    assert "default" in title and "320x180" in title and "one point per" in title, title
+    assert "courtyard" in title and "320x180" in title and "one point per" in title, title
     assert "ms" in ax.get_xlabel() and "%" in ax.get_ylabel()
 
 
 def test_a_scaling_chart_with_one_x_value_is_not_written(tmp_path):
-    rows = default_scene([8.0, 12.0, 16.0, 19.0]) + town("town_2x2", 60_000, 16, 20.0)
+    rows = courtyard([8.0, 12.0, 16.0, 19.0]) + town("town_2x2", 60_000, 16, 20.0)
     notes = []
     written = charts.write_all(rows, tmp_path, log=notes.append)
     names = {p.name for p in tmp_path.iterdir()}
-    assert "pareto_default.png" in names and "pareto_town_2x2.png" in names
+    assert "pareto_courtyard.png" in names and "pareto_town_2x2.png" in names
     assert not any(n.startswith("scaling_triangles") for n in names)
     assert not any(p.name.startswith("scaling_") for p in written)
     assert set(written) == set(tmp_path.iterdir())
@@ -112,14 +112,14 @@ def test_a_scaling_chart_with_two_sizes_draws_a_line_per_method(tmp_path):
 
 
 def test_every_chart_has_a_title_units_and_two_labelled_ticks_per_axis():
-    rows = (default_scene([22.0, 25.0, 28.0, 35.0, 20.0, 31.0])
+    rows = (courtyard([22.0, 25.0, 28.0, 35.0, 20.0, 31.0])
             + town("town_2x2", 60_000, 16, 20.0) + town("town_4x4", 250_000, 16, 28.0)
             + town("town_4x4_c4", 250_000, 4, 24.0) + town("town_4x4_c64", 250_000, 64, 40.0)
             + stability("elevation", [2.0, 30.0, 90.0]) + stability("scale", [0.01, 1000.0])
             + stability("thin", [0.01]))
     built, skipped = charts.figures(rows)
     stems = {stem for stem, _ in built}
-    assert stems == {"pareto_default", "pareto_town_2x2", "pareto_town_4x4", "pareto_town_4x4_c4",
+    assert stems == {"pareto_courtyard", "pareto_town_2x2", "pareto_town_4x4", "pareto_town_4x4_c4",
                      "pareto_town_4x4_c64", "scaling_triangles", "scaling_characters",
                      "maps_per_fragment", "flicker", "stability_elevation", "stability_scale",
                      "stability_thin"}

@@ -24,14 +24,14 @@ def test_quick_suite_writes_every_part_with_its_renderer_and_clock(tmp_path):
         assert part["renderer"] and part["clock"] in ("cpu-finish", "gpu-query")
     hard, window, soft = summary["parts"]
     real = {"monastery"} if gpu_suite.REAL_LEVEL.is_file() else set()  # assets/fetch_real.py
-    assert {c["scene"] for c in hard["comparisons"]} == {"default", "town_2x2"} | real
+    assert {c["scene"] for c in hard["comparisons"]} == {"courtyard", "town_2x2"} | real
     assert (hard["real_level"] is not None) == bool(real)
     assert {c["baseline"].split("|")[1] for c in hard["comparisons"]} == {
         "single", "csm", "static-dynamic"}
     assert window["fps"] > 0 and window["frames"] == gpu_suite.QUICK.window_frames
     assert {r["samples"] for r in soft["rows"] if r["method"] != "analytic"} == set(
         gpu_suite.QUICK.soft_samples)
-    for path in ("hard/bench.csv", "hard/charts/pareto_default.png", "soft/soft_sweep.csv",
+    for path in ("hard/bench.csv", "hard/charts/pareto_courtyard.png", "soft/soft_sweep.csv",
                  "soft/soft_sweep.png", "window.json", "summary.md"):
         assert (out / path).stat().st_size > 0, path
     text = (out / "summary.md").read_text()

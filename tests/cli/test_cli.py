@@ -99,7 +99,7 @@ def test_default_command_renders_headless_and_says_where(tmp_path):
     assert result.returncode == 0, result.stderr
     assert len(result.stdout.strip().splitlines()) == 1
     assert "headless" in result.stdout
-    assert (tmp_path / "captures" / "courtyard" / "frame_0000.png").exists()
+    assert (tmp_path / "captures" / "square" / "frame_0000.png").exists()
 
 
 def test_verify_reports_the_error_of_each_dumped_frame(tmp_path):

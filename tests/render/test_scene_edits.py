@@ -28,8 +28,8 @@ T = 3.0
 
 
 @pytest.fixture
-def renderer(ctx, default_scene):
-    r = Renderer(ctx, default_scene, SIZE, gbuffer=True)
+def renderer(ctx, courtyard):
+    r = Renderer(ctx, courtyard, SIZE, gbuffer=True)
     yield r
     r.release()
 
@@ -142,8 +142,8 @@ def test_removing_a_character_drops_its_map_and_its_shadow(renderer):
     assert renderer.gl_objects() == objects
 
 
-def test_layers_are_reused_by_new_clumps(ctx, default_scene):
-    scene = default_scene
+def test_layers_are_reused_by_new_clumps(ctx, courtyard):
+    scene = courtyard
     settings = ShadowSettings(clump_count=3)
     r = Renderer(ctx, scene, SIZE, settings, gbuffer=True)
     try:
@@ -170,10 +170,10 @@ def test_layers_are_reused_by_new_clumps(ctx, default_scene):
         r.release()
 
 
-def test_the_tracer_sees_run_time_edits(ctx, default_scene):
+def test_the_tracer_sees_run_time_edits(ctx, courtyard):
     # The traced method's grid holds the scene's triangles: after an edit it must be rebuilt,
     # or the new static casts no traced shadow while Embree (on the new geometry) sees one.
-    r = Renderer(ctx, default_scene, SIZE, gbuffer=True)
+    r = Renderer(ctx, courtyard, SIZE, gbuffer=True)
     try:
         r.set_settings(dataclasses.replace(r.settings, method="traced"))
         view = View.from_camera(r.scene.camera, SIZE)

@@ -78,22 +78,22 @@ def test_a_color_key_is_the_colour_shown(ctx):
     assert np.all(red[:, 0] > red[:, 1] + 30)
 
 
-def test_the_cottage_wall_shows_the_wall_and_its_door_the_door(ctx, default_scene):
+def test_the_cottage_wall_shows_the_wall_and_its_door_the_door(ctx, courtyard):
     """The default view of the cottage: its front wall, its door standing 7 cm proud of it and
     the door's top face under the eave each show their own part's colour. Drawn in one colour,
     the door's one-pixel shadow and its top read as a dashed line and roof-coloured specks."""
     static = 20
-    body = default_scene.statics[static]
-    scene_file = default_scene.source.read_text()
+    body = courtyard.statics[static]
+    scene_file = courtyard.source.read_text()
     assert 'file     = "models/house.glb"' in scene_file
-    r = Renderer(ctx, default_scene, ACCURACY_SIZE, gbuffer=True)
+    r = Renderer(ctx, courtyard, ACCURACY_SIZE, gbuffer=True)
     try:
-        frame = r.render(0.0, View.from_camera(default_scene.camera, ACCURACY_SIZE))
+        frame = r.render(0.0, View.from_camera(courtyard.camera, ACCURACY_SIZE))
         albedo = read(r.target.albedo, ACCURACY_SIZE, np.uint8)[..., :3] / 255.0
     finally:
         r.release()
     g = frame.gbuffer
-    cottage = g["object"] == len(default_scene.floors) + static
+    cottage = g["object"] == len(courtyard.floors) + static
     # The cottage's own frame: the scene turns it 25 degrees about Y and moves it to (-9, 0, 4).
     turn = euler_xyz([0.0, 25.0, 0.0])
     local = (g["position"][cottage] - [-9.0, 0.0, 4.0]) @ turn

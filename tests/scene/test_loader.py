@@ -19,6 +19,7 @@ from game.scene import (
     default_scene_path,
     load_scene,
     parse_scene,
+    reference_scene_path,
 )
 from game.scene.shapes import transform_mesh
 from game.transforms import euler_xyz
@@ -55,10 +56,22 @@ def only_static(body: str) -> trimesh.Trimesh:
 
 
 
-def test_default_scene_counts_and_names(default_scene):
-    s = default_scene
-    assert default_scene_path() == ASSETS / "default.toml"
-    assert s.source == default_scene_path()
+def test_the_built_in_scene_is_the_town_square():
+    s = load_scene(default_scene_path())
+    assert default_scene_path() == ASSETS / "default.toml" and s.name == "square"
+    assert reference_scene_path() == ASSETS / "courtyard.toml"
+    assert len(s.floors) == 1 and len(s.statics) >= 40 and len(s.characters) >= 6
+    assert s.light.kind == "directional" and s.linear_light is not None
+    # Its houses come from the model file, with the file's part colours; the rest is coloured
+    # by the scene.
+    assert sum(len(b.mesh.faces) == 180 for b in s.statics) == 3  # the arcade's arches
+    assert all(b.colour is not None for b in s.floors + s.statics)
+    assert all(c.colour is not None for c in s.characters)
+
+
+def test_courtyard_counts_and_names(courtyard):
+    s = courtyard
+    assert s.source == reference_scene_path()
     assert len(s.floors) == 1
     assert 15 <= len(s.statics) <= 30
     assert 4 <= len(s.characters) <= 8
@@ -76,10 +89,16 @@ def test_default_scene_counts_and_names(default_scene):
         assert np.issubdtype(body.mesh.faces.dtype, np.integer)
 
 
-def test_default_floor_top_is_zero_and_objects_rest_on_something(default_scene):
-    s = default_scene
+SHIPPED = pytest.mark.parametrize("path", [reference_scene_path(), default_scene_path()],
+                                  ids=["courtyard", "square"])
+
+
+@SHIPPED
+def test_floor_top_is_zero_and_objects_rest_on_something(path):
+    s = load_scene(path)
     floor = s.floors[0].mesh.bounds
-    assert np.allclose(floor, [[-20.0, -0.2, -20.0], [20.0, 0.0, 20.0]])
+    assert np.isclose(floor[1][1], 0.0) and floor[0][1] < 0.0
+    assert np.all(floor[1][[0, 2]] >= 20.0) and np.all(floor[0][[0, 2]] <= -20.0)
     eps = 1e-6
     for body in s.statics:
         lo, hi = body.mesh.bounds
@@ -128,8 +147,9 @@ def _part_boxes(bodies) -> list[tuple[str, np.ndarray, np.ndarray]]:
     return boxes
 
 
-def test_default_characters_do_not_walk_through_statics(default_scene):
-    s = default_scene
+@SHIPPED
+def test_characters_do_not_walk_through_statics(path):
+    s = load_scene(path)
     obstacles = _part_boxes(s.statics)
     for character in s.characters:
         lo_c, hi_c = character.mesh.bounds
@@ -571,11 +591,11 @@ def test_a_color_outside_zero_to_one_is_refused(tmp_path):
                  f'color = [0.5, 1.5, 0.0]  {MARK}\n', "static[0].color", "[0, 1]")
 
 
-def test_gltf_materials_give_their_parts_base_colours(default_scene):
+def test_gltf_materials_give_their_parts_base_colours(courtyard):
     """The cottage's parts (walls, roof, chimney, door) carry their own colours, linear RGB."""
     from game.scene.mesh_files import FILE_COLOUR, FILE_PART
 
-    cottage = default_scene.statics[20].mesh
+    cottage = courtyard.statics[20].mesh
     colours = np.asarray(cottage.face_attributes[FILE_COLOUR])
     parts = np.asarray(cottage.face_attributes[FILE_PART])
     per_part = {tuple(np.round(colours[parts == p], 3)[0]) for p in np.unique(parts)}

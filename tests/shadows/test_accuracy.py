@@ -55,10 +55,10 @@ def test_clumped_matches_the_ray_traced_reference(ctx, name, tmp_path):
             f"{err['shadowed']} shadowed pixels); diff image in {tmp_path}")
 
 
-def test_the_reference_tells_a_coarse_map_from_a_tight_one(ctx, tmp_path, default_scene):
+def test_the_reference_tells_a_coarse_map_from_a_tight_one(ctx, tmp_path, courtyard):
     # The check above could pass vacuously if the reference agreed with anything; a 256-texel
     # single map over the whole default scene must score clearly worse than clumped.
-    scene = default_scene
+    scene = courtyard
     coarse = ShadowSettings(method="single", single_resolution=256)
     coarse_err = capture_errors(ctx, scene, coarse, tmp_path / "single", frames=1)[0]
     tight_err = capture_errors(ctx, scene, ShadowSettings(), tmp_path / "clumped",

@@ -56,11 +56,11 @@ def _plan(ctx, scene, settings):
         renderer.release()
 
 
-def test_coarse_cascades_score_worse_than_fine_ones(ctx, tmp_path, default_scene):
+def test_coarse_cascades_score_worse_than_fine_ones(ctx, tmp_path, courtyard):
     pytest.importorskip("embreex")
     from tests.shadows.test_accuracy import capture_errors
 
-    scene = default_scene
+    scene = courtyard
     coarse = capture_errors(ctx, scene, ShadowSettings(
         method="csm", cascade_resolution=256), tmp_path / "coarse", frames=1)[0]
     fine = capture_errors(ctx, scene, ShadowSettings(
@@ -68,8 +68,8 @@ def test_coarse_cascades_score_worse_than_fine_ones(ctx, tmp_path, default_scene
     assert coarse["error"] > 2 * fine["error"]
 
 
-def test_static_dynamic_caches_the_static_map(ctx, tmp_path, default_scene):
-    scene = default_scene
+def test_static_dynamic_caches_the_static_map(ctx, tmp_path, courtyard):
+    scene = courtyard
     stats = capture.run(ctx, scene, capture.CaptureOptions(
         out=tmp_path, frames=3, size=(160, 90),
         settings=ShadowSettings(method="static-dynamic",
@@ -84,8 +84,8 @@ def test_static_dynamic_caches_the_static_map(ctx, tmp_path, default_scene):
     assert stats["shadow_memory_mib"] == pytest.approx(2 * 4 * 1024 ** 2 / 2 ** 20)
 
 
-def test_csm_renders_every_cascade_every_frame(ctx, tmp_path, default_scene):
-    scene = default_scene
+def test_csm_renders_every_cascade_every_frame(ctx, tmp_path, courtyard):
+    scene = courtyard
     stats = capture.run(ctx, scene, capture.CaptureOptions(
         out=tmp_path, frames=2, size=(160, 90),
         settings=ShadowSettings(method="csm", cascades=3,

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from game.render.renderer import Renderer
-from game.scene import Body, Character, Light, default_scene_path, load_scene, parse_scene
+from game.scene import Body, Character, Light, load_scene, parse_scene, reference_scene_path
 from game.shadows.plan import TEXELS_PER_METRE, ShadowSettings
 from tests.conftest import ACCURACY_SIZE as SIZE
 from tests.conftest import MAX_ERROR, POINT, TINY
@@ -67,8 +67,8 @@ def check(ctx, scene, t: float = 1.0, min_shadowed: int = 200, bound: bool = Tru
 
 
 @pytest.mark.parametrize("s", [0.01, 0.1, 10.0, 1000.0])
-@pytest.mark.parametrize("path", [TINY, POINT, default_scene_path()],
-                         ids=["tiny", "point", "default"])
+@pytest.mark.parametrize("path", [TINY, POINT, reference_scene_path()],
+                         ids=["tiny", "point", "courtyard"])
 def test_scaled_scenes(ctx, path, s):
     # The clumps' density target is in texels per metre: scaled with the scene, so that the
     # scaled scene gets the same maps and only the numbers change. (At the default target, a
@@ -77,8 +77,8 @@ def test_scaled_scenes(ctx, path, s):
     check(ctx, scaled(load_scene(path), s), min_shadowed=100, settings=settings)
 
 
-def test_far_plane_at_10_km(ctx, default_scene):
-    scene = default_scene
+def test_far_plane_at_10_km(ctx, courtyard):
+    scene = courtyard
     scene.camera = dataclasses.replace(scene.camera, far=10_000.0)
     check(ctx, scene)
 
@@ -95,8 +95,8 @@ def test_camera_inside_a_caster(ctx):
 
 
 @pytest.mark.parametrize("direction", [[0.0, -1.0, 0.0], [0.0, -3.0, 0.0]])
-def test_light_exactly_along_the_up_axis(ctx, direction, default_scene):
-    scene = default_scene
+def test_light_exactly_along_the_up_axis(ctx, direction, courtyard):
+    scene = courtyard
     d = np.array(direction) / np.linalg.norm(direction)
     scene.light = Light("directional", d, None, None)
     check(ctx, scene)

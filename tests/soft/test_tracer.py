@@ -50,7 +50,7 @@ def rmse(a, b):
 
 # -- accelerated methods are exact ---------------------------------------------------------------
 @pytest.mark.parametrize("name, samples, size",
-                         [("tiny", 8, SIZE), ("default_scene", 32, (64, 36))])
+                         [("tiny", 8, SIZE), ("courtyard", 32, (64, 36))])
 def test_accelerated_methods_equal_brute_with_the_same_samples(ctx, name, samples, size, request):
     # 32 samples of the default scene take brute force past llvmpipe's loop budget in one
     # dispatch (6,016 triangles): the tracer must split the samples and lose none.
@@ -65,14 +65,14 @@ def test_accelerated_methods_equal_brute_with_the_same_samples(ctx, name, sample
         np.testing.assert_array_equal(results[m].visibility, brute, err_msg=m)
 
 
-def test_sampled_methods_equal_embree_on_the_same_rays(ctx, default_scene):
-    frame, results, diagonal = gbuffer_trace(ctx, default_scene, ("voxel-cache",), samples=16)
+def test_sampled_methods_equal_embree_on_the_same_rays(ctx, courtyard):
+    frame, results, diagonal = gbuffer_trace(ctx, courtyard, ("voxel-cache",), samples=16)
     covered, origins, normals = origins_of(frame, diagonal)
     rows, cols = np.nonzero(covered)
     index = (SIZE[1] - 1 - rows) * SIZE[0] + cols  # the tracer's point index (GL rows)
     t = sr.tracer_samples(index, 16)
-    light = default_scene.linear_light
-    embree = sr.segment_visibility(embree_of(default_scene), origins, normals, light.a, light.b, t)
+    light = courtyard.linear_light
+    embree = sr.segment_visibility(embree_of(courtyard), origins, normals, light.a, light.b, t)
     ours = results["voxel-cache"].visibility[covered]
     # Float rounding may flip a ray that grazes an edge; a handful of pixels at most.
     assert np.mean(ours != embree) <= 0.005
@@ -80,7 +80,7 @@ def test_sampled_methods_equal_embree_on_the_same_rays(ctx, default_scene):
 
 
 # -- accuracy against Embree --------------------------------------------------------------------
-@pytest.mark.parametrize("name", ["tiny", "default_scene"])
+@pytest.mark.parametrize("name", ["tiny", "courtyard"])
 def test_analytic_is_within_001_of_1024_embree_samples(ctx, name, request):
     scene = request.getfixturevalue(name)
     frame, results, diagonal = gbuffer_trace(ctx, scene, ("analytic",), samples=1)
@@ -95,11 +95,11 @@ def test_analytic_is_within_001_of_1024_embree_samples(ctx, name, request):
     assert rmse(ours[shadowed], ref[shadowed]) <= 0.01
 
 
-def test_sampled_error_falls_with_the_number_of_samples(ctx, default_scene):
+def test_sampled_error_falls_with_the_number_of_samples(ctx, courtyard):
     ns = (1, 4, 16, 64)
-    r = Renderer(ctx, default_scene, SIZE, gbuffer=True)
+    r = Renderer(ctx, courtyard, SIZE, gbuffer=True)
     try:
-        r.render(0.0, View.from_camera(default_scene.camera, SIZE))
+        r.render(0.0, View.from_camera(courtyard.camera, SIZE))
         exact = r.trace(0.0, TraceSettings(method="analytic")).visibility
         errors = [rmse(*np.broadcast_arrays(
             r.trace(0.0, TraceSettings(method="voxel-cache", samples=n)).visibility[
@@ -109,8 +109,8 @@ def test_sampled_error_falls_with_the_number_of_samples(ctx, default_scene):
     assert all(b < 0.7 * a for a, b in zip(errors, errors[1:], strict=False)), errors
 
 
-def test_caches_cut_ray_triangle_tests_and_count_their_own(ctx, default_scene):
-    _, results, _ = gbuffer_trace(ctx, default_scene, ("grid", "tri-cache", "voxel-cache"), 16)
+def test_caches_cut_ray_triangle_tests_and_count_their_own(ctx, courtyard):
+    _, results, _ = gbuffer_trace(ctx, courtyard, ("grid", "tri-cache", "voxel-cache"), 16)
     means = {m: res.means() for m, res in results.items()}
     assert means["grid"]["triangle_triangle_tests"] == 0
     for m in ("tri-cache", "voxel-cache"):
@@ -346,12 +346,12 @@ def test_frames_do_not_grow_gl_objects_and_characters_move(ctx, tiny):
     assert r.soft_tracer is None
 
 
-def test_the_loop_budget_probe_catches_a_cut_short_trace(ctx, default_scene):
+def test_the_loop_budget_probe_catches_a_cut_short_trace(ctx, courtyard):
     # One dispatch of all 64 samples of brute force runs past llvmpipe's loop budget; the
     # tracer must notice (the probe) and split the samples until nothing is cut short.
-    r = Renderer(ctx, default_scene, (32, 18), gbuffer=True)
+    r = Renderer(ctx, courtyard, (32, 18), gbuffer=True)
     try:
-        r.render(0.0, View.from_camera(default_scene.camera, (32, 18)))
+        r.render(0.0, View.from_camera(courtyard.camera, (32, 18)))
         tracer = r.trace(0.0, TraceSettings(method="grid", samples=1)) and r.soft_tracer
         tracer._first_chunk = lambda settings: settings.samples  # no split in advance
         brute = r.trace(0.0, TraceSettings(method="brute", samples=64))
