@@ -25,8 +25,9 @@ class PackedGeometry:
 
     positions: np.ndarray        # (V, 3) float32
     objects: np.ndarray          # (V,) int32
-    # (V, 3) float32: the shading normal (game/scene/normals.py); a vertex is split where its
-    # corners' normals differ, so positions repeat across creases.
+    # (V, 3) float32: the shading normal (game/scene/normals.py), zero where the corner is flat
+    # (the shader then takes the triangle's own); a vertex is split where its corners' normals
+    # differ, so positions repeat where a smooth surface meets a crease.
     normals: np.ndarray
     # (V, 3) float32: the base colour of each vertex's faces, linear RGB: the file's material's,
     # else the scene's `color`; negative: neither (the shader's palette). Vertices are split

@@ -23,6 +23,7 @@ CREASE_ANGLE_DEG = 40.0   # adjacent faces bending more than this keep a hard ed
 # flat: the work per corner grows with the number of its neighbours.
 MAX_CORNER_VALENCE = 64
 CREASED_DECIMALS = 5
+FLAT_COS = 1.0 - 1e-6   # a corner normal this close to its triangle's is the triangle's
 
 
 def face_normals(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -64,22 +65,22 @@ def corner_normals(vertices: np.ndarray, faces: np.ndarray,
     group_total = np.add.reduceat(weighted[order], first, axis=0)
     total = group_total[np.repeat(np.arange(len(first)), size)]
     cos_crease = np.float32(math.cos(math.radians(crease_deg)))
-    flat = group_size > MAX_CORNER_VALENCE
     creased = np.zeros(len(order), bool)
+    # The largest groups come first: those past MAX_CORNER_VALENCE are shaded flat, and pass k
+    # below works on the groups of more than k corners that follow them.
+    n_flat = int(np.searchsorted(-group_size, -MAX_CORNER_VALENCE, side="left"))
     # Pass k meets each corner with the corner k places after it in its group (cyclically), so
     # every ordered pair of a group is met once; a neighbour past the crease is taken out again.
-    for k in range(1, int(size.max())):
+    for k in range(1, min(int(size.max()), MAX_CORNER_VALENCE)):
         count = int(np.searchsorted(-group_size, -k, side="left"))
-        if count == 0:
+        if count <= n_flat:
             break
-        span = slice(0, count)
+        span = slice(n_flat, count)
         other = order[group_start[span] + (rank[span] + k) % group_size[span]]
         hard = np.einsum("ij,ij->i", normal[face[span]], normal[other // 3]) <= cos_crease
-        hard &= ~flat[span]
-        total[:count][hard] -= weighted[other[hard]]
-        creased[:count] |= hard
-    total[flat] = normal[face[flat]]
-    creased[flat] = False
+        total[span][hard] -= weighted[other[hard]]
+        creased[span] |= hard
+    total[:n_flat] = normal[face[:n_flat]]
     length = np.linalg.norm(total, axis=1)
     unit = np.zeros_like(total)
     np.divide(total, length[:, None], out=unit, where=length[:, None] > 0.0)
@@ -121,11 +122,18 @@ def split_by_normal(vertices: np.ndarray, faces: np.ndarray,
     ``face_key`` rows, such as a colour).
 
     Returns ``(source, normals, faces)``: for each new vertex the index of the vertex it copies
-    and its unit shading normal (float32), and the faces re-indexed. The triangles keep their
-    exact positions; a vertex whose corners all share one normal and key stays one vertex.
+    and its unit shading normal (float32; zero where the corner is flat, its triangle's own
+    normal), and the faces re-indexed. The triangles keep their exact positions; a vertex whose
+    corners all share one normal and key stays one vertex.
     """
     faces = np.asarray(faces, np.int64)
     normals = corner_normals(vertices, faces, crease_deg).reshape(-1, 3)
+    # A corner whose normal is its own triangle's carries none (zero): the shading pass then uses
+    # the triangle's geometric normal, and the flat corners of a vertex stay one vertex, so a box
+    # keeps its 8 vertices and a flat-sided level its vertex count.
+    own, _ = face_normals(np.asarray(vertices, np.float64), faces)
+    flat = np.einsum("ij,ij->i", normals, np.repeat(own, 3, axis=0)) > FLAT_COS
+    normals[flat] = 0.0
     extra = (np.zeros((len(normals), 0), np.uint32) if face_key is None else
              np.repeat(np.ascontiguousarray(face_key, np.float32).reshape(len(faces), -1), 3,
                        axis=0).view(np.uint32))
