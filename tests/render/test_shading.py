@@ -33,20 +33,23 @@ position = [1.4, 0.75, 0.0]
 """
 
 
-def read(texture, size, dtype, components=4):
-    w, h = size
-    data = np.frombuffer(texture.read(), dtype).reshape(h, w, components)
-    return data[::-1]
+def rendered(ctx, scene, size):
+    """A frame of ``scene`` at time 0 from its camera, with the G-buffer's shading normals and
+    base colours (linear RGB), row 0 at the top."""
+    r = Renderer(ctx, scene, size, gbuffer=True)
+    try:
+        frame = r.render(0.0, View.from_camera(scene.camera, size))
+        w, h = size
+        shading = np.frombuffer(r.target.shading.read(), np.float16).reshape(h, w, 4)
+        albedo = np.frombuffer(r.target.albedo.read(), np.uint8).reshape(h, w, 4)
+    finally:
+        r.release()
+    return (frame, shading[::-1, :, :3].astype(np.float64),
+            (albedo[::-1, :, :3] / 255.0) ** 2)
 
 
 def test_smooth_surfaces_shade_with_their_own_normals_and_the_dumps_keep_the_geometric_one(ctx):
-    scene = parse_scene(BALL_AND_BOX)
-    r = Renderer(ctx, scene, SMALL_SIZE, gbuffer=True)
-    try:
-        frame = r.render(0.0, View.from_camera(scene.camera, SMALL_SIZE))
-        shading = read(r.target.shading, SMALL_SIZE, np.float16)[..., :3].astype(np.float64)
-    finally:
-        r.release()
+    frame, shading, _ = rendered(ctx, parse_scene(BALL_AND_BOX), SMALL_SIZE)
     g = frame.gbuffer
     geometric = g["normal"]
     ball, box = g["object"] == 1, g["object"] == 2
@@ -63,17 +66,11 @@ def test_smooth_surfaces_shade_with_their_own_normals_and_the_dumps_keep_the_geo
 
 
 def test_a_color_key_is_the_colour_shown(ctx):
-    scene = parse_scene(BALL_AND_BOX)
-    r = Renderer(ctx, scene, SMALL_SIZE, gbuffer=True)
-    try:
-        frame = r.render(0.0, View.from_camera(scene.camera, SMALL_SIZE))
-        albedo = read(r.target.albedo, SMALL_SIZE, np.uint8)[..., :3] / 255.0
-    finally:
-        r.release()
+    frame, _, albedo = rendered(ctx, parse_scene(BALL_AND_BOX), SMALL_SIZE)
     ball = frame.gbuffer["object"] == 1
     srgb = np.array([0.9, 0.1, 0.1])
     linear = np.where(srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4)
-    assert np.allclose(albedo[ball] ** 2, linear, atol=0.01)
+    assert np.allclose(albedo[ball], linear, atol=0.01)
     red = frame.image[ball].astype(int)
     assert np.all(red[:, 0] > red[:, 1] + 30)
 
@@ -86,19 +83,14 @@ def test_the_cottage_wall_shows_the_wall_and_its_door_the_door(ctx, courtyard):
     body = courtyard.statics[static]
     scene_file = courtyard.source.read_text()
     assert 'file     = "models/house.glb"' in scene_file
-    r = Renderer(ctx, courtyard, ACCURACY_SIZE, gbuffer=True)
-    try:
-        frame = r.render(0.0, View.from_camera(courtyard.camera, ACCURACY_SIZE))
-        albedo = read(r.target.albedo, ACCURACY_SIZE, np.uint8)[..., :3] / 255.0
-    finally:
-        r.release()
+    frame, _, albedo = rendered(ctx, courtyard, ACCURACY_SIZE)
     g = frame.gbuffer
     cottage = g["object"] == len(courtyard.floors) + static
     # The cottage's own frame: the scene turns it 25 degrees about Y and moves it to (-9, 0, 4).
     turn = euler_xyz([0.0, 25.0, 0.0])
     local = (g["position"][cottage] - [-9.0, 0.0, 4.0]) @ turn
     normal = g["normal"][cottage] @ turn
-    colour = albedo[cottage] ** 2
+    colour = albedo[cottage]
 
     def part_colour(face_normal, depth):
         """The file's colour of the faces facing ``face_normal`` at local z = ``depth``."""
