@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from game.scene.mesh_files import FILE_COLOUR, FILE_PART
+from game.scene.mesh_files import FILE_COLOUR, FILE_NORMAL, FILE_PART
 from game.scene.model import Scene
 from game.scene.normals import split_by_normal
 from game.scene.parts import mesh_parts
@@ -87,7 +87,9 @@ def pack(scene: Scene) -> PackedGeometry:
     base = 0
     for index, mesh in enumerate(meshes):
         face_colour = _face_colours(mesh, bodies[index].colour)
-        source, n, f = split_by_normal(mesh.vertices, mesh.faces, face_key=face_colour)
+        given = mesh.vertex_attributes.get(FILE_NORMAL)
+        source, n, f = split_by_normal(mesh.vertices, mesh.faces, face_key=face_colour,
+                                       given=given)
         positions.append(np.asarray(mesh.vertices, dtype=np.float32)[source])
         shading.append(n)
         # Every corner of a split vertex shares its faces' colour (the colour is in the key).

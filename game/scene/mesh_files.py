@@ -27,6 +27,9 @@ FILE_COLOUR = "file_colour"
 """The face attribute that holds each face's base colour from the file's material, linear RGB
 (glTF's baseColorFactor; :data:`NO_FILE_COLOUR` where the part has none)."""
 NO_FILE_COLOUR = -1.0
+FILE_NORMAL = "file_normal"
+"""The vertex attribute that holds each vertex's normal as the file gives it (glTF NORMAL, OBJ
+``vn``), in the mesh's coordinates; NaN where the file gives none."""
 
 
 def inside(base_dir: Path, relative: str, fail: Callable[[str], NoReturn]) -> Path:
@@ -138,8 +141,7 @@ def load_mesh_file(relative: str, base_dir: Path, label: str,
         # would, with each face's part recorded.
         loaded = trimesh.load(source, file_type=suffix[1:], force="scene", process=False,
                               **kwargs)
-        pieces = [g for g in loaded.dump(concatenate=False)
-                  if isinstance(g, trimesh.Trimesh) and len(g.faces)]
+        pieces, piece_normals = _placed_pieces(loaded)
     except ImportError:
         # trimesh reaches for optional modules (charset_normalizer, to guess the text encoding
         # of a binary STL whose size does not match its triangle count) when a file is damaged.
@@ -183,8 +185,50 @@ def load_mesh_file(relative: str, base_dir: Path, label: str,
     attributes = {FILE_PART: parts}
     if np.any(colours >= 0.0):
         attributes[FILE_COLOUR] = colours
+    normals = np.concatenate(piece_normals)
     return trimesh.Trimesh(vertices=vertices, faces=faces, process=False,
-                           face_attributes=attributes)
+                           face_attributes=attributes,
+                           vertex_attributes=({FILE_NORMAL: normals}
+                                              if np.isfinite(normals).any() else {}))
+
+
+def _placed_pieces(loaded: trimesh.Scene) -> tuple[list[trimesh.Trimesh], list[np.ndarray]]:
+    """Every mesh of the file's scene graph moved to where its node places it (as trimesh's
+    ``Scene.dump`` does), with the normals the file gives its vertices, turned the same way.
+
+    ``dump`` would recompute the normals from the faces: the file's own are read from the
+    geometry before it is moved (trimesh keeps them in its cache, where the loader put them).
+    """
+    pieces, normals = [], []
+    for node in loaded.graph.nodes_geometry:
+        transform, name = loaded.graph[node]
+        geometry = loaded.geometry[name]
+        if not isinstance(geometry, trimesh.Trimesh) or not len(geometry.faces):
+            continue
+        piece = geometry.copy()
+        piece.apply_transform(transform)
+        pieces.append(piece)
+        given = np.full((len(geometry.vertices), 3), np.nan)
+        if "vertex_normals" in geometry._cache:  # the loader's, not computed from the faces
+            file_normals = np.asarray(geometry.vertex_normals, np.float64)
+            if file_normals.shape == given.shape:
+                given = turn_normals(file_normals, np.asarray(transform)[:3, :3])
+        normals.append(given)
+    return pieces, normals
+
+
+def turn_normals(normals: np.ndarray, linear: np.ndarray) -> np.ndarray:
+    """Normals under the linear map ``linear`` (its inverse transpose), unit length; NaN where a
+    normal is zero, not finite or the map is singular."""
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        try:
+            turned = normals @ np.linalg.inv(np.asarray(linear, np.float64))
+        except np.linalg.LinAlgError:
+            return np.full(normals.shape, np.nan)
+        length = np.linalg.norm(turned, axis=1)
+        unit = turned / length[:, None]
+    unit[~(np.isfinite(unit).all(axis=1) & (length > 0.0))] = np.nan
+    return unit
 
 
 def _piece_colour(piece: trimesh.Trimesh) -> tuple[float, float, float]:

@@ -6,7 +6,8 @@ leaving out those that bend away from its own triangle by more than :data:`CREAS
 So a sphere, a cylinder's side or a cone's side shades smoothly, while a box's edges, a
 cylinder's rim and a roof's ridge stay hard. Corners are compared by position, not by vertex
 index, so a mesh whose file splits vertices (texture seams) still shades smoothly across them.
-The rule is the same for shapes and for mesh files: the normals a file may carry are not read.
+A mesh file that gives its vertices normals (glTF NORMAL, OBJ ``vn``) is shaded with those
+instead, where it gives them.
 
 Only the shading pass reads these normals. The shadow bias, the dumps and the reference keep the
 geometric normal of each triangle, so shading cannot move a shadow.
@@ -116,10 +117,12 @@ def _welded(vertices: np.ndarray) -> np.ndarray:
 
 
 def split_by_normal(vertices: np.ndarray, faces: np.ndarray,
-                    crease_deg: float = CREASE_ANGLE_DEG, face_key: np.ndarray | None = None
+                    crease_deg: float = CREASE_ANGLE_DEG, face_key: np.ndarray | None = None,
+                    given: np.ndarray | None = None
                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Vertices split where their corners' shading normals differ (or their faces'
-    ``face_key`` rows, such as a colour).
+    ``face_key`` rows, such as a colour). ``given``, (V, 3) unit normals with NaN rows, are
+    the normals a mesh file gives its vertices: they replace the rule's where they are finite.
 
     Returns ``(source, normals, faces)``: for each new vertex the index of the vertex it copies
     and its unit shading normal (float32; zero where the corner is flat, its triangle's own
@@ -128,6 +131,10 @@ def split_by_normal(vertices: np.ndarray, faces: np.ndarray,
     """
     faces = np.asarray(faces, np.int64)
     normals = corner_normals(vertices, faces, crease_deg).reshape(-1, 3)
+    if given is not None:
+        from_file = np.asarray(given, np.float32)[faces.reshape(-1)]
+        known = np.isfinite(from_file).all(axis=1)
+        normals[known] = from_file[known]
     # A corner whose normal is its own triangle's carries none (zero): the shading pass then uses
     # the triangle's geometric normal, and the flat corners of a vertex stay one vertex, so a box
     # keeps its 8 vertices and a flat-sided level its vertex count.

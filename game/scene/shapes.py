@@ -10,6 +10,7 @@ from collections.abc import Iterable
 import numpy as np
 import trimesh
 
+from game.scene.mesh_files import FILE_NORMAL, turn_normals
 from game.transforms import euler_xyz
 
 SPHERE_SUBDIVISIONS = 2  # icosphere, 320 triangles
@@ -30,8 +31,13 @@ def transform_mesh(mesh: trimesh.Trimesh, linear: np.ndarray,
     faces = np.asarray(mesh.faces, dtype=np.int64)
     if np.linalg.det(linear) < 0:
         faces = faces[:, ::-1]
+    vertex_attributes = {}
+    if FILE_NORMAL in mesh.vertex_attributes:  # a file's normals turn with its vertices
+        vertex_attributes[FILE_NORMAL] = turn_normals(
+            np.asarray(mesh.vertex_attributes[FILE_NORMAL], np.float64), linear)
     return trimesh.Trimesh(vertices=vertices, faces=np.ascontiguousarray(faces), process=False,
-                           face_attributes=dict(mesh.face_attributes))
+                           face_attributes=dict(mesh.face_attributes),
+                           vertex_attributes=vertex_attributes)
 
 
 def _plain(mesh: trimesh.Trimesh) -> trimesh.Trimesh:

@@ -121,3 +121,57 @@ def test_colours_are_packed_linear_and_absent_ones_marked():
     assert np.all(floor == geometry.NO_COLOUR)
     # sRGB 0.5 is 0.214 in linear RGB.
     assert np.allclose(sphere, [1.0, 0.2140, 0.0], atol=1e-4)
+
+
+def test_a_files_own_normals_are_used_and_turned_with_its_nodes_and_the_scene(tmp_path):
+    import trimesh
+
+    from game.scene import load_scene
+    from game.scene.mesh_files import FILE_NORMAL
+
+    box = trimesh.creation.box()
+    up = np.tile([0.0, 1.0, 0.0], (len(box.vertices), 1))   # not a box's normals: the file's
+    scene = trimesh.Scene()
+    scene.add_geometry(trimesh.Trimesh(box.vertices, box.faces, vertex_normals=up, process=False),
+                       node_name="box", geom_name="box",
+                       transform=trimesh.transformations.rotation_matrix(np.pi / 2, [1, 0, 0]))
+    (tmp_path / "box.glb").write_bytes(scene.export(file_type="glb", include_normals=True))
+    (tmp_path / "plain.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    (tmp_path / "s.toml").write_text(COLOURED.split("[[static]]")[0] + """
+[[static]]
+shape = "mesh"
+file = "box.glb"
+position = [0.0, 0.5, 0.0]
+rotation = [0.0, 90.0, 0.0]
+[[static]]
+shape = "mesh"
+file = "plain.obj"
+position = [3.0, 0.0, 0.0]
+""")
+    s = load_scene(tmp_path / "s.toml")
+    # The node turns +Y to +Z, the scene's rotation +Z to +X.
+    given = s.statics[0].mesh.vertex_attributes[FILE_NORMAL]
+    assert np.allclose(given, [1.0, 0.0, 0.0], atol=1e-6)
+    assert FILE_NORMAL not in s.statics[1].mesh.vertex_attributes  # a file without normals
+    geom = geometry.pack(s)
+    normals = geom.normals[geom.objects == 1]
+    shaded = normals[np.abs(normals).sum(axis=1) > 0]
+    assert len(shaded) > 0 and np.allclose(shaded, [1.0, 0.0, 0.0], atol=1e-6)
+    # Corners whose own face looks along +X are flat: they carry no normal.
+    assert len(shaded) < len(normals)
+
+
+def test_an_obj_files_vertex_normals_are_read(tmp_path):
+    from game.scene import load_scene
+    from game.scene.mesh_files import FILE_NORMAL
+
+    (tmp_path / "tri.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 0 -1\nvn 0 1 0\nvn 0 1 0\n"
+                                      "vn 0.6 0.8 0\nf 1//1 2//2 3//3\n")
+    (tmp_path / "s.toml").write_text(COLOURED.split("[[static]]")[0] + """
+[[static]]
+shape = "mesh"
+file = "tri.obj"
+position = [0.0, 0.5, 0.0]
+""")
+    mesh = load_scene(tmp_path / "s.toml").statics[0].mesh
+    assert np.allclose(mesh.vertex_attributes[FILE_NORMAL], [[0, 1, 0], [0, 1, 0], [0.6, 0.8, 0]])
