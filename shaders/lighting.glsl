@@ -7,7 +7,6 @@
 const vec3 SUN_RADIANCE = vec3(1.00, 0.93, 0.82) * 1.6;
 const vec3 SKY_AMBIENT = vec3(0.45, 0.55, 0.75) * 0.6;
 const vec3 GROUND_AMBIENT = vec3(0.40, 0.34, 0.27) * 0.4;
-const float EXPOSURE = 1.0;
 
 vec3 to_light(vec3 p) {
 #if LIGHT_KIND == LIGHT_DIRECTIONAL
@@ -46,10 +45,9 @@ vec3 lit_colour(vec3 albedo, vec3 n, vec3 l, float direct) {
     return albedo * (ambient + SUN_RADIANCE * max(dot(n, l), 0.0) * direct);
 }
 
-// Linear radiance to the display: exposure, a filmic tone map (Narkowicz's fit of the ACES curve),
-// then the sRGB transfer function.
-vec3 display(vec3 radiance) {
-    vec3 x = radiance * EXPOSURE;
+// Linear radiance to the display: a filmic tone map (Narkowicz's fit of the ACES curve), then
+// the sRGB transfer function.
+vec3 display(vec3 x) {
     vec3 mapped = clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0);
     return mix(mapped * 12.92, 1.055 * pow(mapped, vec3(1.0 / 2.4)) - 0.055,
                step(0.0031308, mapped));

@@ -14,7 +14,7 @@ flat in vec3 v_colour;
 layout(location = 0) out vec4 out_color;     // rgb shown; a = (1 + maps read) / 255
 #if GBUFFER
 layout(location = 1) out vec4 out_position;  // xyz world position; w object index
-layout(location = 2) out vec4 out_normal;    // xyz geometric unit normal facing the camera; w visibility
+layout(location = 2) out vec4 out_normal;    // xyz geometric normal, facing the camera; w vis.
 layout(location = 3) out vec4 out_shading;   // xyz shading normal
 layout(location = 4) out vec4 out_albedo;    // rgb sqrt of the linear base colour
 #endif
