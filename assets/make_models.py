@@ -13,6 +13,8 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from game.scene.geometry import srgb_to_linear
+
 MODELS = Path(__file__).parent / "models"
 
 ARCH_PILLAR_HEIGHT = 3.0  # metres, springing line of the arch
@@ -99,9 +101,8 @@ HOUSE_COLOURS = {"walls": (0.90, 0.84, 0.70), "roof": (0.68, 0.30, 0.20),
 
 
 def _material(srgb) -> trimesh.visual.TextureVisuals:
-    c = np.asarray(srgb, dtype=np.float64)
-    linear = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
-    material = trimesh.visual.material.PBRMaterial(baseColorFactor=[*linear, 1.0])
+    material = trimesh.visual.material.PBRMaterial(
+        baseColorFactor=[*srgb_to_linear(srgb), 1.0])
     return trimesh.visual.TextureVisuals(material=material)
 
 

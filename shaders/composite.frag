@@ -38,6 +38,6 @@ void main() {
     vec3 l = normalize(u_soft_light - p);
     float cone = 1.0;
 #endif
-    float direct = dot(g, l) > 0.0 ? vis * cone : 0.0;
-    out_color = vec4(display(lit_colour(albedo * albedo, n, l, direct)), frame.a);
+    out_color = vec4(display(lit_colour(albedo * albedo, n, l, direct_light(g, l, vis, cone))),
+                     frame.a);
 }

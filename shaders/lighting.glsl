@@ -38,6 +38,12 @@ vec3 shading_normal(vec3 interpolated, vec3 geometric) {
     return dot(n, geometric) < 0.0 ? -n : n;
 }
 
+// How much of the light reaches a surface point: its visibility times the spot's cone, and none
+// where the triangle (geometric normal ``g``) faces away, whatever its shading normal says.
+float direct_light(vec3 g, vec3 l, float vis, float cone) {
+    return dot(g, l) > 0.0 ? vis * cone : 0.0;
+}
+
 // Linear radiance of a diffuse surface: hemispheric ambient plus the light, scaled by how much of
 // the light the surface sees (`direct`: visibility times the spot's cone).
 vec3 lit_colour(vec3 albedo, vec3 n, vec3 l, float direct) {

@@ -37,9 +37,7 @@ void main() {
 
     vec3 n = shading_normal(v_normal, g);
     vec3 l = to_light(v_world);
-    // Light a surface turned away from it gets none, whatever its shading normal says.
-    float direct = dot(g, l) > 0.0 ? vis * spot_cone(l) : 0.0;
-    vec3 colour = display(lit_colour(v_colour, n, l, direct));
+    vec3 colour = display(lit_colour(v_colour, n, l, direct_light(g, l, vis, spot_cone(l))));
     // The debug view, like the shadow lookup's switches, is a #define (DEBUG_VIEW).
 #if DEBUG_VIEW == DEBUG_MAP
     colour = (used < 0 ? vec3(0.5) : palette(used + 7)) * (0.55 + 0.45 * vis);

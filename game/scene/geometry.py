@@ -11,12 +11,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from game.scene.mesh_files import FILE_COLOUR, FILE_NORMAL, FILE_PART
+from game.scene.mesh_files import FILE_COLOUR, FILE_NORMAL, FILE_PART, NO_COLOUR
 from game.scene.model import Scene
 from game.scene.normals import split_by_normal
 from game.scene.parts import mesh_parts
-
-NO_COLOUR = -1.0   # a colour component that says "no colour given: the shader's palette"
 
 
 @dataclass
@@ -125,7 +123,7 @@ def pack(scene: Scene) -> PackedGeometry:
 def _face_colours(mesh, colour) -> np.ndarray:
     """(F, 3) float32 linear base colours: the file's materials', else the scene's ``colour``
     (sRGB, or None: :data:`NO_COLOUR`)."""
-    given = np.full(3, NO_COLOUR) if colour is None else _linear(colour)
+    given = np.full(3, NO_COLOUR) if colour is None else srgb_to_linear(colour)
     faces = np.tile(given.astype(np.float32), (len(mesh.faces), 1))
     if FILE_COLOUR in mesh.face_attributes:
         from_file = np.asarray(mesh.face_attributes[FILE_COLOUR], np.float32).reshape(-1, 3)
@@ -134,7 +132,7 @@ def _face_colours(mesh, colour) -> np.ndarray:
     return faces
 
 
-def _linear(srgb) -> np.ndarray:
+def srgb_to_linear(srgb) -> np.ndarray:
     """sRGB components in [0, 1] as linear RGB (the sRGB transfer function, inverted)."""
     c = np.clip(np.asarray(srgb, np.float64), 0.0, 1.0)
     return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)

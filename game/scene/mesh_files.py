@@ -25,8 +25,8 @@ FILE_PART = "file_part"
 """The face attribute that holds each face's part of the file's own structure (an index)."""
 FILE_COLOUR = "file_colour"
 """The face attribute that holds each face's base colour from the file's material, linear RGB
-(glTF's baseColorFactor; :data:`NO_FILE_COLOUR` where the part has none)."""
-NO_FILE_COLOUR = -1.0
+(glTF's baseColorFactor; :data:`NO_COLOUR` where the part has none)."""
+NO_COLOUR = -1.0   # a colour component that says "no colour given" (the shader's palette)
 FILE_NORMAL = "file_normal"
 """The vertex attribute that holds each vertex's normal as the file gives it (glTF NORMAL, OBJ
 ``vn``), in the mesh's coordinates; NaN where the file gives none."""
@@ -237,7 +237,7 @@ def _piece_colour(piece: trimesh.Trimesh) -> tuple[float, float, float]:
     material = getattr(piece.visual, "material", None)
     factor = getattr(material, "baseColorFactor", None)
     if factor is None:
-        return (NO_FILE_COLOUR,) * 3
+        return (NO_COLOUR,) * 3
     rgb = np.asarray(factor, dtype=np.float64).reshape(-1)[:3]
     if np.asarray(factor).dtype == np.uint8:   # trimesh keeps the factor as bytes
         rgb = rgb / 255.0

@@ -40,11 +40,16 @@ def face_normals(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, n
 def corner_normals(vertices: np.ndarray, faces: np.ndarray,
                    crease_deg: float = CREASE_ANGLE_DEG) -> np.ndarray:
     """The shading normal of every corner, (F, 3, 3) float32 (zero where it is undefined)."""
-    vertices = np.asarray(vertices, np.float64)
-    faces = np.asarray(faces, np.int64)
+    return _corners(np.asarray(vertices, np.float64), np.asarray(faces, np.int64),
+                    crease_deg)[0]
+
+
+def _corners(vertices: np.ndarray, faces: np.ndarray,
+             crease_deg: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`corner_normals`, and the faces' own unit normals (F, 3) float32 beside them."""
     n_faces = len(faces)
     if n_faces == 0:
-        return np.zeros((0, 3, 3), np.float32)
+        return np.zeros((0, 3, 3), np.float32), np.zeros((0, 3), np.float32)
     normal, _ = face_normals(vertices, faces)
     normal = normal.astype(np.float32)
     weighted = normal[np.repeat(np.arange(n_faces), 3)] * _corner_angles(vertices, faces)[:, None]
@@ -90,7 +95,7 @@ def corner_normals(vertices: np.ndarray, faces: np.ndarray,
     unit[creased] = np.round(unit[creased], CREASED_DECIMALS)
     corners = np.empty_like(unit)
     corners[order] = unit
-    return corners.reshape(n_faces, 3, 3)
+    return corners.reshape(n_faces, 3, 3), normal
 
 
 def _corner_angles(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -130,7 +135,8 @@ def split_by_normal(vertices: np.ndarray, faces: np.ndarray,
     corners all share one normal and key stays one vertex.
     """
     faces = np.asarray(faces, np.int64)
-    normals = corner_normals(vertices, faces, crease_deg).reshape(-1, 3)
+    corners, own = _corners(np.asarray(vertices, np.float64), faces, crease_deg)
+    normals = corners.reshape(-1, 3)
     if given is not None:
         from_file = np.asarray(given, np.float32)[faces.reshape(-1)]
         known = np.isfinite(from_file).all(axis=1)
@@ -138,7 +144,6 @@ def split_by_normal(vertices: np.ndarray, faces: np.ndarray,
     # A corner whose normal is its own triangle's carries none (zero): the shading pass then uses
     # the triangle's geometric normal, and the flat corners of a vertex stay one vertex, so a box
     # keeps its 8 vertices and a flat-sided level its vertex count.
-    own, _ = face_normals(np.asarray(vertices, np.float64), faces)
     flat = np.einsum("ij,ij->i", normals, np.repeat(own, 3, axis=0)) > FLAT_COS
     normals[flat] = 0.0
     extra = (np.zeros((len(normals), 0), np.uint32) if face_key is None else

@@ -245,17 +245,18 @@ class Walkaround:
         figures.ms.update(self._window_ms)  # the panel shows the last frame's window passes
         timer = self.renderer.timer
         # Scene, then overlay, into a canvas that is shown in the window, by the route that
-        # was cheapest on llvmpipe: a full-size frame is copied into the presenter's
-        # colour-only canvas and blitted to the window (a blit straight from a target with a
-        # depth attachment, or a textured draw, cost more); a smaller frame is drawn scaled
-        # straight into the window. A frame saved as a screenshot always goes through the
-        # readable canvas, so the file holds what the window shows.
+        # was cheapest on llvmpipe: a full-size frame without FXAA is copied into the
+        # presenter's colour-only canvas and blitted to the window (a blit straight from a
+        # target with a depth attachment, or a textured draw, cost more); a frame that is drawn
+        # anyway (scaled, or anti-aliased) is drawn straight into the window. A frame saved as a
+        # screenshot always goes through the readable canvas, so the file holds what the window
+        # shows.
         last = self.opts.frames is not None and self.frames + 1 >= self.opts.frames
         shot = self._screenshot_next or (last and self.opts.screenshot is not None)
         screen = self.ctx.detect_framebuffer(0)
         with timer.measure("present", wall=True):
             framebuffer, texture = self.renderer.display
-            if shot or self.renderer.size == size:
+            if shot or (self.renderer.size == size and not self.presenter.antialias):
                 self.presenter.resize(size)
                 self.presenter.show(framebuffer, texture)
                 self.canvas = self.presenter.target
