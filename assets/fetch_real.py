@@ -267,7 +267,8 @@ def monastery_scene(parts: list[str] | None = None) -> str:
         + ('name = "monastery_parts"\n\n' if parts else 'name = "monastery"\n\n')
         + "[camera]\nposition = [18.0, 40.0, 90.0]\ntarget   = [-6.0, 0.0, 2.0]\nfov      = 55.0\n"
         "near     = 0.5\nfar      = 400.0\n\n"
-        '[light]\nkind      = "directional"\ndirection = [0.75, -0.5, -0.35]\n\n'
+        '[light]\nkind      = "directional"\ndirection = [0.75, -0.5, -0.35]\n'
+        'color     = [1.0, 0.97, 0.92]  # the warm sun\n\n'
         "[linear_light]\na = [-60.0, 90.0, 40.0]\nb = [-20.0, 90.0, -40.0]\n\n"
         "# The ground, in four strips around the compound.\n"
         + ground(-e, e, -e, z0) + "\n" + ground(-e, e, z1, e) + "\n"

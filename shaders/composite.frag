@@ -1,7 +1,8 @@
 #version 430
 // The soft composite: the frame lit again through a traced visibility, from its G-buffer alone
 // (the scene is not drawn again). HARD 0: the linear light's soft shadows, its direction taken
-// from the segment's midpoint; HARD 1: the hard light's exact shadows (the traced method).
+// from the segment's midpoint, in the first light's colour; HARD 1: the first hard light's exact
+// shadows (the traced method).
 // The arithmetic is the shading pass's (shade.frag, lighting.glsl), so a pixel lit by the same
 // visibility gets the same colour.
 #include "blocks/frame.glsl"
@@ -31,13 +32,16 @@ void main() {
     vec3 n = texelFetch(u_shading, px, 0).xyz;
     vec3 albedo = texelFetch(u_albedo, px, 0).rgb;
     float vis = texelFetch(u_visibility, px, 0).r;
+    LightRecord light = u_lights[0];
 #if HARD
-    vec3 l = to_light(p);
-    float cone = spot_cone(l);
+    vec3 l = to_light(light, p);
+    float reached = reach(light, p, l);
 #else
     vec3 l = normalize(u_soft_light - p);
-    float cone = 1.0;
+    float reached = 1.0;
 #endif
-    out_color = vec4(display(lit_colour(albedo * albedo, n, l, direct_light(g, l, vis, cone))),
-                     frame.a);
+    albedo *= albedo;
+    vec3 colour = ambient_colour(albedo, n)
+        + light_colour(albedo, n, l, direct_light(g, l, vis, reached), light.radiance);
+    out_color = vec4(display(colour), frame.a);
 }

@@ -1,7 +1,8 @@
 #version 430
 #extension GL_ARB_shader_viewport_layer_array : require
 // Every character's map in one draw: each vertex goes to its character's layer (gl_Layer from
-// the vertex shader), so the per-frame maps cost one framebuffer, not one per character.
+// the vertex shader), so the per-frame maps cost one framebuffer, not one per character. With
+// several lights the draw has one instance per light, each reading that light's entries.
 #include "world.glsl"
 
 in vec3 in_position;
@@ -13,7 +14,8 @@ in int in_object;
 out float gl_ClipDistance[4];
 
 void main() {
-    int map = u_character_maps[in_object - u_frame.first_character];
+    int map = u_character_maps[u_lights[gl_InstanceID].first_character_map + in_object
+                               - u_frame.first_character];
     if (map < 0) {
         gl_Position = vec4(2.0, 2.0, 2.0, 1.0);   // no map this frame (outside a spot's cone)
         return;

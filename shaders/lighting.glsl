@@ -1,29 +1,41 @@
 // Lighting shared by the shading pass and the soft composite (needs blocks/frame.glsl, and
-// LIGHT_KIND as a #define): the direction to the hard light, its cone, and how a surface is lit
-// and shown. Lighting is computed in linear RGB; `display` is the one output transform.
+// LIGHT_KIND, GRID and MANY_LIGHTS as #defines): the lights' records, the direction to a light, its
+// cone and range, and how a surface is lit and shown. Lighting is computed in linear RGB;
+// `display` is the one output transform.
 
-// Light reaching the scene, linear RGB. The sun is warm, the sky's ambient blue from above and
-// the ground's a warm bounce from below; the tone map rolls off what exceeds 1.
-const vec3 SUN_RADIANCE = vec3(1.00, 0.93, 0.82) * 1.6;
+// The sky's ambient is blue from above and the ground's a warm bounce from below, both scaled by
+// u_frame.ambient (the sky lights' brightness); the tone map rolls off what exceeds 1.
 const vec3 SKY_AMBIENT = vec3(0.45, 0.55, 0.75) * 0.6;
 const vec3 GROUND_AMBIENT = vec3(0.40, 0.34, 0.27) * 0.4;
 
-vec3 to_light(vec3 p) {
-#if LIGHT_KIND == LIGHT_DIRECTIONAL
-    return -u_frame.light_dir;
+// With one light its kind and map-grid mode are #defines, so every test of them below folds
+// away; with several (MANY_LIGHTS 1) they are read from each light's record.
+#if MANY_LIGHTS
+#define KIND_OF(light) (light).kind
+#define GRID_OF(light) (light).grid_mode
 #else
-    return normalize(u_frame.light_pos - p);
+#define KIND_OF(light) LIGHT_KIND
+#define GRID_OF(light) GRID
 #endif
+
+vec3 to_light(LightRecord light, vec3 p) {
+    return KIND_OF(light) == LIGHT_DIRECTIONAL ? -light.direction : normalize(light.position - p);
 }
 
-// The spot light's cone, softened over a small band of cos; 1 for other lights. ``l`` points
-// from the surface to the light.
-float spot_cone(vec3 l) {
-    float cone = 1.0;
-#if LIGHT_KIND == LIGHT_SPOT
-    cone = smoothstep(u_frame.cos_half_cone, u_frame.cos_half_cone + 0.02, dot(-l, u_frame.light_dir));
-#endif
-    return cone;
+// How much of the light its spot cone (softened over a small band of cos) and its range let
+// reach p: 1 inside, 0 beyond. A light with a range fades smoothly to nothing at it.
+// ``l`` points from the surface to the light.
+float reach(LightRecord light, vec3 p, vec3 l) {
+    float r = 1.0;
+    if (KIND_OF(light) == LIGHT_SPOT) {
+        r = smoothstep(light.cos_half_cone, light.cos_half_cone + 0.02, dot(-l, light.direction));
+    }
+    if (KIND_OF(light) != LIGHT_DIRECTIONAL && light.range > 0.0) {
+        float d = length(light.position - p) / light.range;
+        float window = clamp(1.0 - d * d * d * d, 0.0, 1.0);
+        r *= window * window;
+    }
+    return r;
 }
 
 // The shading normal made to agree with the geometric one: interpolated across a triangle it may
@@ -38,17 +50,21 @@ vec3 shading_normal(vec3 interpolated, vec3 geometric) {
     return dot(n, geometric) < 0.0 ? -n : n;
 }
 
-// How much of the light reaches a surface point: its visibility times the spot's cone, and none
-// where the triangle (geometric normal ``g``) faces away, whatever its shading normal says.
-float direct_light(vec3 g, vec3 l, float vis, float cone) {
-    return dot(g, l) > 0.0 ? vis * cone : 0.0;
+// How much of a light reaches a surface point: its visibility times its reach, and none where
+// the triangle (geometric normal ``g``) faces away, whatever its shading normal says.
+float direct_light(vec3 g, vec3 l, float vis, float reached) {
+    return dot(g, l) > 0.0 ? vis * reached : 0.0;
 }
 
-// Linear radiance of a diffuse surface: hemispheric ambient plus the light, scaled by how much of
-// the light the surface sees (`direct`: visibility times the spot's cone).
-vec3 lit_colour(vec3 albedo, vec3 n, vec3 l, float direct) {
-    vec3 ambient = mix(GROUND_AMBIENT, SKY_AMBIENT, 0.5 + 0.5 * n.y);
-    return albedo * (ambient + SUN_RADIANCE * max(dot(n, l), 0.0) * direct);
+// Linear radiance of the hemispheric ambient light on a diffuse surface.
+vec3 ambient_colour(vec3 albedo, vec3 n) {
+    return albedo * mix(GROUND_AMBIENT, SKY_AMBIENT, 0.5 + 0.5 * n.y) * u_frame.ambient;
+}
+
+// Linear radiance one light adds to a diffuse surface: ``direct`` is how much of it the surface
+// sees (visibility times reach).
+vec3 light_colour(vec3 albedo, vec3 n, vec3 l, float direct, vec3 radiance) {
+    return albedo * radiance * max(dot(n, l), 0.0) * direct;
 }
 
 // Linear radiance to the display: a filmic tone map (Narkowicz's fit of the ACES curve), then

@@ -1,6 +1,6 @@
 #version 430
-// Shading pass: the hard light's visibility from the maps, the surface lit with its shading
-// normal, and the G-buffer the dumps and the soft composite read. The dumps' normal and the
+// Shading pass: each hard light's visibility from its maps, the surface lit by every light
+// with its shading normal, and the G-buffer the dumps and the soft composite read. The dumps' normal and the
 // shadow lookup's bias use the geometric normal, so shading cannot move a shadow.
 #include "world.glsl"
 #include "lighting.glsl"
@@ -32,26 +32,64 @@ void main() {
     if (dot(g, u_frame.camera_pos - v_world) < 0.0) {
         g = -g;
     }
-    int sampled, used;
-    float vis = shadow_visibility(v_world, g, v_object, sampled, used);
-
+    int sampled = 0, used = -1;
     vec3 n = shading_normal(v_normal, g);
-    vec3 l = to_light(v_world);
-    vec3 colour = display(lit_colour(v_colour, n, l, direct_light(g, l, vis, spot_cone(l))));
+    vec3 colour = ambient_colour(v_colour, n);
+    float kept = 0.0;   // the visibility of u_frame.dump_light, for the G-buffer
+    float shown = 1.0;  // the first light's, for the debug views
+    int shadowed = 0;   // lights that reach the fragment but are blocked
+#if MANY_LIGHTS
+    // Only the lights that can reach the fragment's screen tile (game/render/frame_blocks.py).
+    // The count is read, not a #define: a loop of known length would be unrolled into one
+    // copy of the lookup per light, a long shader to compile anew for each count.
+    ivec2 tile = ivec2(gl_FragCoord.xy) / u_frame.tile_size;
+    int t = u_frame.tile_base + tile.y * u_frame.tiles_x + tile.x;
+    int first = u_grid[t], end = u_grid[t + 1];
+#else
+    const int first = 0, end = 1;
+#endif
+    for (int j = first; j < end; ++j) {
+#if MANY_LIGHTS
+        int k = u_grid[j];
+#else
+        const int k = 0;
+#endif
+        LightRecord light = u_lights[k];
+        vec3 l = to_light(light, v_world);
+        float reached = reach(light, v_world, l);
+        int decider = -1;
+        float vis = 0.0;
+        // A light that cannot reach the fragment reads no map (its visibility counts as 0).
+        if (reached > 0.0) {
+            vis = shadow_visibility(light, v_world, g, v_object, sampled, decider);
+        }
+        colour += light_colour(v_colour, n, l, direct_light(g, l, vis, reached), light.radiance);
+        shadowed += reached > 0.0 && dot(g, l) > 0.0 && vis < 0.5 ? 1 : 0;
+        if (k == u_frame.dump_light) {
+            kept = vis;
+        }
+        if (k == 0) {
+            used = decider;
+            shown = vis;
+        }
+    }
+    colour = display(colour);
     // The debug view, like the shadow lookup's switches, is a #define (DEBUG_VIEW).
 #if DEBUG_VIEW == DEBUG_MAP
-    colour = (used < 0 ? vec3(0.5) : palette(used + 7)) * (0.55 + 0.45 * vis);
+    colour = (used < 0 ? vec3(0.5) : palette(used + 7)) * (0.55 + 0.45 * shown);
 #elif DEBUG_VIEW == DEBUG_MAP_COUNT
     colour = heat(float(sampled) / 4.0);
+#elif DEBUG_VIEW == DEBUG_SHADOWED_LIGHTS
+    colour = shadowed == 0 ? vec3(0.25) : heat(float(shadowed - 1) / 3.0);
 #elif DEBUG_VIEW == DEBUG_CACHE
     // The map that decided the pixel: red re-rendered this frame, green from the cache.
     vec3 state = u_maps[max(used, 0)].fresh != 0 ? vec3(0.9, 0.3, 0.25) : vec3(0.3, 0.8, 0.35);
-    colour = (used < 0 ? vec3(0.5) : state) * (0.55 + 0.45 * vis);
+    colour = (used < 0 ? vec3(0.5) : state) * (0.55 + 0.45 * shown);
 #endif
     out_color = vec4(colour, float(1 + sampled) / 255.0);
 #if GBUFFER
     out_position = vec4(v_world, float(v_object));
-    out_normal = vec4(g, vis);
+    out_normal = vec4(g, kept);
     out_shading = vec4(n, 0.0);
     out_albedo = vec4(sqrt(v_colour), 1.0);
 #endif

@@ -3,10 +3,13 @@
 // caster lies nearer the light. With many maps, a light-space grid lists the candidates per cell
 // so the per-fragment cost stays flat (game/shadows/map_grid.py builds it). Visibility is the minimum.
 //
+// Each light has its own maps, u_maps[first_map, first_map + map_count), and its own grid.
+//
 // What is fixed for a whole frame arrives as #defines, and the renderer picks the program made
-// for it (game/render/shading_pass.py): LIGHT_KIND (LIGHT_DIRECTIONAL, LIGHT_SPOT, LIGHT_POINT),
-// PCF (0 or 1) and GRID (GRID_NONE, GRID_ORTHO, GRID_OCTAHEDRAL). Branching on uniforms instead
-// costs more on llvmpipe, which runs both sides of a branch under a lane mask.
+// for it (game/render/shading_pass.py): PCF (0 or 1), and with one light (MANY_LIGHTS 0) its kind
+// LIGHT_KIND (LIGHT_DIRECTIONAL, LIGHT_SPOT, LIGHT_POINT) and its grid's mode GRID (GRID_NONE,
+// GRID_ORTHO, GRID_OCTAHEDRAL). Branching on uniforms instead costs more on llvmpipe, which runs
+// both sides of a branch under a lane mask; with several lights those two are read per light.
 
 uniform sampler2DArrayShadow u_shadow_maps;
 
@@ -52,14 +55,14 @@ vec2 bias_offsets(float texel, float sin_t, float tan_t) {
 // not shadow itself through its own depth texels; in a map it is not drawn into, a receiver
 // is compared unbiased, and its contact shadows stay whole. Floors are in no map, a character
 // only in its own map or in a map of everything, a static in no character map.
-bool holds_receiver(int i, int object) {
+bool holds_receiver(LightRecord light, int i, int object) {
     int kind = u_maps[i].kind;
     if (object < u_frame.floor_count) {
         return false;
     }
     if (object >= u_frame.first_character) {
         return kind == KIND_CHARACTER
-            ? u_character_maps[object - u_frame.first_character] == i
+            ? u_character_maps[light.first_character_map + object - u_frame.first_character] == i
             : kind == KIND_ALL || kind == KIND_CASCADE;
     }
     return kind != KIND_CHARACTER;
@@ -121,18 +124,19 @@ struct Receiver {
     float sin_t, tan_t; // of the angle between n and l
 };
 
-void consider(int i, Receiver r, inout float vis, inout int sampled, inout int used,
-              inout int held) {
+void consider(LightRecord light, int i, Receiver r, inout float vis, inout int sampled,
+              inout int used, inout int held) {
     if (u_maps[i].kind == KIND_FALLBACK && held > 0) {
         return;
     }
     bool read;
-    float biased = holds_receiver(i, r.object) ? 1.0 : 0.0;
-#if LIGHT_KIND == LIGHT_DIRECTIONAL
-    float v = sample_ortho(i, r.lp, r.ln, r.sin_t, r.tan_t, biased, read);
-#else
-    float v = sample_perspective(i, r.p, r.n, r.l, r.sin_t, r.tan_t, biased, read);
-#endif
+    float biased = holds_receiver(light, i, r.object) ? 1.0 : 0.0;
+    float v;
+    if (KIND_OF(light) == LIGHT_DIRECTIONAL) {
+        v = sample_ortho(i, r.lp, r.ln, r.sin_t, r.tan_t, biased, read);
+    } else {
+        v = sample_perspective(i, r.p, r.n, r.l, r.sin_t, r.tan_t, biased, read);
+    }
     if (read) {
         sampled += 1;
         held += u_maps[i].kind == KIND_CLUMP ? 1 : 0;
@@ -143,54 +147,50 @@ void consider(int i, Receiver r, inout float vis, inout int sampled, inout int u
     }
 }
 
-// Visibility of the hard light at p on object `object` (1 lit, 0 shadowed), the number of maps
-// read, and the map that decided it (-1 when none was read).
-float shadow_visibility(vec3 p, vec3 n, int object, out int sampled, out int used) {
-    sampled = 0;
+// Visibility of `light` at p on object `object` (1 lit, 0 shadowed), the number of maps read
+// (added to `sampled`), and the map that decided it (-1 when none was read).
+float shadow_visibility(LightRecord light, vec3 p, vec3 n, int object, inout int sampled,
+                        out int used) {
     used = -1;
     Receiver r;
     r.object = object;
     r.p = p;
     r.n = n;
-    r.l = to_light(p);
+    r.l = to_light(light, p);
     float ndotl = dot(n, r.l);
     if (ndotl <= 0.0) {
         return 0.0;   // the surface faces away from the light
     }
     r.sin_t = sqrt(max(0.0, 1.0 - ndotl * ndotl));
     r.tan_t = min(r.sin_t / max(ndotl, 1e-4), u_frame.max_slope);
-    r.lp = (u_frame.light_rot * vec4(p, 1.0)).xyz;
-    r.ln = mat3(u_frame.light_rot) * n;
+    r.lp = (light.light_rot * vec4(p, 1.0)).xyz;
+    r.ln = mat3(light.light_rot) * n;
     float vis = 1.0;
     int held = 0;   // clump maps that held the fragment
-#if GRID == GRID_NONE
-    for (int i = 0; i < u_frame.map_count && vis > 0.0; ++i) {
-        int before = sampled;
-        consider(i, r, vis, sampled, used, held);
-        if (decided(i, before, sampled)) {
-            break;
+    if (GRID_OF(light) == GRID_NONE) {
+        int end = light.first_map + light.map_count;
+        for (int i = light.first_map; i < end && vis > 0.0; ++i) {
+            int before = sampled;
+            consider(light, i, r, vis, sampled, used, held);
+            if (decided(i, before, sampled)) {
+                break;
+            }
         }
+        return vis;
     }
-    return vis;
-#else
-#if GRID == GRID_ORTHO
-    vec2 g = r.lp.xy;
-#else
-    vec2 g = octahedral(normalize(p - u_frame.light_pos));
-#endif
+    vec2 g = GRID_OF(light) == GRID_ORTHO ? r.lp.xy : octahedral(normalize(p - light.position));
     // Outside the grid's rectangle, the nearest edge cell: it lists every map reaching past
     // that edge (game/shadows/map_grid.py).
-    vec2 f = (g - u_frame.grid_rect.xy) / (u_frame.grid_rect.zw - u_frame.grid_rect.xy);
-    int size = u_frame.grid_size;
+    vec2 f = (g - light.grid_rect.xy) / (light.grid_rect.zw - light.grid_rect.xy);
+    int size = light.grid_size;
     ivec2 cell = clamp(ivec2(floor(f * float(size))), ivec2(0), ivec2(size - 1));
-    int c = cell.y * size + cell.x;
+    int c = light.grid_base + cell.y * size + cell.x;
     for (int k = u_grid[c]; k < u_grid[c + 1] && vis > 0.0; ++k) {
         int before = sampled;
-        consider(u_grid[k], r, vis, sampled, used, held);
+        consider(light, u_grid[k], r, vis, sampled, used, held);
         if (decided(u_grid[k], before, sampled)) {
             break;
         }
     }
     return vis;
-#endif
 }

@@ -27,12 +27,21 @@ def frame_geometry(scene: Scene, t: float) -> trimesh.Scene:
     return out
 
 
+def lit_lights(gbuffer: dict[str, np.ndarray]) -> np.ndarray:
+    """The (H, W, L) float32 visibility of every light in file order: the G-buffer's own for a
+    scene of several lights, else ``lit`` as the one layer (``lit == lit_lights[..., 0]``)."""
+    if "lit_lights" in gbuffer:
+        return np.asarray(gbuffer["lit_lights"], dtype=np.float32)
+    return np.asarray(gbuffer["lit"], dtype=np.float32)[..., None]
+
+
 def write_dump(stem: Path, scene: Scene, view: View, size: tuple[int, int], t: float,
                frame: Frame) -> None:
     g = frame.gbuffer
     arrays = {
         "position": g["position"], "normal": g["normal"], "object": g["object"],
         "names": np.array(scene.object_names()), "lit": g["lit"],
+        "lit_lights": lit_lights(g),
         "view": view.view.astype(np.float64), "proj": view.proj.astype(np.float64),
         "size": np.array(size, dtype=np.int64), "time": np.float64(t),
         # Which scene made the frame, so that verify scores it against that scene's light.

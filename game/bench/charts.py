@@ -7,6 +7,8 @@ game/bench/runner.py.
   16 walkers) and against walkers (the 4 x 4 town, and the 8 x 8 town), methods at defaults;
 - ``scaling_shadow``: shadow-map ms against walkers on the 4 x 4 town, with a line
   proportional to the walkers;
+- ``lights``: shadow-map ms, frame ms and error against the number of lights (the night town:
+  the moon and 0 to 63 street lamps), methods at defaults;
 - ``maps_per_fragment`` and ``flicker``: per scene, methods at defaults;
 - ``stability_FACTOR``: error (and failures) against the factor's value, per method; a factor
   with a single value is drawn as one bar per method.
@@ -416,6 +418,43 @@ def _stability_bars(plt, picked: list[dict], factor: str, what: str, unit: str,
     return fig
 
 
+def lights_figure(plt, rows: list[dict]) -> Figure | None:
+    """Per-frame cost and shadow error against the number of lights on the night town, every
+    method at its defaults. None where no run fits."""
+    picked = [r for r in rows if r["group"] == "lights" and _ok(r) and _default(r)
+              and math.isfinite(row_number(r, "lights"))]
+    if not picked:
+        return None
+    _need_two(row_number(r, "lights") for r in picked)
+    fig, axes = plt.subplots(1, 3, figsize=(12.0, 4.0))
+    panels = (("shadow-map passes, ms (median)", _shadow_ms),
+              ("whole frame, ms (median)", lambda r: row_number(r, "total_ms_median")),
+              ("shadow error, % (all lights pooled)",
+               lambda r: 100.0 * row_number(r, "error")))
+    for ax, (ylabel, value) in zip(axes, panels, strict=True):
+        series: dict[str, list] = defaultdict(list)
+        for r in picked:
+            series[r["method"]].append((row_number(r, "lights"), value(r)))
+        for method, pts in sorted(series.items()):
+            pts.sort()
+            ax.plot([p[0] for p in pts], [p[1] for p in pts], marker=MARKERS.get(method, "x"),
+                    color=COLOURS.get(method, "k"), label=method)
+        ax.set_xscale("log")
+        plain_log_ticks(ax.xaxis)
+        ax.set_xlabel("lights: the moon and street lamps (log scale)")
+        ax.set_ylabel(ylabel)
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0].set_yscale("log")
+    axes[1].set_yscale("log")
+    plain_log_ticks(axes[0].yaxis)
+    plain_log_ticks(axes[1].yaxis)
+    axes[0].legend(fontsize=7)
+    fig.suptitle(f"cost and error against the number of lights, night town\n{_size(picked)}",
+                 fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
 def figures(rows: list[dict]) -> tuple[list[tuple[str, Figure]], dict[str, str]]:
     """Every chart the rows allow, as (file stem, figure), and the charts skipped, as
     {stem: why}. The caller closes the figures."""
@@ -427,6 +466,7 @@ def figures(rows: list[dict]) -> tuple[list[tuple[str, Figure]], dict[str, str]]
         builders.append((f"pareto_{scene}", lambda s=scene: pareto_figure(plt, rows, s)))
     for axis in ("triangles", "characters", "shadow"):
         builders.append((f"scaling_{axis}", lambda a=axis: scaling_figure(plt, rows, a)))
+    builders.append(("lights", lambda: lights_figure(plt, rows)))
     builders.append(("maps_per_fragment", lambda: per_scene_bars_figure(
         plt, rows, "maps_per_fragment", "maps read per shaded pixel, count",
         "shadow maps read per shaded pixel")))

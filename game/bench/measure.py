@@ -37,7 +37,7 @@ from game.bench.runs import (
 from game.errors import GameError
 from game.gpu import context
 from game.reference import hard as reference
-from game.reference.score import score_dump
+from game.reference.score import score_dump_lights
 from game.render.renderer import Renderer, View
 from game.scene import Scene, floors
 from game.shadows.plan import MapRecord
@@ -136,6 +136,7 @@ def _score(ctx, scene: Scene, spec: RunSpec, opts: BenchOptions, tmp: Path) -> d
     result = {"nan_pixels": 0}
     try:
         errors, mis, shadowed, either = [], 0, 0, 0
+        per_light = [[0, 0] for _ in scene.lights]  # misclassified, shadowed either
         for j in range(opts.error_frames):
             t = j * ERROR_SPACING_S
             view = orbit_view(scene, opts.size, 10.0 * j)
@@ -146,15 +147,20 @@ def _score(ctx, scene: Scene, spec: RunSpec, opts: BenchOptions, tmp: Path) -> d
                 continue
             stem = tmp / f"frame_{j:04d}"
             dumps.write_dump(stem, scene, view, opts.size, t, frame)
-            err = score_dump(stem.with_suffix(".npz"), scene.light)
-            errors.append(err["error"])
-            mis += err["misclassified"]
-            shadowed += err["shadowed"]
-            either += err["shadowed_either"]
+            scores = score_dump_lights(stem.with_suffix(".npz"), scene.lights)["lights"]
+            errors.append(scores[0]["error"])
+            for k, err in enumerate(scores):
+                per_light[k][0] += err["misclassified"]
+                per_light[k][1] += err["shadowed_either"]
+                mis += err["misclassified"]
+                shadowed += err["shadowed"]
+                either += err["shadowed_either"]
         if errors:
-            # Pooled over the frames: misclassified pixels over pixels either side shadows.
+            # Pooled over the frames and the lights: misclassified pixels over pixels either
+            # side shadows; and the worst light's, pooled over the frames.
             result.update(error=mis / max(1, either), misclassified=mis, shadowed=shadowed,
-                          error_frames=len(errors))
+                          error_frames=len(errors),
+                          error_worst_light=max(m / max(1, e) for m, e in per_light))
         flicker_frames = []
         mesh = None
         t0 = 0.5
@@ -191,10 +197,11 @@ def measure_timing(ctx, scene: Scene, spec: RunSpec, opts: BenchOptions) -> dict
         g = renderer.geom
         out["static_triangles"] = g.triangle_count(range(g.first_static, g.first_character))
         out["characters"] = g.n_characters
+        out["lights"] = len(scene.lights)
         timed = []
         for k in range(opts.warmup + opts.frames):
             if spec.rerender:
-                renderer.method.mark_rendered_lost()
+                renderer.shadows.mark_rendered_lost()
             view = orbit_view(scene, opts.size, ORBIT_DEG * k)
             frame = renderer.render(k / FPS, view)
             if k >= opts.warmup:

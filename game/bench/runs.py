@@ -29,6 +29,8 @@ PARAM_KEYS = ("clumping", "clump_count", "texels_per_metre", "clump_resolution",
               "cascades", "cascade_lambda", "cascade_resolution")
 # Walker counts of the 4 x 4 town's crowd series (16 is town_4x4 itself).
 CROWD_SERIES = (4, 64, 128, 256)
+# Lights of the night town's series: the moon and street lamps, 1 to 64 lights in all.
+LIGHT_SERIES = (1, 4, 16, 64)
 # Bench-only parameter: re-render every cached map every frame, to measure the cost of many
 # small maps (framebuffer and layer switches, clears) against one map at equal triangles.
 RERENDER = "rerender_static"
@@ -44,7 +46,8 @@ COLUMNS = (
     + ["repeats", "total_ms_spread"]
     + ["maps_total", "maps_rendered", "triangles_to_maps", "texels_to_maps",
        "camera_triangles", "shadow_memory_mib", "maps_per_fragment", "static_maps",
-       "footprint_overlap", "static_texels_per_metre", "error", "misclassified", "shadowed",
+       "footprint_overlap", "static_texels_per_metre", "lights", "error", "error_worst_light",
+       "misclassified", "shadowed",
        "error_frames", "flicker", "flicker_raw", "flicker_reference", "nan_pixels", "notes",
        "status", "seconds"]
 )
@@ -52,7 +55,7 @@ COLUMNS = (
 
 # The scene groups whose methods are compared head to head (acceptance, Pareto charts): the
 # built-in main scene, the towns, the real assets, and the user's own scene files.
-COMPARED_GROUPS = ("main", "town", "real", "user")
+COMPARED_GROUPS = ("main", "town", "real", "lights", "user")
 
 # The real third-party corpus (assets/REAL_ASSETS.md), benched where assets/fetch_real.py has
 # fetched it: a level as one file and as separate files, and props under a spot and a point light.
@@ -65,7 +68,7 @@ class BenchScene:
     """One scene of the sweep."""
 
     key: str
-    group: str               # main | town | real | stability | user
+    group: str               # main | town | real | lights | stability | user
     text: str                # the scene file's text (written to OUT/scenes/KEY.toml)
     factor: str = ""         # stability factor, or the scaling axis of a town
     value: float = 0.0
@@ -134,6 +137,7 @@ far      = {1000.0 * k:.4g}
 [light]
 kind      = "directional"
 direction = [-0.4, -1.0, -0.3]
+color     = [1.0, 0.97, 0.92]
 
 [generate]
 seed                = 1
@@ -148,9 +152,20 @@ characters          = {characters}
 """
 
 
+def night_text(lights: int, name: str) -> str:
+    """assets/night_town.toml with ``lights`` lights in all: the moon and ``lights - 1`` lamps."""
+    text = (ASSET_DIR / "night_town.toml").read_text(encoding="utf-8")
+    head, sep, _ = text.partition("lamps               = 16")
+    if not sep:
+        raise ValueError("assets/night_town.toml no longer sets lamps = 16")
+    return (head.replace('name = "night_town"', f'name = "{name}"')
+            + f"lamps               = {lights - 1}" + _.rstrip("\n") + "\n")
+
+
 def bench_scenes(quick: bool) -> list[BenchScene]:
     """The courtyard (the reference scene) and the built-in town square, towns at three sizes
-    (and three walker counts), the real corpus where it is fetched, stability scenes."""
+    (and three walker counts), the night town with 1 to 64 lights, the real corpus where it is
+    fetched, stability scenes."""
     out = [BenchScene(key, "main", path.read_text(encoding="utf-8"), path=path)
            for key, path in (("courtyard", reference_scene_path()),
                              ("default", default_scene_path()))]
@@ -170,6 +185,10 @@ def bench_scenes(quick: bool) -> list[BenchScene]:
                               "characters", 64))
         # A crowd on one block: 128 walkers in the streets around four buildings.
         out.append(BenchScene("crowd_128", "town", town_text(1, 128, "crowd_128")))
+        # The night town with 1 to 64 lights: the moon, then street lamps.
+        for n in LIGHT_SERIES:
+            out.append(BenchScene(f"lights_{n}", "lights", night_text(n, f"lights_{n}"),
+                                  "lights", n))
     for name in REAL_SCENES if not quick else ():
         path = REAL_DIR / f"{name}.toml"
         if path.is_file():

@@ -197,6 +197,9 @@ def _add_shadow_options(p: argparse.ArgumentParser) -> None:
                         "camera; 0 keeps every character map at the most, every frame")
     g.add_argument("--single-resolution", type=positive_int, default=d.single_resolution,
                    help="texels per side of the single baseline map")
+    g.add_argument("--lamp-resolution", type=positive_int, default=d.lamp_resolution,
+                   help="texels per side of a baseline's map (or cube face) for a spot or "
+                        "point light with a range")
     g.add_argument("--cascades", type=positive_int, default=d.cascades,
                    help="csm: number of cascades")
     g.add_argument("--cascade-lambda", type=unit, default=d.cascade_lambda,
@@ -230,7 +233,8 @@ def shadow_settings(args) -> ShadowSettings:
         character_resolution=args.character_resolution,
         min_character_resolution=args.min_character_resolution,
         character_texels_per_pixel=args.character_texels_per_pixel,
-        single_resolution=args.single_resolution, normal_bias=args.normal_bias,
+        single_resolution=args.single_resolution, lamp_resolution=args.lamp_resolution,
+        normal_bias=args.normal_bias,
         depth_bias=args.depth_bias, slope_bias=args.slope_bias,
         pcf=args.pcf if args.pcf is not None else args.command == "play", grid=args.grid,
         cascades=args.cascades, cascade_lambda=args.cascade_lambda,

@@ -22,14 +22,15 @@ import numpy as np
 
 LIGHT_KINDS = {"directional": 0, "spot": 1, "point": 2}
 GRID_NONE, GRID_ORTHO, GRID_OCTAHEDRAL = 0, 1, 2
-DEBUG_VIEWS = {"none": 0, "map": 1, "map-count": 2, "cache": 3}
+DEBUG_VIEWS = {"none": 0, "map": 1, "map-count": 2, "cache": 3, "shadowed-lights": 4}
 TRACE_LIGHT_SEGMENT, TRACE_LIGHT_POINT, TRACE_LIGHT_DIRECTIONAL = 0, 1, 2
 
 # Binding points of every block. Uniform and storage blocks are numbered apart, as GL numbers
 # them, and each kind stays below the GL 4.3 minimum of its binding points (36 uniform, 8
 # storage). The frame's storage buffers keep 0-2 for the whole frame; the tracer's and the
 # culler's take 3-7 in turn, each binding its own before it dispatches.
-UNIFORM_BINDINGS = {"Frame": 0, "ShadowMaps": 1, "TraceParams": 2, "CullParams": 3}
+UNIFORM_BINDINGS = {"Frame": 0, "ShadowMaps": 1, "TraceParams": 2, "CullParams": 3,
+                    "Lights": 4}
 STORAGE_BINDINGS = {
     "MapGrid": 0, "Models": 1, "CharacterMaps": 2,
     "Triangles": 3, "StaticCells": 4, "DynamicCells": 5, "TriState": 6, "Results": 7,
@@ -69,26 +70,47 @@ MAP_DTYPE = np.dtype([
 ])
 assert MAP_DTYPE.itemsize == 128
 
-# What the whole frame shares (uniform block Frame).
+# What the whole frame shares (uniform block Frame). The lights are in the Lights block.
 FRAME_DTYPE = np.dtype([
     ("view_proj", "<f4", (4, 4)),  # camera: world -> clip
-    ("light_rot", "<f4", (4, 4)),  # directional light: world -> light-space axes
     ("camera_pos", "<f4", 3),
-    ("map_count", "<i4"),
-    ("light_dir", "<f4", 3),       # the way the light travels (directional, spot)
     ("floor_count", "<i4"),        # objects below this index are floors
-    ("light_pos", "<f4", 3),       # spot and point lights
-    ("cos_half_cone", "<f4"),      # spot light
     ("normal_bias", "<f4"),        # texels, times sin(angle to the light)
     ("depth_bias", "<f4"),         # texels
     ("slope_bias", "<f4"),         # texels, times tan(angle to the light)
     ("max_slope", "<f4"),          # cap on that tan
-    ("grid_rect", "<f4", 4),       # light-space rectangle the map grid covers
     ("first_character", "<i4"),    # object index of the first character
-    ("grid_size", "<i4"),          # map grid cells per side
+    ("light_count", "<i4"),        # records in the Lights block
+    ("dump_light", "<i4"),         # the light whose visibility the G-buffer keeps
+    ("ambient", "<f4"),            # the sky's share of the ambient light
+    ("tile_base", "<i4"),          # where the screen tiles' light lists start in MapGrid
+    ("tile_size", "<i4"),          # pixels per side of a tile
+    ("tiles_x", "<i4"),            # tiles per row
+    ("_pad0", "<i4"),
+])
+assert FRAME_DTYPE.itemsize == 128
+
+# One hard-shadow light of many (struct LightRecord, an element of the Lights uniform block):
+# where its maps are, and how its map grid is read.
+LIGHT_DTYPE = np.dtype([
+    ("light_rot", "<f4", (4, 4)),  # directional: world -> light-space axes
+    ("position", "<f4", 3),        # spot and point
+    ("kind", "<i4"),               # LIGHT_KINDS
+    ("direction", "<f4", 3),       # directional and spot: the way the light travels
+    ("cos_half_cone", "<f4"),      # spot; -1 otherwise
+    ("radiance", "<f4", 3),        # colour times intensity, linear RGB
+    ("range", "<f4"),              # metres; 0: unlimited
+    ("grid_rect", "<f4", 4),       # light-space rectangle its map grid covers
+    ("grid_size", "<i4"),          # its map grid's cells per side
+    ("grid_mode", "<i4"),          # GRID_*
+    ("grid_base", "<i4"),          # where its grid starts in the MapGrid buffer
+    ("first_map", "<i4"),          # its maps: u_maps[first_map, first_map + map_count)
+    ("map_count", "<i4"),
+    ("first_character_map", "<i4"),  # its entries of the CharacterMaps buffer
     ("_pad0", "<i4", 2),
 ])
-assert FRAME_DTYPE.itemsize == 224
+assert LIGHT_DTYPE.itemsize == 160
+MAX_LIGHTS = 64  # light records in the Lights block (the scene loader's limit)
 
 # The soft-shadow tracer's parameters (uniform block TraceParams).
 TRACE_DTYPE = np.dtype([
@@ -257,12 +279,16 @@ GROUPS: dict[str, list[Struct | Block]] = {
         Block("uniform", "Frame", FRAME_DTYPE, instance="u_frame"),
         Struct("ShadowMap", MAP_DTYPE, "std140"),
         Block("uniform", "ShadowMaps", array=("ShadowMap", "u_maps", "MAX_MAPS")),
+        Struct("LightRecord", LIGHT_DTYPE, "std140"),
+        Block("uniform", "Lights", array=("LightRecord", "u_lights", "MAX_LIGHTS")),
         # Light-space grid of map lists: u_grid[0 .. n*n] are offsets into the same array,
-        # where the map indices of each cell follow (game/shadows/map_grid.py).
+        # where the map indices of each cell follow (game/shadows/map_grid.py); every light's
+        # grid in turn, then the screen tiles' light lists in the same form
+        # (game/render/frame_blocks.py).
         Block("buffer", "MapGrid", array=("int", "u_grid", ""), access="readonly"),
         # Model matrices of the characters, indexed by object - u_frame.first_character.
         Block("buffer", "Models", array=("mat4", "u_models", ""), access="readonly"),
-        # Per character, the index of its map in u_maps this frame (-1: none).
+        # Per light, then per character, the index of its map in u_maps this frame (-1: none).
         Block("buffer", "CharacterMaps", array=("int", "u_character_maps", ""),
               access="readonly"),
     ],

@@ -6,14 +6,15 @@ a bug in the renderer cannot hide itself by being repeated here.
 
 For every pixel that sees geometry one shadow ray leaves the dumped world position (pushed off the
 surface along the dumped normal) toward the light and asks Embree whether anything is in the way
-(``rtcOccluded``, an any-hit query, cheaper than a closest hit). ``shadow_error`` then turns a
-method's ``lit`` image and this reference into the project's accuracy number.
+(``rtcOccluded``, an any-hit query, cheaper than a closest hit); a scene of several lights casts
+one ray per light through the same Embree scene. ``shadow_error`` then turns a method's ``lit``
+image (or one layer of ``lit_lights``) and this reference into the project's accuracy number.
 """
 
 from __future__ import annotations
 
 import io
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -36,7 +37,8 @@ RAY_OFFSET_DISTANCE = 1e-5
 # arrays of at most this many 8-byte values per pixel (position and normal have 3 float32s,
 # lit_lights one per light), or at most MAX_SMALL_BYTES (the names, the matrices).
 MAX_DUMP_SIDE = 16384
-MAX_LAYERS_PER_PIXEL = 16
+MAX_DUMP_LIGHTS = 64   # the scene format's most lights: lit_lights' last axis
+MAX_LAYERS_PER_PIXEL = MAX_DUMP_LIGHTS * np.dtype(np.float32).itemsize // 8
 MAX_SMALL_BYTES = 64 * 2**20
 MAX_DUMP_BYTES = 4 * 2**30   # all arrays together: an 8192x8192 dump is 1.6 GiB
 
@@ -59,14 +61,17 @@ class Light:
     """The hard-shadow light as the reference needs it.
 
     ``direction`` is the way the light travels (directional and spot), ``position`` where it sits
-    (spot and point), ``cone`` the spot's full cone angle in degrees. The same keys as the scene
-    file's ``[light]`` table, so ``Light.from_mapping(toml["light"])`` works.
+    (spot and point), ``cone`` the spot's full cone angle in degrees, ``range`` the distance in
+    metres beyond which a spot or point light lights nothing (None: no limit). The same keys as a
+    scene file's light table, so ``Light.from_mapping(toml["light"])`` works. Colour and
+    intensity are left out: they scale the light, they do not move its shadows.
     """
 
     kind: str
     direction: tuple[float, float, float] | None = None
     position: tuple[float, float, float] | None = None
     cone: float | None = None
+    range: float | None = None
 
     def __post_init__(self) -> None:
         if self.kind not in ("directional", "spot", "point"):
@@ -75,6 +80,11 @@ class Light:
             raise ValueError("a directional light needs a direction")
         if self.kind in ("spot", "point") and self.position is None:
             raise ValueError(f"a {self.kind} light needs a position")
+        if self.range is not None:
+            if self.kind == "directional":
+                raise ValueError("a directional light has no range")
+            if not self.range > 0.0:
+                raise ValueError(f"a light's range must be positive, got {self.range}")
 
     @classmethod
     def from_mapping(cls, light: Mapping[str, Any]) -> Light:
@@ -87,12 +97,16 @@ class Light:
             x, y, z = (float(v) for v in value)
             return (x, y, z)
 
-        cone = light.get("cone")
+        def number(key: str) -> float | None:
+            value = light.get(key)
+            return None if value is None else float(value)
+
         return cls(
             kind=str(light["kind"]),
             direction=vec("direction"),
             position=vec("position"),
-            cone=None if cone is None else float(cone),
+            cone=number("cone"),
+            range=number("range"),
         )
 
 
@@ -106,7 +120,7 @@ def _as_light(light: Light | Mapping[str, Any] | Any) -> Light:
         return light
     if isinstance(light, Mapping):
         return Light.from_mapping(light)
-    fields = ("kind", "direction", "position", "cone")
+    fields = ("kind", "direction", "position", "cone", "range")
     return Light.from_mapping({key: getattr(light, key, None) for key in fields})
 
 
@@ -156,7 +170,11 @@ def _check_declared_sizes(data) -> None:
         size = float(np.prod(shape, dtype=np.float64)) * dtype.itemsize
         expected = {"position": (h, w, 3), "normal": (h, w, 3), "lit": (h, w),
                     "object": (h, w), "soft": (h, w)}.get(key)
-        if size > limit or (expected is not None and shape != expected):
+        wrong_shape = expected is not None and shape != expected
+        if key == "lit_lights":  # one layer per light
+            wrong_shape = not (len(shape) == 3 and shape[:2] == (h, w)
+                               and 1 <= shape[2] <= MAX_DUMP_LIGHTS)
+        if size > limit or wrong_shape:
             raise ValueError(f"array {key!r} declares {shape} of {dtype}, not what a "
                              f"{w}x{h} frame holds")
         total += size
@@ -219,35 +237,41 @@ def _n_dot_l(light: Light, position: np.ndarray, normal: np.ndarray) -> np.ndarr
     return np.einsum("ij,ij->i", flat_n, direction).reshape(position.shape[:-1])
 
 
-def _occluded(
-    mesh: trimesh.Trimesh, origins: np.ndarray, directions: np.ndarray, tfar: np.ndarray
-) -> np.ndarray:
-    """Embree any-hit query: does each ray segment [0, tfar) hit the mesh?"""
-    try:
-        from embreex import rtcore_scene
-        from embreex.mesh_construction import TriangleMesh
-    except ImportError as error:
-        raise RuntimeError(EMBREE_HINT) from error
+class _Caster:
+    """The occluders as one Embree scene, built on first use and cast through for every light."""
 
-    # Embree works in float32: recentre on the scene so coordinates stay small and precise.
-    centre = mesh.bounds.mean(axis=0)
-    scene = rtcore_scene.EmbreeScene()
-    TriangleMesh(
-        scene=scene,
-        vertices=(mesh.vertices - centre).astype(np.float32),
-        indices=np.asarray(mesh.faces, dtype=np.int32),
-    )
-    # A directional light has no far end: clamp inf to the largest float32 rather than rely on
-    # how inf survives the cast and Embree's ray setup.
-    far = np.minimum(tfar, np.finfo(np.float32).max).astype(np.float32)
-    hits = scene.run(
-        (origins - centre).astype(np.float32),
-        np.ascontiguousarray(directions, dtype=np.float32),
-        dists=far,
-        query="OCCLUDED",
-    )
-    # embreex answers an OCCLUDED query with 0 for a blocked ray and -1 for a free one.
-    return np.asarray(hits) != -1
+    def __init__(self, mesh: trimesh.Trimesh) -> None:
+        self.mesh = mesh
+        self._scene = None
+        # Embree works in float32: recentre on the scene so coordinates stay small and precise.
+        self._centre = mesh.bounds.mean(axis=0) if len(mesh.faces) else np.zeros(3)
+
+    def occluded(self, origins: np.ndarray, directions: np.ndarray,
+                 tfar: np.ndarray) -> np.ndarray:
+        """Embree any-hit query: does each ray segment [0, tfar) hit the mesh?"""
+        if self._scene is None:
+            try:
+                from embreex import rtcore_scene
+                from embreex.mesh_construction import TriangleMesh
+            except ImportError as error:
+                raise RuntimeError(EMBREE_HINT) from error
+            self._scene = rtcore_scene.EmbreeScene()
+            TriangleMesh(
+                scene=self._scene,
+                vertices=(self.mesh.vertices - self._centre).astype(np.float32),
+                indices=np.asarray(self.mesh.faces, dtype=np.int32),
+            )
+        # A directional light has no far end: clamp inf to the largest float32 rather than rely
+        # on how inf survives the cast and Embree's ray setup.
+        far = np.minimum(tfar, np.finfo(np.float32).max).astype(np.float32)
+        hits = self._scene.run(
+            (origins - self._centre).astype(np.float32),
+            np.ascontiguousarray(directions, dtype=np.float32),
+            dists=far,
+            query="OCCLUDED",
+        )
+        # embreex answers an OCCLUDED query with 0 for a blocked ray and -1 for a free one.
+        return np.asarray(hits) != -1
 
 
 def hard_visibility(
@@ -266,15 +290,32 @@ def hard_visibility(
         (H, W, 3) dumped world positions and unit normals; NaN where no geometry.
     light
         A ``Light``, a ``[light]``-like mapping or an object with the same attributes. Spot
-        lights are treated as point lights: this is visibility, and the cone is a shading
-        factor, not an occluder.
+        lights are treated as point lights, and a light's range is not applied: this is
+        visibility, and the cone and the range end the light's reach, they occlude nothing
+        (``shadow_error`` leaves out the pixels they do not reach).
 
     Returns
     -------
     (H, W) float32: 1 lit, 0 shadowed (occluded, or facing away from the light: N.L <= 0, the
     light cannot reach the surface), NaN where there is no geometry.
     """
-    light = _as_light(light)
+    return hard_visibility_lights(mesh, position, normal, [light])[0]
+
+
+def hard_visibility_lights(
+    mesh: trimesh.Trimesh,
+    position: np.ndarray,
+    normal: np.ndarray,
+    lights: Sequence[Light | Mapping[str, Any] | Any],
+) -> list[np.ndarray]:
+    """:func:`hard_visibility` toward each of ``lights``, through one Embree scene built once."""
+    caster = _Caster(mesh)
+    return [_visibility(caster, position, normal, _as_light(light)) for light in lights]
+
+
+def _visibility(caster: _Caster, position: np.ndarray, normal: np.ndarray,
+                light: Light) -> np.ndarray:
+    mesh = caster.mesh
     shape = position.shape[:-1]
     flat_p = position.reshape(-1, 3).astype(np.float64)
     flat_n = normal.reshape(-1, 3).astype(np.float64)
@@ -296,7 +337,7 @@ def hard_visibility(
         # Aim from the pushed-off origin and stop at the light: only hits nearer than a point
         # light count, anything behind it cannot shadow.
         direction, distance = _to_light(light, origins)
-        blocked = _occluded(mesh, origins, direction, distance)
+        blocked = caster.occluded(origins, direction, distance)
         result[facing] = np.where(blocked, 0.0, 1.0)
     lit[valid] = result
     return lit.reshape(shape)
@@ -312,10 +353,11 @@ def shadow_error(
 ) -> dict[str, Any]:
     """The accuracy metric: misclassified pixels per pixel that either side shadows.
 
-    Only pixels with geometry, with N.L > ``min_ndotl`` and, for a spot light with a ``cone``,
-    inside the cone are considered: elsewhere the light does not reach and a method's ``lit`` is
-    free to say anything. A pixel is misclassified when the method and the reference disagree about
-    ``lit >= 0.5``; a NaN in ``lit_method`` where there is geometry reads as shadowed.
+    Only pixels with geometry, with N.L > ``min_ndotl``, for a spot light with a ``cone`` inside
+    the cone and, for a light with a ``range``, within that distance of the light are considered:
+    elsewhere the light does not reach and a method's ``lit`` is free to say anything. A pixel
+    is misclassified when the method and the reference disagree about ``lit >= 0.5``; a NaN in
+    ``lit_method`` where there is geometry reads as shadowed.
 
     Returns ``{"error", "misclassified", "shadowed", "shadowed_either", "considered", "mask"}``:
     ``shadowed`` counts the pixels the reference shadows, ``shadowed_either`` those that the
@@ -331,6 +373,8 @@ def shadow_error(
         considered = has_geometry & (_n_dot_l(light, position, normal) > min_ndotl)
         if light.kind == "spot" and light.cone is not None and light.direction is not None:
             considered &= _inside_cone(light, position)
+        if light.range is not None:
+            considered &= _within_range(light, position)
         method_lit = lit_method >= 0.5
         reference_lit = lit_reference >= 0.5
     mask = considered & (method_lit != reference_lit)
@@ -354,3 +398,10 @@ def _inside_cone(light: Light, position: np.ndarray) -> np.ndarray:
     offset = position.astype(np.float64) - np.asarray(light.position, dtype=np.float64)
     cos_angle = (offset @ axis) / np.linalg.norm(offset, axis=-1)
     return cos_angle >= np.cos(np.radians(0.5 * float(light.cone)))
+
+
+def _within_range(light: Light, position: np.ndarray) -> np.ndarray:
+    """Whether each (H, W, 3) point lies nearer to a spot or point light than its range: the
+    light lights nothing at its range and beyond."""
+    offset = position.astype(np.float64) - np.asarray(light.position, dtype=np.float64)
+    return np.linalg.norm(offset, axis=-1) < float(light.range)

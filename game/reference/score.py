@@ -1,18 +1,26 @@
 """The one scoring function: a frame's hard-shadow visibility against Embree shadow rays.
 
 ``verify``, the benchmark and the tests all score frames here, so they cannot disagree on what
-the shadow error is.
+the shadow error is. A frame of several lights is scored light by light: each layer of the
+dump's ``lit_lights`` against shadow rays toward its own light.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import trimesh
 
-from game.reference.hard import hard_visibility, load_frame, load_geometry, shadow_error
+from game.reference.hard import (
+    hard_visibility,
+    hard_visibility_lights,
+    load_frame,
+    load_geometry,
+    shadow_error,
+)
 
 
 def score_frame(lit: np.ndarray, position: np.ndarray, normal: np.ndarray,
@@ -32,6 +40,48 @@ def score_dump(npz_path: str | Path, light) -> dict[str, Any]:
     frame = load_frame(npz_path)
     occluders = load_geometry(npz_path.with_suffix(".glb"))
     return score_frame(frame["lit"], frame["position"], frame["normal"], occluders, light)
+
+
+def light_layers(frame: dict[str, Any]) -> np.ndarray:
+    """The (H, W, L) visibility of each light that a loaded dump holds, in file order: its
+    ``lit_lights``, or its ``lit`` as the one layer of light 0 for a dump without them."""
+    if "lit_lights" in frame:
+        return frame["lit_lights"]
+    return frame["lit"][..., None]
+
+
+def score_dump_lights(npz_path: str | Path, lights: Sequence[Any]) -> dict[str, Any]:
+    """The shadow error of every light of one ``--dump`` frame.
+
+    Layer k of the dump's ``lit_lights`` is scored against Embree shadow rays toward
+    ``lights[k]``, all through one Embree scene. A dump without ``lit_lights`` holds light 0
+    alone, as ``lit``, and only that light is scored.
+
+    Returns ``{"lit": ..., "lights": [...]}``: :func:`score_frame`'s dict for the frame's ``lit``
+    against light 0 (what :func:`score_dump` gives), and one such dict per layer.
+
+    Raises
+    ------
+    ValueError
+        When ``lit_lights`` holds another number of lights than ``lights``.
+    """
+    if not lights:
+        raise ValueError("a frame needs at least one light to score")
+    npz_path = Path(npz_path)
+    frame = load_frame(npz_path)
+    layers = light_layers(frame)
+    if "lit_lights" in frame and layers.shape[-1] != len(lights):
+        raise ValueError(f"'lit_lights' holds {layers.shape[-1]} light(s) and the scene has "
+                         f"{len(lights)}")
+    lights = list(lights)[:layers.shape[-1]]
+    occluders = load_geometry(npz_path.with_suffix(".glb"))
+    position, normal = frame["position"], frame["normal"]
+    exact = hard_visibility_lights(occluders, position, normal, lights)
+    scores = [{**shadow_error(layers[..., k], exact[k], position, normal, light),
+               "exact": exact[k]} for k, light in enumerate(lights)]
+    lit = {**shadow_error(frame["lit"], exact[0], position, normal, lights[0]),
+           "exact": exact[0]}
+    return {"lit": lit, "lights": scores}
 
 
 def recorded_scene(npz_path: str | Path) -> tuple[str, str, str] | None:

@@ -1,6 +1,6 @@
 """The blocks every pass of a frame reads, filled from the frame's plan and view.
 
-The uniform blocks Frame and ShadowMaps and the storage buffers MapGrid, Models and
+The uniform blocks Frame, ShadowMaps and Lights and the storage buffers MapGrid, Models and
 CharacterMaps (declared in game/gpu/blocks.py) are written once per frame and bound once; the
 shadow-map pass, the culling pass, the shading pass and the soft composite all read them.
 """
@@ -13,11 +13,12 @@ import numpy as np
 
 from game import transforms
 from game.gpu import blocks
-from game.gpu.blocks import FRAME_DTYPE, MAP_DTYPE
+from game.gpu.blocks import FRAME_DTYPE, LIGHT_DTYPE, MAP_DTYPE
 from game.render.frame import View
-from game.scene.geometry import PackedGeometry
+from game.scene.geometry import PackedGeometry, srgb_to_linear
 from game.scene.model import Light
 from game.shadows.fit import light_rotation_of
+from game.shadows.lights import LightSpan
 from game.shadows.map_grid import MapGrid
 from game.shadows.plan import (
     KIND_ALL,
@@ -31,8 +32,10 @@ from game.shadows.plan import (
 
 
 def shader_defines(ctx) -> dict:
-    """The #defines every shader of the frame is built with."""
-    d = {"MAX_MAPS": blocks.max_maps(ctx), "GRID_NONE": blocks.GRID_NONE,
+    """The #defines every shader of the frame is built with (MANY_LIGHTS 0: the shading pass
+    sets its own)."""
+    d = {"MAX_MAPS": blocks.max_maps(ctx), "MAX_LIGHTS": blocks.MAX_LIGHTS, "MANY_LIGHTS": 0,
+         "GRID_NONE": blocks.GRID_NONE,
          "GRID_ORTHO": blocks.GRID_ORTHO, "GRID_OCTAHEDRAL": blocks.GRID_OCTAHEDRAL,
          "KIND_CASCADE": KIND_CASCADE, "KIND_CLUMP": KIND_CLUMP, "KIND_FALLBACK": KIND_FALLBACK,
          "KIND_CHARACTER": KIND_CHARACTER, "KIND_ALL": KIND_ALL}
@@ -42,36 +45,84 @@ def shader_defines(ctx) -> dict:
     return d
 
 
+# A light of colour [1, 1, 1] and intensity 1 lights a surface facing it with this radiance.
+LIGHT_RADIANCE = 1.6
+
+
+def light_radiance(light: Light) -> np.ndarray:
+    """A light's colour times its intensity, linear RGB."""
+    return srgb_to_linear(np.asarray(light.color, float)) * light.intensity * LIGHT_RADIANCE
+
+
+def ambient_share(lights: list[Light]) -> float:
+    """How bright the sky's ambient light is: that of the brightest directional light (the sun,
+    or a dim moon at night), at most 1; a scene lit only by lamps keeps the full ambient."""
+    sky = [light.intensity * float(srgb_to_linear(np.asarray(light.color, float)).max())
+           for light in lights if light.kind == "directional"]
+    return min(1.0, max(sky)) if sky else 1.0
+
+
 class FrameBlocks:
     """The frame's uniform and storage buffers. Owns them; they grow in place."""
 
-    def __init__(self, ctx, n_characters: int):
+    def __init__(self, ctx, n_characters: int, n_lights: int = 1):
         self.max_maps = blocks.max_maps(ctx)
         self.frame = ctx.buffer(reserve=FRAME_DTYPE.itemsize)
         self.maps = ctx.buffer(reserve=MAP_DTYPE.itemsize * self.max_maps)
+        self.lights = ctx.buffer(reserve=LIGHT_DTYPE.itemsize * blocks.MAX_LIGHTS)
         self.grid = ctx.buffer(reserve=4 * 1024)
         self.models = ctx.buffer(reserve=64 * max(1, n_characters))
-        self.character_maps = ctx.buffer(reserve=4 * max(1, n_characters))
+        self.n_lights = n_lights
+        self.character_maps = ctx.buffer(reserve=4 * max(1, n_characters * n_lights))
+        self._frame_data = np.zeros(1, FRAME_DTYPE)
 
-    def upload(self, plan: ShadowPlan, view: View, grid: MapGrid, models: np.ndarray,
-               geom: PackedGeometry, light: Light, settings: ShadowSettings) -> None:
-        """Fill every block for this frame."""
+    def upload(self, plan: ShadowPlan, spans: list[LightSpan], view: View,
+               grids: list[MapGrid], models: np.ndarray, geom: PackedGeometry,
+               lights: list[Light], settings: ShadowSettings, enabled=None) -> None:
+        """Fill every block for this frame: ``spans`` and ``grids`` are each light's maps and
+        map grid; a light not ``enabled`` (default: all are) gives no light this frame."""
         if len(plan.maps) > self.max_maps:
             raise RuntimeError(f"{len(plan.maps)} maps exceed the uniform block ({self.max_maps})")
+        n = geom.n_characters
         if len(models):
             self.models.write(transforms.gl_bytes(models))
-            character_maps = np.full(geom.n_characters, -1, np.int32)
-            for index, rec in enumerate(plan.maps):
-                if rec.kind == KIND_CHARACTER:
-                    for obj in rec.objects:  # a shared map holds several
-                        character_maps[obj - geom.first_character] = index
+            character_maps = np.full((len(spans), n), -1, np.int32)
+            for k, span in enumerate(spans):
+                for index in range(span.first_map, span.first_map + span.map_count):
+                    rec = plan.maps[index]
+                    if rec.kind == KIND_CHARACTER:
+                        for obj in rec.objects:  # a shared map holds several
+                            character_maps[k, obj - geom.first_character] = index
             self.character_maps.write(character_maps.tobytes())
         self.maps.write(self._maps(plan).tobytes())
-        self.frame.write(self._frame(view, len(plan.maps), grid, geom, light, settings).tobytes())
-        data = grid.data.astype(np.int32)
+        data, bases = _joined(grids, spans)
+        tile_base = len(data)
+        tiles_x, tiles = tile_lights(lights, view, tile_base, enabled)
+        data = np.concatenate([data, tiles])
+        records = np.zeros(blocks.MAX_LIGHTS, LIGHT_DTYPE)
+        for k, (light, span, grid) in enumerate(zip(lights, spans, grids, strict=True)):
+            records[k] = _light_record(light, span, grid, bases[k], k * n,
+                                       enabled is None or enabled[k])
+        self.lights.write(records[:max(1, len(lights))].tobytes())
+        f = self._frame_data
+        f["view_proj"] = (view.proj @ view.view).T
+        f["camera_pos"] = np.linalg.inv(view.view)[:3, 3]
+        f["floor_count"] = geom.n_floors
+        f["normal_bias"], f["depth_bias"] = settings.normal_bias, settings.depth_bias
+        f["slope_bias"], f["max_slope"] = settings.slope_bias, settings.max_slope
+        f["first_character"] = geom.first_character
+        f["light_count"] = len(lights)
+        f["ambient"] = ambient_share(lights)
+        f["tile_base"], f["tile_size"], f["tiles_x"] = tile_base, TILE_PIXELS, tiles_x
+        self.frame.write(f.tobytes())
         if self.grid.size < data.nbytes:
             self.grid.orphan(data.nbytes)
         self.grid.write(data.tobytes())
+
+    def keep_visibility_of(self, light: int) -> None:
+        """Make the G-buffer keep light ``light``'s visibility (the dumps' ``lit_lights``)."""
+        self._frame_data["dump_light"] = light
+        self.frame.write(self._frame_data.tobytes())
 
     @staticmethod
     def _maps(plan: ShadowPlan) -> np.ndarray:
@@ -97,34 +148,13 @@ class FrameBlocks:
         block["inv_depth_range"][:n] = 1.0 / (np.array([f.far for f in fits]) - near)
         return block
 
-    def _frame(self, view: View, n_maps: int, grid: MapGrid, geom: PackedGeometry,
-               light: Light, s: ShadowSettings) -> np.ndarray:
-        light_rot = np.eye(4)  # directional lights only; the identity for others
-        rotation = light_rotation_of(light)
-        if rotation is not None:
-            light_rot[:3, :3] = rotation
-        f = np.zeros(1, FRAME_DTYPE)
-        f["view_proj"] = (view.proj @ view.view).T
-        f["light_rot"] = light_rot.T
-        f["camera_pos"] = np.linalg.inv(view.view)[:3, 3]
-        f["map_count"] = n_maps
-        f["light_dir"] = light.direction if light.direction is not None else np.zeros(3)
-        f["floor_count"] = geom.n_floors
-        f["light_pos"] = light.position if light.position is not None else np.zeros(3)
-        f["cos_half_cone"] = math.cos(math.radians(light.cone / 2)) if light.cone else -1.0
-        f["normal_bias"], f["depth_bias"] = s.normal_bias, s.depth_bias
-        f["slope_bias"], f["max_slope"] = s.slope_bias, s.max_slope
-        f["grid_rect"] = grid.rect
-        f["first_character"] = geom.first_character
-        f["grid_size"] = grid.size
-        return f
-
     def bind(self) -> None:
         """Bind every block to its binding point (after the uploads: a grown buffer is bound
         as it is now)."""
         b = blocks.BINDINGS
         self.frame.bind_to_uniform_block(b["Frame"])
         self.maps.bind_to_uniform_block(b["ShadowMaps"])
+        self.lights.bind_to_uniform_block(b["Lights"])
         self.grid.bind_to_storage_buffer(b["MapGrid"])
         self.models.bind_to_storage_buffer(b["Models"])
         self.character_maps.bind_to_storage_buffer(b["CharacterMaps"])
@@ -132,13 +162,110 @@ class FrameBlocks:
     def characters_changed(self, n_characters: int) -> None:
         """Characters were added or removed: the per-character buffers, resized and zeroed."""
         n = max(1, n_characters)
-        for buffer, size in ((self.models, 64 * n), (self.character_maps, 4 * n)):
+        for buffer, size in ((self.models, 64 * n),
+                             (self.character_maps, 4 * max(1, n_characters * self.n_lights))):
             buffer.orphan(size)
             buffer.write(bytes(size))
 
     def gl_objects(self) -> int:
-        return 5
+        return 6
 
     def release(self) -> None:
-        for buffer in (self.frame, self.maps, self.grid, self.models, self.character_maps):
+        for buffer in (self.frame, self.maps, self.lights, self.grid, self.models,
+                       self.character_maps):
             buffer.release()
+
+
+TILE_PIXELS = 16  # a screen tile's side: a multiple of the 4 x 4 pixels llvmpipe shades at once
+
+
+def tile_lights(lights: list[Light], view: View, base: int, enabled=None
+                ) -> tuple[int, np.ndarray]:
+    """The lights that can reach each screen tile, as offsets (from ``base``, where the data
+    will start in the MapGrid buffer) then lists: tiles row by row from the bottom, as
+    gl_FragCoord counts them. A lamp's range is a sphere; it is listed for the tiles its
+    screen rectangle meets (every tile when the sphere reaches the camera's near plane). A
+    light without a range, and a directional one, is listed everywhere. With one light there
+    is no list to read: (1, empty offsets)."""
+    w, h = view.size
+    tiles_x, tiles_y = -(-w // TILE_PIXELS), -(-h // TILE_PIXELS)
+    if len(lights) == 1:
+        return 1, np.full(2, base, np.int32)
+    clip = view.proj @ view.view
+    reaches = np.zeros((tiles_y, tiles_x, len(lights)), bool)
+    for k, light in enumerate(lights):
+        if enabled is not None and not enabled[k]:
+            continue
+        rect = _screen_rect(light, clip, w, h)
+        if rect is not None:
+            x0, y0, x1, y1 = (int(v) // TILE_PIXELS for v in rect)
+            reaches[y0:y1 + 1, x0:x1 + 1, k] = True
+    reaches = reaches.reshape(tiles_x * tiles_y, len(lights))
+    counts = reaches.sum(axis=1)
+    offsets = base + len(counts) + 1 + np.concatenate([[0], np.cumsum(counts)])
+    lists = np.nonzero(reaches)[1]  # tile by tile, each tile's lights in file order
+    return tiles_x, np.concatenate([offsets, lists]).astype(np.int32)
+
+
+def _screen_rect(light: Light, clip: np.ndarray, w: int, h: int) -> tuple | None:
+    """Pixels (x0, y0, x1, y1), y from the bottom, that a lamp's range sphere may cover; the
+    whole screen for a light without a range; None when the sphere is off screen."""
+    if light.range is None or light.position is None:
+        return 0, 0, w - 1, h - 1
+    r = light.range
+    corners = light.position + r * np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1)
+                                             for z in (-1, 1)], float)
+    p = clip @ np.c_[corners, np.ones(8)].T
+    if np.any(p[3] <= 1e-6):
+        return 0, 0, w - 1, h - 1  # the sphere reaches the camera's plane
+    ndc = p[:2] / p[3]
+    if (np.all(ndc[0] < -1) or np.all(ndc[0] > 1) or np.all(ndc[1] < -1)
+            or np.all(ndc[1] > 1) or np.all(p[2] > p[3])):
+        return None
+    x = np.clip((ndc[0] * 0.5 + 0.5) * w, 0, w - 1)
+    y = np.clip((ndc[1] * 0.5 + 0.5) * h, 0, h - 1)
+    return x.min(), y.min(), x.max(), y.max()
+
+
+def _joined(grids: list[MapGrid], spans: list[LightSpan]) -> tuple[np.ndarray, list[int]]:
+    """Every light's map grid in one buffer, and where each starts. A grid's cell offsets
+    point into its own data and its lists hold its light's map indices: both are shifted."""
+    parts, bases, at = [], [], 0
+    for grid, span in zip(grids, spans, strict=True):
+        data = grid.data.astype(np.int32)
+        cells = grid.size * grid.size + 1
+        if at or span.first_map:
+            data = data.copy()
+            data[:cells] += at
+            data[cells:] += span.first_map
+        parts.append(data)
+        bases.append(at)
+        at += len(data)
+    return np.concatenate(parts), bases
+
+
+def _light_record(light: Light, span: LightSpan, grid: MapGrid, grid_base: int,
+                  first_character_map: int, enabled: bool) -> np.ndarray:
+    record = np.zeros(1, LIGHT_DTYPE)
+    light_rot = np.eye(4)  # directional lights only; the identity for others
+    rotation = light_rotation_of(light)
+    if rotation is not None:
+        light_rot[:3, :3] = rotation
+    record["light_rot"] = light_rot.T
+    record["position"] = light.position if light.position is not None else np.zeros(3)
+    record["kind"] = blocks.LIGHT_KINDS[light.kind]
+    record["direction"] = light.direction if light.direction is not None else np.zeros(3)
+    record["cos_half_cone"] = math.cos(math.radians(light.cone / 2)) if light.cone else -1.0
+    record["radiance"] = light_radiance(light) if enabled else np.zeros(3)
+    if not enabled:  # switched off in the window: its maps are not read either
+        span = LightSpan(span.first_map, 0, span.first_layer)
+        grid = MapGrid(blocks.GRID_NONE, grid.size, grid.rect, grid.data)
+    record["range"] = light.range or 0.0
+    record["grid_rect"] = grid.rect
+    record["grid_size"] = grid.size
+    record["grid_mode"] = grid.mode
+    record["grid_base"] = grid_base
+    record["first_map"] = span.first_map
+    record["map_count"] = span.map_count
+    record["first_character_map"] = first_character_map
+    return record[0]

@@ -19,20 +19,21 @@ from game.gpu.limits import GLLimits
 from game.gpu.timing import PassTimer
 from game.render.cull import TriangleCuller
 from game.render.frame import Frame, View
-from game.render.frame_blocks import FrameBlocks, shader_defines
+from game.render.frame_blocks import FrameBlocks, ambient_share, shader_defines
 from game.render.scene_buffers import SceneBuffers
 from game.render.scene_edits import SceneEdits
 from game.render.shading_pass import ShadingPass, Variant
 from game.render.shadow_pass import ShadowMapPass
-from game.render.target import FrameTarget
+from game.render.target import SKY, FrameTarget
 from game.render.traced_lighting import TracedLighting
 from game.scene.geometry import PackedGeometry
 from game.scene.model import Scene
-from game.shadows import map_grid, registry
+from game.shadows import map_grid
 from game.shadows.budget import fit_settings
-from game.shadows.method import VISIBILITY_TRACED
+from game.shadows.lights import LightShadows, LightSpan
+from game.shadows.method import VISIBILITY_TRACED, ShadowMethod
 from game.shadows.plan import ShadowPlan, ShadowSettings
-from game.soft.methods import TraceSettings
+from game.soft.methods import EXACT_HARD, TraceSettings, hard_light
 from game.soft.tracer import TraceResult
 
 
@@ -51,7 +52,9 @@ class Renderer(SceneEdits):
         # (game/render/cull.py); ``cull = False`` draws them all, with the same pixels.
         self.cull = cull
         self.last_plan: ShadowPlan | None = None  # for the overlay's map list
-        self.grids = map_grid.GridBuilder()
+        self.last_spans: list[LightSpan] = []       # each light's maps in it
+        self.grids = [map_grid.GridBuilder() for _ in scene.lights]
+        self.lights_on = [True] * len(scene.lights)  # the window switches lights off
         # The G-buffer is kept when the caller asks (dumps, soft shadows) and while the method
         # traces its visibility from it.
         self._gbuffer_asked = gbuffer
@@ -60,7 +63,7 @@ class Renderer(SceneEdits):
         self.shading = self.traced = self.target = None
         try:  # a part that fails (a refused setting, a driver limit) leaves none behind
             self.buffers = SceneBuffers(ctx, scene)
-            self.blocks = FrameBlocks(ctx, self.geom.n_characters)
+            self.blocks = FrameBlocks(ctx, self.geom.n_characters, len(scene.lights))
             defines = shader_defines(ctx)
             self.shadow_pass = ShadowMapPass(ctx, self.buffers, defines)
             if TriangleCuller.fits(len(self.buffers.layout.indices)):
@@ -69,6 +72,8 @@ class Renderer(SceneEdits):
             self.traced = TracedLighting(ctx, defines, scene, self.timer)
             self._set_method(settings or ShadowSettings())
             self.target = FrameTarget(ctx, size, self._gbuffer_needed())
+            # The sky is as bright as the sky lights: a moonlit night's is dark.
+            self.target.sky = tuple(c * ambient_share(scene.lights) ** (1 / 2.2) for c in SKY)
         except BaseException:
             self.release()
             raise
@@ -85,23 +90,32 @@ class Renderer(SceneEdits):
     @property
     def notes(self) -> list[str]:
         """How the settings and the method degraded to fit this GL and the budget."""
-        return self.fit_notes + self.method.notes
+        notes = self.fit_notes + self.shadows.notes
+        if self.method.visibility == VISIBILITY_TRACED and len(self.scene.lights) > 1:
+            notes = notes + [f"{self.settings.method}: the picture is lit by light 0 alone; "
+                             "the dumps hold every light's exact visibility"]
+        return notes
+
+    @property
+    def method(self) -> ShadowMethod:
+        """The first light's shadow method (each light has its own: :attr:`shadows`)."""
+        return self.shadows.methods[0]
 
     def _set_method(self, settings: ShadowSettings) -> None:
         self.settings, self.fit_notes = fit_settings(settings, self.limits,
                                                      self.geom.n_characters)
-        self.method = registry.create(self.geom, self.scene.light, self.settings,
-                                      self.limits.max_layers, self.limits.max_maps)
+        self.shadows = LightShadows(self.geom, self.scene.lights, self.settings,
+                                    self.limits.max_layers, self.limits.max_maps)
 
     def set_settings(self, settings: ShadowSettings) -> None:
         """Switch method or parameters; every map is planned (and cached) anew."""
         self._set_method(settings)
         self.target.remake(self.size, self._gbuffer_needed())
 
-    def set_light(self, light) -> None:
-        """Move the hard light: its maps are re-rendered on the next frame."""
-        self.scene.light = light
-        self.method.set_light(light)
+    def set_light(self, light, index: int = 0) -> None:
+        """Move hard light ``index``: its maps (only) are re-rendered on the next frame."""
+        self.scene.lights[index] = light
+        self.shadows.methods[index].set_light(light)
 
     def set_gbuffer(self, on: bool) -> None:
         """Keep the G-buffer (the tracer reads it) or drop it (it costs fill on llvmpipe); the
@@ -148,8 +162,8 @@ class Renderer(SceneEdits):
                     self.culler.run(self.size)
             with timer.measure("shade"):
                 s = self.settings
-                variant = Variant(self.target.gbuffer, blocks.LIGHT_KINDS[self.scene.light.kind],
-                                  s.pcf, grid_mode, blocks.DEBUG_VIEWS[self.debug_view])
+                variant = Variant.of(self.target.gbuffer, self.scene.lights, s.pcf, grid_mode,
+                                     blocks.DEBUG_VIEWS[self.debug_view])
                 self.shading.draw(self.target, self.shadow_pass.array, variant, self.culler,
                                   culled)
         frame = self._frame(plan, triangles, culled, read)
@@ -159,6 +173,8 @@ class Renderer(SceneEdits):
             self._composited = True
             if frame.gbuffer is not None:
                 frame.gbuffer["lit"] = result.visibility
+                if "lit_lights" in frame.gbuffer:
+                    frame.gbuffer["lit_lights"] = self._traced_lights(result.visibility, models)
         if soft is not None:
             gbuffer_ms = frame.ms.get("total", 0.0)
             frame.soft = self.traced.light_frame(frame, self.target, self.geom, models, soft,
@@ -172,22 +188,28 @@ class Renderer(SceneEdits):
     def _plan(self, models: np.ndarray, view: View) -> tuple[ShadowPlan, int]:
         """The method's plan for this frame, in the blocks; and the map grid's mode."""
         # The array first: making it anew loses every cached layer.
-        if self.shadow_pass.prepare(self.method.resolution, self.method.layers):
-            self.method.mark_rendered_lost()
-        plan = self.method.plan(models, view)
+        if self.shadow_pass.prepare(self.shadows.resolution, self.shadows.layers):
+            self.shadows.mark_rendered_lost()
+        plan, spans = self.shadows.plan(models, view)
         if self.buffers.order_statics(plan.static_pieces) and self.culler is not None:
             self.culler.set_layout()
-        s, light = self.settings, self.scene.light
+        s, lights = self.settings, self.scene.lights
         # How far the shader may look from a fragment, in texels: the bias offsets (as in
         # shaders/shadow.glsl) plus one PCF tap and one for rounding.
         reach = s.normal_bias + s.depth_bias + s.slope_bias * s.max_slope + 2.0
-        grid = self.grids.build([m.fit for m in plan.maps], light.kind, light.position, s.grid,
-                                [m.cover for m in plan.maps], reach,
-                                steady=min(plan.render_dynamic, default=len(plan.maps)))
-        self.blocks.upload(plan, view, grid, models, self.geom, light, s)
+        grids = []
+        for light, span, builder in zip(lights, spans, self.grids, strict=True):
+            maps = plan.maps[span.first_map:span.first_map + span.map_count]
+            dynamic = [i - span.first_map for i in plan.render_dynamic
+                       if span.first_map <= i < span.first_map + span.map_count]
+            grids.append(builder.build([m.fit for m in maps], light.kind, light.position,
+                                       s.grid, [m.cover for m in maps], reach,
+                                       steady=min(dynamic, default=len(maps))))
+        self.blocks.upload(plan, spans, view, grids, models, self.geom, lights, s,
+                           self.lights_on)
         self.blocks.bind()
-        self.last_plan = plan
-        return plan, grid.mode
+        self.last_plan, self.last_spans = plan, spans
+        return plan, grids[0].mode
 
     def _frame(self, plan: ShadowPlan, triangles: int, culled: bool, read: bool) -> Frame:
         rendered = len(plan.render_static) + len(plan.render_dynamic)
@@ -203,12 +225,40 @@ class Renderer(SceneEdits):
             rgba = self.target.read_colour()
             covered = rgba[..., 3] > 0
             gbuffer = self.target.read_gbuffer(covered) if self.target.gbuffer else None
+        if gbuffer is not None and len(self.scene.lights) > 1:
+            gbuffer["lit_lights"] = self._lit_lights(gbuffer["lit"], covered)
         return Frame(
             image=np.ascontiguousarray(rgba[..., :3]), covered=covered,
             maps_sampled=np.maximum(rgba[..., 3].astype(np.int32) - 1, 0),
             ms=dict(self.timer.ms), gbuffer=gbuffer, gl_objects=self.gl_objects(),
             camera_triangles=(self.culler.kept() if culled
                               else len(self.buffers.layout.indices) // 3), **counts)
+
+    def _lit_lights(self, lit: np.ndarray, covered: np.ndarray) -> np.ndarray:
+        """(H, W, L) visibility of every light: the shading pass drawn again once per further
+        light, its G-buffer keeping that light's (outside the frame's timings; same picture)."""
+        out = np.empty((*lit.shape, len(self.scene.lights)), np.float32)
+        out[..., 0] = lit
+        s = self.settings
+        variant = Variant.of(True, self.scene.lights, s.pcf, blocks.GRID_NONE,
+                             blocks.DEBUG_VIEWS[self.debug_view])
+        for k in range(1, len(self.scene.lights)):
+            self.blocks.keep_visibility_of(k)
+            self.shading.draw(self.target, self.shadow_pass.array, variant, self.culler, False)
+            out[..., k] = self.target.read_gbuffer(covered)["lit"]
+        self.blocks.keep_visibility_of(0)
+        self.shading.draw(self.target, self.shadow_pass.array, variant, self.culler, False)
+        return out
+
+    def _traced_lights(self, first: np.ndarray, models: np.ndarray) -> np.ndarray:
+        """(H, W, L) exact visibility of every light (the traced method), outside the frame's
+        timings: one traced ray per pixel and light."""
+        out = np.empty((*first.shape, len(self.scene.lights)), np.float32)
+        out[..., 0] = first
+        for k, light in enumerate(self.scene.lights[1:], start=1):
+            out[..., k] = self.traced.trace(self.target, self.geom, models, EXACT_HARD,
+                                            hard_light(light)).visibility
+        return out
 
     def trace(self, t: float, settings: TraceSettings, light=None) -> TraceResult:
         """Trace over the last frame's G-buffer: ``light`` is a tracer light tuple, by default

@@ -14,7 +14,7 @@ from game.scene.model import Body, Character
 
 class SceneEdits:
     """The edit methods of :class:`~game.render.renderer.Renderer`, which provides ``scene``,
-    ``geom``, ``method`` and ``_geometry_changed``."""
+    ``geom``, ``shadows`` (every light's method) and ``_geometry_changed``."""
 
     def add_static(self, body: Body) -> list[int]:
         """Add a static object; returns the clumps whose maps the next frame re-renders."""
@@ -57,9 +57,12 @@ class SceneEdits:
         raise KeyError(f"no static named {name!r}")
 
     def _statics_changed(self, names: set[str]) -> list[int]:
+        """Every light's method re-plans; returns the first light's re-rendered clumps."""
         self._geometry_changed()
-        return self.method.update_statics(self.geom, names)
+        changed = [m.update_statics(self.geom, names) for m in self.shadows.methods]
+        return changed[0]
 
     def _characters_changed(self) -> None:
         self._geometry_changed()
-        self.method.update_characters(self.geom)
+        for method in self.shadows.methods:
+            method.update_characters(self.geom)

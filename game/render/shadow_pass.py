@@ -70,8 +70,9 @@ class ShadowMapPass:
         return triangles
 
     def draw_dynamic(self, plan: ShadowPlan) -> int:
-        """Render the plan's per-frame maps: in one layered draw when they are all character
-        maps and the GL allows it, else map by map. Returns the triangles drawn."""
+        """Render the plan's per-frame maps: in one layered draw (an instance per light) when
+        they are all character maps and the GL allows it, else map by map. Returns the
+        triangles drawn."""
         indices = plan.render_dynamic
         if not (self.layered and all(plan.maps[i].kind == KIND_CHARACTER for i in indices)):
             return self.draw_maps(plan, indices)
@@ -87,8 +88,9 @@ class ShadowMapPass:
         characters = [o for i in indices for o in plan.maps[i].objects]
         for plane in CLIP_PLANES:
             self.ctx.enable_direct(plane)
-        for first, count in self.buffers.layout.ranges(characters):
-            self.layered_vao.render(moderngl.TRIANGLES, vertices=count, first=first)
+        for first, count in self.buffers.layout.ranges(sorted(set(characters))):
+            self.layered_vao.render(moderngl.TRIANGLES, vertices=count, first=first,
+                                    instances=plan.lights)
         for plane in CLIP_PLANES:
             self.ctx.disable_direct(plane)
         return sum(self.buffers.geom.triangle_count(plan.maps[i].objects) for i in indices)

@@ -64,12 +64,14 @@ class FrameTarget:
             self.release()
             self._make(size, gbuffer)
 
+    sky = SKY  # the clear colour of this scene's frames (dimmer at night)
+
     def begin(self) -> None:
         """Draw into the whole target from here, cleared to the sky."""
         fb = self.framebuffer
         fb.use()
         fb.viewport = (0, 0, *self.size)
-        fb.clear(*SKY, 0.0)
+        fb.clear(*self.sky, 0.0)
 
     def read_colour(self) -> np.ndarray:
         """(H, W, 4) uint8, row 0 at the top."""

@@ -21,7 +21,7 @@ import difflib
 import functools
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, fields
 from typing import Any, NoReturn
 
 import numpy as np
@@ -56,6 +56,15 @@ WALKER_CLEARANCE = 0.9  # metres from a block edge: capsule radius + window fram
 WALKER_SPEED = (0.8, 2.2)  # metres per second
 FLOOR_THICKNESS = 0.2  # metres; the floor's top is y = 0
 
+LAMP_SETBACK = 0.3  # metres from a block's edge into the street: inside the walkers' clearance
+LAMP_POST_RADIUS = 0.08  # metres
+LAMP_HEIGHT = 4.6  # metres, the top of the post
+LAMP_ARM = 0.9  # metres the arm reaches over the street
+LAMP_HEAD = np.array([0.35, 0.2, 0.35])  # metres, the lamp's housing at the arm's end
+LAMP_LIGHT_DROP = 0.3  # metres from the arm down to the light, under the housing
+LAMP_COLOUR = (1.0, 0.78, 0.5)  # sodium-warm, sRGB
+LAMP_INTENSITY = 1.5
+
 
 @dataclass(frozen=True)
 class TownParams:
@@ -70,6 +79,9 @@ class TownParams:
     max_storeys: int = 8  # buildings have 2 ..= max_storeys storeys of 3 m
     detail: int = 1  # tessellation: window frames per facade and tree-crown subdivisions
     characters: int = 8  # walkers
+    lamps: int = 0  # street lamps, each a static post and a light
+    lamp_range: float = 16.0  # metres a lamp's light reaches
+    lamp_cone: float = 0.0  # 0: point lights; else spot lights pointing down with this cone
 
 
 # The most triangles the parameters may allow (triangle_bound, about twice what a town gets):
@@ -87,6 +99,9 @@ PARAM_LIMITS: dict[str, tuple[type, float, float]] = {
     "max_storeys": (int, MIN_STOREYS, 100),
     "detail": (int, 0, 5),
     "characters": (int, 0, 4096),
+    "lamps": (int, 0, 1024),
+    "lamp_range": (float, 1.0, 1000.0),
+    "lamp_cone": (float, 0.0, 179.0),
 }
 
 
@@ -100,13 +115,24 @@ class Walker:
     phase: float
 
 
+@dataclass(frozen=True)
+class Lamp:
+    """A generated street lamp's light: where it is, and which way a spot lamp points."""
+
+    position: np.ndarray
+    cone: float  # 0: a point light; else a spot light's full cone, pointing down
+    range: float
+
+
 @dataclass
 class Town:
-    """World-space meshes of the generated floors and statics, and the walkers."""
+    """World-space meshes of the generated floors and statics, the walkers and the lamps (whose
+    posts are the last statics)."""
 
     floors: list[trimesh.Trimesh]
     statics: list[trimesh.Trimesh]
     walkers: list[Walker]
+    lamps: list[Lamp] = field(default_factory=list)
 
     def static_triangles(self) -> int:
         """Triangles over all statics."""
@@ -380,4 +406,46 @@ def generate_town(params: TownParams | Mapping[str, Any]) -> Town:
         loop = 2.0 * ((x_hi - x_lo) + (z_hi - z_lo))
         walkers.append(Walker(mesh=walker_mesh.copy(), path=np.ascontiguousarray(path),
                               speed=float(speed), phase=float(rng.uniform(0.0, loop / speed))))
-    return Town(floors=[floor], statics=statics, walkers=walkers)
+    lamps = _lamps(rng, params, centres) if params.lamps else []
+    statics += [post for post, _ in lamps]
+    return Town(floors=[floor], statics=statics, walkers=walkers,
+                lamps=[lamp for _, lamp in lamps])
+
+
+def _lamps(rng: np.random.Generator, params: TownParams,
+           centres: np.ndarray) -> list[tuple[trimesh.Trimesh, Lamp]]:
+    """``params.lamps`` street lamps at places drawn from the blocks' edges: a post just off the
+    edge, an arm over the street and the light under its end. Drawn after everything else, so
+    a town without lamps is the town it always was."""
+    n, size = len(centres), params.block_size
+    per_edge = max(2, math.ceil(params.lamps / (4 * n * n)))
+    spots = []
+    for bx in centres:
+        for bz in centres:
+            for k in range(per_edge):
+                along = (k + 0.5) / per_edge - 0.5
+                reach = 0.5 * size + LAMP_SETBACK
+                for normal in ((1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0)):
+                    tangent = (-normal[1], normal[0])
+                    spots.append((bx + normal[0] * reach + tangent[0] * along * size,
+                                  bz + normal[1] * reach + tangent[1] * along * size,
+                                  *normal))
+    chosen = np.sort(rng.choice(len(spots), params.lamps, replace=False))
+    templates = _templates(params.detail)
+    out = []
+    for index in chosen:
+        x, z, nx, nz = spots[index]
+        out_dir = np.array([nx, 0.0, nz])
+        base = np.array([x, 0.0, z])
+        post = _place(templates.trunk, (LAMP_POST_RADIUS, LAMP_HEIGHT, LAMP_POST_RADIUS),
+                      base + [0.0, 0.5 * LAMP_HEIGHT, 0.0])
+        top = base + [0.0, LAMP_HEIGHT, 0.0]
+        end = top + out_dir * LAMP_ARM
+        half = np.array([0.04, 0.06, 0.04]) * (1.0 - np.abs(out_dir))  # the arm's thickness
+        arm = boxes(np.minimum(top, end) - half, np.maximum(top, end) + half)
+        head = boxes(end - [LAMP_HEAD[0] / 2, LAMP_HEAD[1], LAMP_HEAD[2] / 2],
+                     end + [LAMP_HEAD[0] / 2, 0.0, LAMP_HEAD[2] / 2])
+        mesh = _mesh([post, arm, head])
+        light = end - [0.0, LAMP_HEAD[1] + LAMP_LIGHT_DROP, 0.0]
+        out.append((mesh, Lamp(position=light, cone=params.lamp_cone, range=params.lamp_range)))
+    return out

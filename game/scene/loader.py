@@ -64,11 +64,14 @@ MAX_FAR_OVER_NEAR = 1e7
 TOP_LEVEL_KEYS = ("name", "camera", "light", "linear_light", "floor", "static", "character",
                   "generate")
 CAMERA_KEYS = ("position", "target", "fov", "near", "far")
-LIGHT_KEYS: dict[str, tuple[str, ...]] = {
+LIGHT_KEYS: dict[str, tuple[str, ...]] = {   # besides kind, color and intensity
     "directional": ("direction",),
-    "spot": ("direction", "position", "cone"),
-    "point": ("position",),
+    "spot": ("direction", "position", "cone", "range"),
+    "point": ("position", "range"),
 }
+# Every light's maps share one depth array and one shadow budget; the shading pass's light
+# records are a uniform block.
+MAX_LIGHTS = 64
 LINEAR_LIGHT_KEYS = ("a", "b")
 BODY_KEYS = ("shape", "position", "rotation", "scale", "color")
 CHARACTER_KEYS = ("shape", "path", "speed", "phase", "rotation", "scale", "color")
@@ -133,17 +136,25 @@ def _parse_camera(ctx: Context, data: Any) -> Camera:
     return Camera(position=position, target=target, fov=fov, near=near, far=far)
 
 
-def _parse_light(ctx: Context, data: Any) -> Light:
+def _parse_lights(ctx: Context, data: Any) -> list[Light]:
+    """One ``[light]`` table, or a ``[[light]]`` array of one or more."""
     if isinstance(data, list):
-        ctx.fail("light", 1 if len(data) > 1 else None, None,
-                 f"exactly one [light] table is allowed, got an array of {len(data)}")
-    table = Table(ctx, "light", None, data)
+        if not data:
+            ctx.fail("light", None, None, "a [[light]] array needs at least one light")
+        if len(data) > MAX_LIGHTS:
+            ctx.fail("light", MAX_LIGHTS, None,
+                     f"at most {MAX_LIGHTS} lights, got {len(data)}")
+        return [_parse_light(Table(ctx, "light", i, d)) for i, d in enumerate(data)]
+    return [_parse_light(Table(ctx, "light", None, data))]
+
+
+def _parse_light(table: Table) -> Light:
     kind = table.string("kind", LIGHT_KINDS)
     needed = LIGHT_KEYS[kind]
     misplaced = {k: f"not used by a '{kind}' light ({kind} takes: {', '.join(needed)})"
-                 for k in ("direction", "position", "cone") if k not in needed}
-    table.check_keys(("kind", *needed), misplaced)
-    direction = position = cone = None
+                 for k in ("direction", "position", "cone", "range") if k not in needed}
+    table.check_keys(("kind", "color", "intensity", *needed), misplaced)
+    direction = position = cone = light_range = None
     if "direction" in needed:
         direction = table.vec3("direction")
         norm = float(np.linalg.norm(direction))
@@ -154,7 +165,13 @@ def _parse_light(ctx: Context, data: Any) -> Light:
         position = table.vec3("position")
     if "cone" in needed:
         cone = table.number("cone", positive=True, below=180.0)
-    return Light(kind=kind, direction=direction, position=position, cone=cone)
+    if "range" in needed and table.has("range"):
+        light_range = table.number("range", positive=True)
+    colour = _colour(table)
+    return Light(kind=kind, direction=direction, position=position, cone=cone,
+                 color=(1.0, 1.0, 1.0) if colour is None else tuple(float(c) for c in colour),
+                 intensity=table.number("intensity", 1.0, non_negative=True),
+                 range=light_range)
 
 
 def _parse_linear_light(ctx: Context, data: Any) -> LinearLight:
@@ -247,13 +264,17 @@ def _colour(table: Table) -> np.ndarray | None:
 
 
 def _add_generated(ctx: Context, data: Any, floors: list[Body], statics: list[Body],
-                   characters: list[Character]) -> None:
-    """Append the procedural town of a ``[generate]`` table, continuing the numbering."""
+                   characters: list[Character], lights: list[Light]) -> None:
+    """Append the procedural town of a ``[generate]`` table, continuing the numbering; its
+    street lamps' lights follow the file's lights."""
     # Imported here: the generator builds its shapes with this module's helpers.
     from game.scene import generate
 
     table = Table(ctx, "generate", None, data)
     params = generate.town_params(table.data, table.fail)
+    if len(lights) + params.lamps > MAX_LIGHTS:
+        table.fail("lamps", f"{params.lamps} lamps and the file's {len(lights)} light(s) make "
+                            f"more than the {MAX_LIGHTS} lights a scene may have")
     town = generate.generate_town(params)
     for mesh in town.floors:
         floors.append(Body(name=f"floor_{len(floors)}", kind="floor", mesh=mesh))
@@ -262,6 +283,13 @@ def _add_generated(ctx: Context, data: Any, floors: list[Body], statics: list[Bo
     for walker in town.walkers:
         characters.append(Character(name=f"character_{len(characters)}", mesh=walker.mesh,
                                     path=walker.path, speed=walker.speed, phase=walker.phase))
+    for lamp in town.lamps:
+        spot = lamp.cone > 0.0
+        lights.append(Light(kind="spot" if spot else "point",
+                            direction=np.array([0.0, -1.0, 0.0]) if spot else None,
+                            position=lamp.position, cone=lamp.cone if spot else None,
+                            color=generate.LAMP_COLOUR, intensity=generate.LAMP_INTENSITY,
+                            range=lamp.range))
 
 
 # --------------------------------------------------------------------------------------------
@@ -313,7 +341,7 @@ def parse_scene(text: str, source: Path | None = None, base_dir: Path | None = N
             raise SceneError(f"{ctx.label}:1: {required}: missing required table [{required}]")
 
     camera = _parse_camera(ctx, data["camera"])
-    light = _parse_light(ctx, data["light"])
+    lights = _parse_lights(ctx, data["light"])
     linear_light = (_parse_linear_light(ctx, data["linear_light"])
                     if "linear_light" in data else None)
     floors = [_parse_body(ctx, "floor", i, d) for i, d in enumerate(_entries(ctx, data, "floor"))]
@@ -322,8 +350,8 @@ def parse_scene(text: str, source: Path | None = None, base_dir: Path | None = N
     characters = [_parse_character(ctx, i, d)
                   for i, d in enumerate(_entries(ctx, data, "character"))]
     if "generate" in data:
-        _add_generated(ctx, data["generate"], floors, statics, characters)
-    return Scene(name=name, source=source, camera=camera, light=light, linear_light=linear_light,
+        _add_generated(ctx, data["generate"], floors, statics, characters, lights)
+    return Scene(name=name, source=source, camera=camera, lights=lights, linear_light=linear_light,
                  floors=floors, statics=statics, characters=characters,
                  sha256=hashlib.sha256(text.encode("utf-8")).hexdigest())
 

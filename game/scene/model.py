@@ -1,4 +1,4 @@
-"""The scene model: one camera, one hard-shadow light, an optional linear light, and rigid objects.
+"""The scene model: one camera, hard-shadow lights, an optional linear light, and rigid objects.
 
 Floors and statics are stored in world space, so nothing downstream needs their transforms;
 characters keep a local mesh and are placed every frame by :meth:`Character.model_matrix`.
@@ -46,6 +46,25 @@ class Light:
     direction: np.ndarray | None
     position: np.ndarray | None
     cone: float | None
+    color: tuple[float, float, float] = (1.0, 1.0, 1.0)  # sRGB in [0, 1]
+    intensity: float = 1.0
+    range: float | None = None   # spot and point: metres beyond which it lights nothing
+
+    def reaches(self, centre: np.ndarray, radius: float) -> bool:
+        """Whether any point of the sphere (``centre``, ``radius``) is within the light's range
+        (and, for a spot light, its cone)."""
+        if self.position is None:
+            return True
+        offset = np.asarray(centre, float) - self.position
+        distance = float(np.linalg.norm(offset))
+        if self.range is not None and distance - radius > self.range:
+            return False
+        if self.kind == "spot" and distance > radius:
+            # The cone widened by the sphere's angular radius.
+            angle = math.degrees(math.acos(float(np.clip(offset @ self.direction / distance,
+                                                         -1.0, 1.0))))
+            return angle - math.degrees(math.asin(radius / distance)) <= self.cone / 2
+        return True
 
 
 @dataclass(frozen=True)
@@ -122,17 +141,29 @@ class Character:
 
 @dataclass
 class Scene:
-    """A loaded scene: the view, the lights and every object, in file order within each kind."""
+    """A loaded scene: the view, the lights and every object, in file order within each kind.
+
+    ``lights`` holds the hard-shadow lights in file order (one ``[light]`` table or a
+    ``[[light]]`` array); :attr:`light` is the first, whose visibility the dumps' ``lit`` holds.
+    """
 
     name: str
     source: Path | None
     camera: Camera
-    light: Light
+    lights: list[Light]
     linear_light: LinearLight | None
     floors: list[Body]
     statics: list[Body]
     characters: list[Character]
     sha256: str = ""  # of the scene file's bytes (of the text, for a scene given as text)
+
+    @property
+    def light(self) -> Light:
+        return self.lights[0]
+
+    @light.setter
+    def light(self, light: Light) -> None:
+        self.lights[0] = light
 
     @property
     def given(self) -> str:

@@ -22,6 +22,12 @@ VISIBILITY_MAPS = "maps"      # the depth maps the method plans
 VISIBILITY_TRACED = "traced"  # exact rays from the compute tracer over the frame's G-buffer
 
 
+def bounding_sphere(points: np.ndarray) -> tuple[np.ndarray, float]:
+    """A sphere holding ``points``: the centre of their box and the farthest point's distance."""
+    centre = (points.min(axis=0) + points.max(axis=0)) / 2
+    return centre, float(np.linalg.norm(points - centre, axis=1).max())
+
+
 class ShadowMethod(ABC):
     """A hard-shadow method: the maps of the scene's light for every frame.
 
@@ -90,6 +96,25 @@ class ShadowMethod(ABC):
 
     def mark_rendered_lost(self) -> None:  # noqa: B027 - most methods cache nothing
         """The depth array was re-created: every cached map must be drawn again."""
+
+    # -- a light's reach ------------------------------------------------------------------
+    def reached_statics(self) -> list[int]:
+        """The statics a spot or point light's range and cone can reach (all for others)."""
+        g, light = self.geom, self.light
+        if light.position is None or (light.range is None and light.kind != "spot"):
+            return list(range(g.n_statics))
+        return [i for i, p in enumerate(g.static_points)
+                if len(p) and light.reaches(*bounding_sphere(p))]
+
+    def reached_characters(self, models: np.ndarray) -> np.ndarray:
+        """Per character, whether the light can reach it at its pose in ``models``."""
+        g, light = self.geom, self.light
+        n = g.n_characters
+        if light.position is None or (light.range is None and light.kind != "spot") or not n:
+            return np.ones(n, bool)
+        centres = np.asarray(models, float)[:, :3, 3]
+        return np.array([light.reaches(centres[i], float(g.character_radius[i]))
+                         for i in range(n)], bool)
 
     def _restart(self, geom: PackedGeometry) -> None:
         notes = self.notes

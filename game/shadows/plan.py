@@ -27,6 +27,7 @@ MIN_CHARACTER_RESOLUTION = 32  # fewest texels per side of a character's map
 CHARACTER_TEXELS_PER_PIXEL = 8.0  # a character map's texels per screen pixel where its shadow
 #                                  can be nearest the camera (0: always the most, every frame)
 SINGLE_RESOLUTION = 4096       # the baseline's one map
+LAMP_RESOLUTION = 1024         # the baselines' maps (or cube faces) of a light with a range
 NORMAL_BIAS_TEXELS = 1.0       # offset along the normal, times sin(angle to the light)
 DEPTH_BIAS_TEXELS = 1.0        # offset towards the light
 SLOPE_BIAS_TEXELS = 1.0        # offset towards the light, times tan(angle to the light)
@@ -50,6 +51,7 @@ class ShadowSettings:
     min_character_resolution: int = MIN_CHARACTER_RESOLUTION
     character_texels_per_pixel: float = CHARACTER_TEXELS_PER_PIXEL
     single_resolution: int = SINGLE_RESOLUTION
+    lamp_resolution: int = LAMP_RESOLUTION
     normal_bias: float = NORMAL_BIAS_TEXELS
     depth_bias: float = DEPTH_BIAS_TEXELS
     slope_bias: float = SLOPE_BIAS_TEXELS
@@ -99,3 +101,4 @@ class ShadowPlan:
     # The character maps of the frame, for the stats: maps, characters skipped (no visible
     # shadow), characters grouped (sharing a map), maps shrunk for want of layers.
     characters: dict[str, int] = field(default_factory=dict)
+    lights: int = 1   # the lights whose maps the plan holds (game/shadows/lights.py)

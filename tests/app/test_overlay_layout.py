@@ -87,7 +87,7 @@ def test_hud_covers_at_most_a_twelfth_of_the_window(ctx, small_frame, size):
         overlay.release()
 
 
-@pytest.mark.parametrize("tab", ["view", "shadows", "maps"])
+@pytest.mark.parametrize("tab", ["view", "shadows", "lights", "maps"])
 @pytest.mark.parametrize("size", SIZES[:3], ids=lambda s: f"{s[0]}x{s[1]}")
 def test_panel_covers_at_most_a_third_and_scrolls_what_does_not_fit(ctx, small_frame, size,
                                                                     tab):

@@ -1,4 +1,5 @@
-"""Drives the real walkaround window with scripted input, for tests/app/test_window.py.
+"""Drives the real walkaround window with scripted input, for tests/app/test_window.py,
+tests/app/test_overlay_layout.py and tests/app/test_lights_panel.py.
 
 Runs in its own process (the window's GL context must not meet the test session's headless
 one) on GLFW's null platform with an EGL context, and prints what it saw as one JSON line.
@@ -189,6 +190,50 @@ def overlay_modes(scene_path: str) -> None:
     print(json.dumps(seen))
 
 
+def light_keys(scene_path: str) -> None:
+    """The light keys through the key callback, in a window opened with the panel: "]" selects
+    light 1, the right arrow (pressed, repeated once, released) nudges it, L switches it off, "["
+    selects light 0 again. Prints what it saw."""
+    scene = load_scene(Path(scene_path))
+    try:
+        app = Walkaround(scene, PlayOptions(size=SIZE, time_step=0.0, platform="null",
+                                            panel=True))
+    except GameError as exc:
+        print(exc, file=sys.stderr)
+        sys.exit(NO_WINDOW)
+    seen: dict = {"tab": app.overlay.open_tab, "selected": []}
+
+    def press(key: int, repeats: int = 0) -> None:  # as glfw reports it
+        app._on_key(app.window, key, 0, glfw.PRESS, 0)
+        for _ in range(repeats):
+            app._on_key(app.window, key, 0, glfw.REPEAT, 0)
+        app._on_key(app.window, key, 0, glfw.RELEASE, 0)
+
+    try:
+        app.paused = True
+        app.step(0.0)
+        app.step(0.0)   # every static map cached
+        press(glfw.KEY_RIGHT_BRACKET)
+        seen["selected"].append(app.selected_light)
+        seen["lamp_before"] = app.renderer.scene.lights[1].position.tolist()
+        press(glfw.KEY_RIGHT, repeats=1)
+        seen["lamp_after"] = app.renderer.scene.lights[1].position.tolist()
+        seen["yaw"] = app.controller.camera.yaw
+        app.step(0.0)
+        plan, spans = app.renderer.last_plan, app.renderer.last_spans
+        seen["render_static"] = list(plan.render_static)
+        seen["lamp_span"] = [spans[1].first_map, spans[1].map_count]
+        press(glfw.KEY_L)
+        app.step(0.0)
+        seen["lights_on"] = list(app.renderer.lights_on)
+        press(glfw.KEY_LEFT_BRACKET)
+        seen["selected"].append(app.selected_light)
+        seen["gl_error"] = app.ctx.error
+    finally:
+        app.close()
+    print(json.dumps(seen))
+
+
 def main(scene_path: str) -> None:
     scene = load_scene(Path(scene_path))
     try:
@@ -254,6 +299,8 @@ def main(scene_path: str) -> None:
 if __name__ == "__main__":
     if len(sys.argv) > 2 and sys.argv[2] == "overlay-modes":
         overlay_modes(sys.argv[1])
+    elif len(sys.argv) > 2 and sys.argv[2] == "lights":
+        light_keys(sys.argv[1])
     elif len(sys.argv) > 3 and sys.argv[3] == "traced-soft":
         traced_and_soft(sys.argv[1], sys.argv[2])
     elif len(sys.argv) > 2:

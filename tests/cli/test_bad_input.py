@@ -71,6 +71,12 @@ REPLACEMENTS = [
     ("negative size", "radius   = 0.7", "radius   = -0.7", "static[1].radius", ["positive"]),
     ("zero light direction", "direction = [-0.4, -1.0, -0.3]", "direction = [0.0, 0.0, 0.0]",
      "light.direction", ["must not be zero"]),
+    ("range on a directional light", "direction = [-0.4, -1.0, -0.3]",
+     "direction = [-0.4, -1.0, -0.3]\nrange = 10.0", "light.range",
+     ["not used by a 'directional' light"]),
+    ("negative light intensity", "direction = [-0.4, -1.0, -0.3]",
+     "direction = [-0.4, -1.0, -0.3]\nintensity = -1.0", "light.intensity",
+     ["must not be negative"]),
     ("empty path", "path   = [[-3.0", "path   = []\n#", "character[0].path",
      ["non-empty list"]),
     ("zero-length path", "path   = [[-3.0, 0.9, -3.0], [3.0, 0.9, -3.0]",
@@ -92,6 +98,8 @@ def test_bad_scene_values(capsys, tmp_path, case, old, new, key, fragments):
         line = line_of(text, 'shape    = "sphere"') - 1  # the [[static]] header
     elif case == "zero scale":
         line = line_of(text, "scale = 0")
+    elif new.startswith(old + "\n"):  # a key added after the old one: the message names it
+        line = line_of(text, new.splitlines()[-1])
     else:
         line = line_of(text, first_new.strip() or new)
     expect_scene_error(capsys, tmp_path, text, line, key, *fragments)

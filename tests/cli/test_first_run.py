@@ -29,6 +29,12 @@ def test_dumps_record_their_scene(tiny_dumps):
         assert str(dump["scene_sha256"]) == hashlib.sha256(TINY.read_bytes()).hexdigest()
 
 
+def test_a_one_light_dump_holds_lit_as_lit_lights(tiny_dumps):
+    with np.load(tiny_dumps / "frame_0000.npz") as dump:
+        assert dump["lit_lights"].shape == (36, 64, 1) and dump["lit_lights"].dtype == np.float32
+        np.testing.assert_array_equal(dump["lit_lights"][..., 0], dump["lit"])
+
+
 def test_verify_without_a_scene_scores_against_the_recorded_one(tiny_dumps):
     pytest.importorskip("embreex")
     bare, named = run("verify", tiny_dumps), run("verify", tiny_dumps, TINY)

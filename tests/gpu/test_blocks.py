@@ -74,7 +74,8 @@ def _program(ctx, group: str):
     structs = {s.name: s.dtype for s in items if isinstance(s, blocks.Struct)}
     touches = [_touch(b, structs) for b in items if isinstance(b, blocks.Block)]
     source = "\n".join([
-        "#version 430", f"#define MAX_MAPS {blocks.max_maps(ctx)}", f'#include "{group}"',
+        "#version 430", f"#define MAX_MAPS {blocks.max_maps(ctx)}",
+        f"#define MAX_LIGHTS {blocks.MAX_LIGHTS}", f'#include "{group}"',
         "layout(local_size_x = 1) in;",
         f"layout(std430, binding = {_free_storage_binding(items)}) buffer Sink "
         "{ float sink_out[]; };",
@@ -132,11 +133,11 @@ def test_the_driver_places_every_member_where_the_dtype_does(ctx, group):
 
 def test_glsl_that_drifted_from_its_dtype_is_caught(ctx, monkeypatch):
     text = blocks.GENERATED["blocks/frame.glsl"]
-    drifted = text.replace("    vec3 camera_pos;\n    int map_count;\n",
-                           "    int map_count;\n    vec3 camera_pos;\n")
+    drifted = text.replace("    vec3 camera_pos;\n    int floor_count;\n",
+                           "    int floor_count;\n    vec3 camera_pos;\n")
     assert drifted != text
     monkeypatch.setitem(blocks.GENERATED, "blocks/frame.glsl", drifted)
-    with pytest.raises(AssertionError, match="camera_pos|map_count"):
+    with pytest.raises(AssertionError, match="camera_pos|floor_count"):
         check_group(ctx, "blocks/frame.glsl")
 
 

@@ -19,7 +19,9 @@ import trimesh
 from game.reference.hard import (
     NON_CASTER_PREFIXES,
     Light,
+    _as_light,
     hard_visibility,
+    hard_visibility_lights,
     load_frame,
     load_geometry,
     shadow_error,
@@ -168,11 +170,42 @@ def test_light_may_be_any_object_with_the_same_attributes() -> None:
 
 def test_light_from_mapping_checks_its_kind() -> None:
     light = Light.from_mapping({"kind": "spot", "position": [1, 2, 3], "direction": [0, -1, 0]})
-    assert light.position == (1.0, 2.0, 3.0) and light.cone is None
+    assert light.position == (1.0, 2.0, 3.0) and light.cone is None and light.range is None
     with pytest.raises(ValueError, match="kind"):
         Light("area", position=(0.0, 0.0, 0.0))
     with pytest.raises(ValueError, match="position"):
         Light("point")
+
+
+def test_light_range_is_carried_and_checked() -> None:
+    # Colour and intensity scale a light; they do not move its shadows, so they are ignored.
+    light = Light.from_mapping({"kind": "point", "position": [1, 2, 3], "range": 8,
+                                "color": [1, 0, 0], "intensity": 3.0})
+    assert light.range == 8.0
+    scene_light = SimpleNamespace(kind="spot", direction=np.array([0.0, -1.0, 0.0]),
+                                  position=np.array([0.0, 3.0, 0.0]), cone=40.0, range=5.0)
+    reference = _as_light(scene_light)
+    assert (reference.range, reference.cone) == (5.0, 40.0)
+    with pytest.raises(ValueError, match="directional light has no range"):
+        Light("directional", direction=(0.0, -1.0, 0.0), range=3.0)
+    with pytest.raises(ValueError, match="positive"):
+        Light("point", position=(0.0, 0.0, 0.0), range=0.0)
+
+
+def test_one_embree_scene_serves_every_light() -> None:
+    mesh = sphere_over_floor()
+    position, normal = floor_pixels()
+    lights = [{"kind": "directional", "direction": [0.3, -1.0, 0.2]},
+              {"kind": "point", "position": [0.5, 4.0, 0.3]},
+              {"kind": "spot", "position": [-1.0, 5.0, 0.0], "direction": [0, -1, 0],
+               "cone": 30.0, "range": 2.0}]
+    together = hard_visibility_lights(mesh, position, normal, lights)
+    assert len(together) == 3
+    for light, lit in zip(lights, together, strict=True):
+        np.testing.assert_array_equal(lit, hard_visibility(mesh, position, normal, light))
+    # The range ends the light's reach, not its rays: it shadows nothing by itself.
+    no_range = {**lights[2], "range": None}
+    np.testing.assert_array_equal(together[2], hard_visibility(mesh, position, normal, no_range))
 
 
 def small_frame() -> tuple[np.ndarray, np.ndarray]:
@@ -241,6 +274,30 @@ def test_shadow_error_uses_direction_to_point_light_and_spot_cone() -> None:
     spot = {"kind": "spot", "position": [1.0, 3.0, 0.5], "direction": [0, -1, 0], "cone": 30.0}
     narrow = shadow_error(method, reference, position, normal, spot)
     assert narrow["considered"] == 2 and narrow["mask"][:, 1].all()
+
+
+def test_shadow_error_leaves_out_pixels_beyond_the_range() -> None:
+    position, normal = small_frame()
+    reference = np.zeros((2, 4), dtype=np.float32)
+    method = np.ones((2, 4), dtype=np.float32)
+    # A point light 3 m over (0, 0, 0): pixel (r, c) sits sqrt(9 + c^2 + r^2) m from it.
+    # A range of 3.7 m takes in c <= 2 on row 0 (sqrt(13) = 3.61 m) and c <= 1 on row 1
+    # (sqrt(14) = 3.74 m is beyond); (0, 3) has no geometry and (1, 3) faces away from the light.
+    bulb = {"kind": "point", "position": [0.0, 3.0, 0.0], "range": 3.7}
+    near = shadow_error(method, reference, position, normal, bulb)
+    expected = np.array([[True, True, True, False], [True, True, False, False]])
+    assert near["considered"] == 5
+    np.testing.assert_array_equal(near["mask"], expected)
+    unlimited = shadow_error(method, reference, position, normal, {**bulb, "range": None})
+    assert unlimited["considered"] == 6 and unlimited["mask"][1, 2]
+    # A spot's range and its cone both apply.
+    spot = {**bulb, "kind": "spot", "direction": [0, -1, 0], "cone": 60.0}
+    both = shadow_error(method, reference, position, normal, spot)
+    # The cone takes in the points within tan(30 deg) * 3 = 1.73 m of (0, 0, 0): not (0, 2).
+    assert both["considered"] == 4 and not both["mask"][0, 2]
+    # The light lights nothing at its range: a point exactly that far is left out.
+    edge = shadow_error(method, reference, position, normal, {**bulb, "range": 3.0})
+    assert edge["considered"] == 0
 
 
 def write_glb(path: Path) -> dict[str, trimesh.Trimesh]:

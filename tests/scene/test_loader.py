@@ -21,6 +21,7 @@ from game.scene import (
     parse_scene,
     reference_scene_path,
 )
+from game.scene.loader import MAX_LIGHTS
 from game.scene.shapes import transform_mesh
 from game.transforms import euler_xyz
 from tests.conftest import ASSETS
@@ -318,6 +319,77 @@ def test_spot_and_point_lights():
     assert point.kind == "point" and point.direction is None
 
 
+LIGHTS = """\
+[[light]]
+kind = "directional"
+direction = [0.0, -2.0, 0.0]
+
+[[light]]
+kind = "spot"
+position = [-8.0, 6.0, -8.0]
+direction = [0.6, -1.0, 0.6]
+cone = 90.0
+range = 16.0
+color = [1.0, 0.85, 0.6]
+intensity = 1.5
+
+[[light]]
+kind = "point"
+position = [0, 3, 0]
+intensity = 0
+"""
+
+
+def with_lights(lights: str) -> str:
+    """HEAD with its [light] table replaced by ``lights``."""
+    return HEAD.split("[light]")[0] + lights
+
+
+def test_a_single_entry_light_array_is_the_same_as_a_light_table():
+    table = parse_scene(HEAD)
+    array = parse_scene(HEAD.replace("[light]", "[[light]]"))
+    assert len(table.lights) == len(array.lights) == 1
+    assert array.light.kind == "directional"
+    assert np.allclose(array.light.direction, table.light.direction)
+
+
+def test_an_array_of_lights_loads_in_file_order():
+    s = parse_scene(with_lights(LIGHTS))
+    assert [light.kind for light in s.lights] == ["directional", "spot", "point"]
+    assert s.light is s.lights[0]
+    sun, spot, bulb = s.lights
+    assert sun.color == (1.0, 1.0, 1.0) and sun.intensity == 1.0 and sun.range is None
+    assert spot.color == pytest.approx((1.0, 0.85, 0.6)) and spot.intensity == 1.5
+    assert spot.range == 16.0 and spot.cone == 90.0
+    assert np.allclose(spot.direction, np.array([0.6, -1.0, 0.6]) / np.linalg.norm([0.6, -1, 0.6]))
+    assert bulb.range is None and bulb.intensity == 0.0  # a light may be switched off
+    assert np.allclose(bulb.position, [0.0, 3.0, 0.0])
+
+
+def test_a_light_table_takes_color_intensity_and_range():
+    light = parse_scene(HEAD.replace('kind = "directional"\ndirection = [0.0, -2.0, 0.0]',
+                                     'kind = "point"\nposition = [0, 3, 0]\nrange = 4\n'
+                                     'color = [0, 0.5, 1]\nintensity = 2')).light
+    assert (light.range, light.color, light.intensity) == (4.0, (0.0, 0.5, 1.0), 2.0)
+
+
+def test_the_lights_example_of_the_scene_guide_loads():
+    guide = (ASSETS.parent / "docs" / "scenes.md").read_text()
+    example = re.search(r"## Lights\n.*?```toml\n(.*?)```", guide, re.S).group(1)
+    s = parse_scene(with_lights(example))
+    assert [light.kind for light in s.lights] == ["directional", "spot", "point"]
+    assert [light.range for light in s.lights] == [None, 16.0, 6.0]
+
+
+def test_range_ends_a_lights_reach():
+    bulb = parse_scene(with_lights('[[light]]\nkind = "point"\nposition = [0, 0, 0]\n'
+                                   "range = 5\n")).light
+    assert bulb.reaches(np.array([6.0, 0.0, 0.0]), 1.5)      # the sphere reaches into range
+    assert not bulb.reaches(np.array([6.0, 0.0, 0.0]), 0.5)  # wholly beyond it
+    unlimited = parse_scene(with_lights('[[light]]\nkind = "point"\nposition = [0, 0, 0]\n'))
+    assert unlimited.light.reaches(np.array([1e5, 0.0, 0.0]), 0.5)
+
+
 def test_mesh_files_load_relative_to_the_scene(tmp_path):
     (tmp_path / "models").mkdir()
     trimesh.creation.box(extents=(1, 2, 3)).export(tmp_path / "models" / "b.stl")
@@ -442,8 +514,6 @@ def test_missing_key_points_at_the_table_header(tmp_path, body, key):
     (HEAD.replace('name = "test"', 'name = "test"\ncolour = "red" ' + MARK), "colour",
      ["unknown key"]),
     (HEAD + "[camra] " + MARK + "\nfov = 3\n", "camra", ["did you mean 'camera'"]),
-    (HEAD.replace("[light]", "[[light]]") + '[[light]] ' + MARK + '\nkind = "point"\n',
-     "light[1]", ["exactly one [light]"]),
     (HEAD + '[floor] ' + MARK + '\nshape = "box"\nsize = [1, 1, 1]\n', "floor",
      ["array of tables", "[[floor]]"]),
     (HEAD + "[generate]\nblocs = 2 " + MARK + "\n", "generate.blocs",
@@ -452,6 +522,62 @@ def test_missing_key_points_at_the_table_header(tmp_path, body, key):
 ])
 def test_invalid_tables(tmp_path, text, where, fragments):
     expect_error(tmp_path, text, where, *fragments)
+
+
+ONE_POINT = '[[light]]\nkind = "point"\nposition = [0, 3, 0]\n'
+
+
+@pytest.mark.parametrize(("lights", "where", "fragments"), [
+    ('[[light]]\nkind = "directional"\ndirection = [0, -1, 0]\nrange = 10 ' + MARK + "\n",
+     "light[0].range", ["not used by a 'directional' light"]),
+    ('[light]\nkind = "directional"\ndirection = [0, -1, 0]\nrange = 10 ' + MARK + "\n",
+     "light.range", ["not used by a 'directional' light"]),
+    (ONE_POINT + ONE_POINT + "color = [0.5, 1.5, 0.0] " + MARK + "\n", "light[1].color",
+     ["[0, 1]"]),
+    (ONE_POINT + "color = [-0.1, 0.5, 0.5] " + MARK + "\n", "light[0].color", ["[0, 1]"]),
+    (ONE_POINT + "color = [1, 1] " + MARK + "\n", "light[0].color", ["3 numbers"]),
+    (ONE_POINT + ONE_POINT + ONE_POINT + "intensity = -0.5 " + MARK + "\n",
+     "light[2].intensity", ["must not be negative, got -0.5"]),
+    (ONE_POINT + 'intensity = "bright" ' + MARK + "\n", "light[0].intensity",
+     ["must be a number"]),
+    (ONE_POINT + "intensity = inf " + MARK + "\n", "light[0].intensity", ["finite"]),
+    (ONE_POINT + "range = 0 " + MARK + "\n", "light[0].range", ["must be positive, got 0.0"]),
+    (ONE_POINT + ONE_POINT + "range = -3 " + MARK + "\n", "light[1].range",
+     ["must be positive, got -3.0"]),
+    (ONE_POINT + "range = nan " + MARK + "\n", "light[0].range", ["finite"]),
+    (ONE_POINT + "colour = [1, 1, 1] " + MARK + "\n", "light[0].colour",
+     ["unknown key", "did you mean 'color'"]),
+    (ONE_POINT + '[[light]] ' + MARK + '\nkind = "spot"\nposition = [0, 3, 0]\n'
+     "direction = [0, -1, 0]\n", "light[1].cone", ["missing required key"]),
+])
+def test_invalid_lights(tmp_path, lights, where, fragments):
+    expect_error(tmp_path, with_lights(lights), where, *fragments)
+
+
+def test_an_empty_light_array_is_refused(tmp_path):
+    # TOML cannot write an empty [[light]] array, but `light = []` is one.
+    text = f'name = "test"\nlight = [] {MARK}\n\n' + HEAD.split("[light]")[0].split("\n", 1)[1]
+    expect_error(tmp_path, text, "light", "at least one light")
+
+
+def test_more_than_the_most_lights_is_refused(tmp_path):
+    ok = parse_scene(with_lights(ONE_POINT * MAX_LIGHTS))
+    assert len(ok.lights) == MAX_LIGHTS == 64
+    text = with_lights(ONE_POINT * MAX_LIGHTS + "[[light]] " + MARK + "\n"
+                       'kind = "point"\nposition = [0, 3, 0]\n')
+    expect_error(tmp_path, text, f"light[{MAX_LIGHTS}]", f"at most {MAX_LIGHTS} lights, got 65")
+
+
+@pytest.mark.parametrize(("value", "where"), [("3", "light"), ('["sun"]', "light[0]")])
+def test_a_light_that_is_not_a_table_is_refused(tmp_path, value, where):
+    text = f"light = {value} {MARK}\n" + HEAD.split("[light]")[0].split("\n", 1)[1]
+    expect_error(tmp_path, text, where, "must be a table")
+
+
+def test_a_light_table_and_a_light_array_together_are_refused(tmp_path):
+    text = HEAD + ONE_POINT.replace("[[light]]", "[[light]] " + MARK)
+    message = expect_error(tmp_path, text, "TOML syntax error")
+    assert "overwrite" in message
 
 
 def test_missing_light_table(tmp_path):

@@ -36,13 +36,17 @@ def scaled(scene, s: float):
         mesh.apply_scale(s)
         return Character(c.name, mesh, np.asarray(c.path) * s, c.speed * s, c.phase)
 
-    light = scene.light
-    if light.position is not None:
-        light = dataclasses.replace(light, position=light.position * s)
+    def light(light):
+        if light.position is not None:
+            light = dataclasses.replace(light, position=light.position * s)
+        if light.range is not None:
+            light = dataclasses.replace(light, range=light.range * s)
+        return light
+
     camera = dataclasses.replace(scene.camera, position=scene.camera.position * s,
                                  target=scene.camera.target * s, near=scene.camera.near * s,
                                  far=scene.camera.far * s)
-    return dataclasses.replace(scene, camera=camera, light=light,
+    return dataclasses.replace(scene, camera=camera, lights=[light(x) for x in scene.lights],
                                floors=[body(b) for b in scene.floors],
                                statics=[body(b) for b in scene.statics],
                                characters=[character(c) for c in scene.characters])

@@ -8,8 +8,9 @@ Controls: W/S forward and back, A/D left and right, Q/E down and up (world Y), S
 faster; mouse look while the right button is held or while the cursor is captured (Tab toggles);
 R resets to the scene's camera. Keys that are commands rather than motion (Esc quits, F12 saves a
 screenshot, P pauses the characters, M cycles the shadow method, F1 switches the overlay between
-its HUD and its full panel) come back from :meth:`key` as command names for the window to act
-on.
+its HUD and its full panel, and the light keys: the arrows and Page Up / Page Down move the
+selected light, [ and ] select the previous and next light, L switches it off and on) come back
+from :meth:`key` as command names for the window to act on.
 """
 
 from __future__ import annotations
@@ -31,8 +32,14 @@ MOTION_KEYS = {  # key name -> (right, up, forward) direction in camera terms
     "w": (0, 0, 1), "s": (0, 0, -1), "a": (-1, 0, 0), "d": (1, 0, 0),
     "q": (0, -1, 0), "e": (0, 1, 0),
 }
+# The light keys (game/app/window/light_editor.py moves the light); held, they repeat.
+LIGHT_KEYS = {"left": "light_left", "right": "light_right", "up": "light_forward",
+              "down": "light_back", "page_up": "light_up", "page_down": "light_down",
+              "[": "light_previous", "]": "light_next", "l": "light_switch"}
+REPEATING_KEYS = ("left", "right", "up", "down", "page_up", "page_down")
 COMMAND_KEYS = {"escape": "quit", "f12": "screenshot", "p": "pause", "r": "reset",
-                "tab": "capture_cursor", "m": "next_method", "f1": "toggle_panel"}
+                "tab": "capture_cursor", "m": "next_method", "f1": "toggle_panel",
+                **LIGHT_KEYS}
 
 
 @dataclass

@@ -18,6 +18,9 @@ KEY_NAMES = {
     glfw.KEY_E: "e", glfw.KEY_R: "r", glfw.KEY_P: "p", glfw.KEY_M: "m", glfw.KEY_TAB: "tab",
     glfw.KEY_ESCAPE: "escape", glfw.KEY_F1: "f1", glfw.KEY_F12: "f12",
     glfw.KEY_LEFT_SHIFT: "shift", glfw.KEY_RIGHT_SHIFT: "shift",
+    glfw.KEY_LEFT: "left", glfw.KEY_RIGHT: "right", glfw.KEY_UP: "up", glfw.KEY_DOWN: "down",
+    glfw.KEY_PAGE_UP: "page_up", glfw.KEY_PAGE_DOWN: "page_down", glfw.KEY_L: "l",
+    glfw.KEY_LEFT_BRACKET: "[", glfw.KEY_RIGHT_BRACKET: "]",
 }
 
 

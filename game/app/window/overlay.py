@@ -7,8 +7,10 @@ always in ``capture --overlay``) covers at most :data:`PANEL_MAX_SHARE` of the w
 as a fraction of it, and scrolls what does not fit. The panel shows, every frame, the
 milliseconds of each pass now and as a rolling graph, the clock that timed them, maps rendered
 and cached, triangles drawn into maps, maps read per shaded pixel and the frame rate; and it
-edits the hard-shadow settings (the method among them, ``traced``
-included), the sun, the debug view and, in a window, whether soft shadows are traced.
+edits the hard-shadow settings (the method among them, ``traced`` included), the sun, the debug
+view, the lights (each switched on or off, one moved: game/app/window/light_editor.py) and, in
+a window, whether soft shadows are traced. The HUD says how many lights there are when there
+are several.
 
 The same overlay draws into a window (``window`` given: the GLFW backend feeds it input) or into
 any framebuffer with no window at all (``capture --overlay``: display size and frame time are set
@@ -30,9 +32,12 @@ import numpy as np
 from imgui_bundle import imgui, implot
 
 from game.app.window.layer_view import LayerViewer
+from game.app.window.light_editor import LABELS as LIGHT_LABELS
+from game.app.window.light_editor import LightEditor, sun_angles, sun_direction
 from game.app.window.settings_editor import SettingsEditor
 from game.gpu.blocks import DEBUG_VIEWS
 from game.render.renderer import Frame, Renderer
+from game.scene.model import Light
 from game.shadows.plan import ShadowSettings
 
 GLSL_VERSION = "#version 430"
@@ -45,8 +50,9 @@ PANEL_WIDTH_FRACTION = 0.3
 PANEL_MIN_WIDTH = 240              # pixels
 PANEL_MAX_SHARE = 1 / 3
 PANEL_ALPHA = 0.8
-# The HUD: one line of figures, the bar of the passes, a line with the method and the F1 hint
-# (left out, and then the font shrunk, where the box would cover more than HUD_MAX_SHARE).
+# The HUD: one line of figures, the bar of the passes, a line with the method, the number of
+# lights (where there are several) and the F1 hint (left out, and then the font shrunk, where
+# the box would cover more than HUD_MAX_SHARE).
 HUD_MAX_SHARE = 1 / 12
 HUD_ALPHA = 0.55
 HUD_PADDING = (5.0, 4.0)           # pixels inside the box, x and y
@@ -76,7 +82,7 @@ HIDDEN_SUFFIXES = ("_total", "_build_static", "_build_dynamic", "_trace_discarde
 # Window work after the scene's passes; shown after "total", which does not include them.
 WINDOW_PASSES = ("present", "overlay")      # CPU copy for files, not part of drawing a frame
 MIN_RENDER_SCALE = 0.25
-TABS = ("view", "shadows", "maps")  # the tabs of controls under the figures
+TABS = ("view", "shadows", "lights", "maps")  # the tabs of controls under the figures
 # The labels beside the controls of the view and maps tabs (their widths set the controls').
 VIEW_LABELS = ("debug view", "sun azimuth", "sun elevation", "render scale")
 MAPS_LABELS = ("map",)
@@ -135,17 +141,22 @@ class Changes:
     """What the user changed in the overlay this frame (None: unchanged)."""
 
     settings: ShadowSettings | None = None   # needs new maps
-    light: object | None = None
+    # Lights moved, by index: only their maps are planned and drawn anew.
+    lights: dict[int, Light] = dataclasses.field(default_factory=dict)
+    lights_on: dict[int, bool] = dataclasses.field(default_factory=dict)  # switched, by index
     debug_view: str | None = None
     paused: bool | None = None
     render_scale: float | None = None
     soft: bool | None = None   # the window applies this one (it asks the renderer for it)
+    selected_light: int | None = None   # the window keeps which light its keys move
 
     def apply(self, renderer: Renderer) -> None:
         if self.settings is not None:
             renderer.set_settings(self.settings)
-        if self.light is not None:
-            renderer.set_light(self.light)
+        for index, light in self.lights.items():
+            renderer.set_light(light, index)
+        for index, on in self.lights_on.items():
+            renderer.lights_on[index] = on
         if self.debug_view is not None:
             renderer.debug_view = self.debug_view
 
@@ -173,21 +184,12 @@ def panel_extent(size: tuple[int, int]) -> tuple[int, int]:
     return width, max(1, height)
 
 
-def sun_angles(direction: np.ndarray) -> tuple[float, float]:
-    """Azimuth (degrees clockwise from -Z seen from above) and elevation of the sun.
-
-    ``direction`` is the way the light travels; the sun lies the other way.
-    """
-    s = -np.asarray(direction, float)
-    s = s / np.linalg.norm(s)
-    return (math.degrees(math.atan2(s[0], -s[2])),
-            math.degrees(math.asin(float(np.clip(s[1], -1.0, 1.0)))))
-
-
-def sun_direction(azimuth: float, elevation: float) -> np.ndarray:
-    """The light's travel direction for a sun at ``azimuth``, ``elevation`` degrees."""
-    a, e = math.radians(azimuth), math.radians(elevation)
-    return -np.array([math.sin(a) * math.cos(e), math.sin(e), -math.cos(a) * math.cos(e)])
+def hud_lights(lights_on: list[bool]) -> str:
+    """The HUD's word on the lights: how many, and how many are off; nothing for one light."""
+    if len(lights_on) < 2:
+        return ""
+    off = lights_on.count(False)
+    return f"{len(lights_on)} lights" + (f", {off} off" if off else "")
 
 
 @dataclass
@@ -237,8 +239,12 @@ class Overlay:
         self.open_tab = open_tab
         self.panel = panel
         self._first_frame = True
+        # Made current at once: imgui makes a new context current only where none is, and the
+        # backends below belong to this one (another overlay may be alive).
         self.context = imgui.create_context()
+        imgui.set_current_context(self.context)
         self.plot_context = implot.create_context()
+        implot.set_current_context(self.plot_context)
         io = imgui.get_io()
         io.set_ini_filename("")  # no imgui.ini next to the user's files
         if window is not None:
@@ -254,8 +260,11 @@ class Overlay:
         self.layout: PanelLayout | None = None   # the panel as last drawn
         self._colour_index = {name: i for i, name in
                               enumerate((*PASS_ORDER, "total", *WINDOW_PASSES))}
-        self._azimuth_elevation: tuple[float, float] | None = None
+        # The sun sliders' angles and the direction they were taken from (or made).
+        self._sun: tuple[np.ndarray, tuple[float, float]] | None = None
         self._settings = SettingsEditor()
+        self.lights = LightEditor()
+        self.hud_lines: tuple[str, ...] = ()      # the HUD's text as last drawn
         self._viewer: LayerViewer | None = None
         self._map_index = 0
         self.message = ""   # the last change the renderer refused, shown in the panel
@@ -303,12 +312,13 @@ class Overlay:
 
     def draw(self, figures: Figures, renderer: Renderer, paused: bool, size: tuple[int, int],
              dt: float | None = None, render_scale: float | None = None,
-             soft: bool | None = None) -> Changes:
+             soft: bool | None = None, selected_light: int = 0) -> Changes:
         """Build this frame's HUD or panel; ``size`` is the framebuffer's, ``dt`` the frame
         time.
 
         ``render_scale`` (the window's scene-to-window pixel ratio) adds a slider for it;
-        ``soft`` (whether the window traces soft shadows) a checkbox.
+        ``soft`` (whether the window traces soft shadows) a checkbox; ``selected_light`` is the
+        light the lights tab moves.
 
         Call :meth:`render` afterwards to draw it into the bound framebuffer.
         """
@@ -326,7 +336,8 @@ class Overlay:
         self._record(figures.ms)
         changes = Changes()
         if self.panel:
-            self._draw_panel(figures, renderer, paused, size, render_scale, soft, changes)
+            self._draw_panel(figures, renderer, paused, size, render_scale, soft,
+                             selected_light, changes)
         else:
             self._draw_hud(figures, renderer, size, soft)
         imgui.render()
@@ -359,6 +370,9 @@ class Overlay:
         fps = f"{figures.fps:.1f}" if figures.fps else "-"
         first = f"FPS {fps}  frame {total:.1f} ms" if total is not None else f"FPS {fps}"
         method = renderer.settings.method + (" + soft" if soft else "")
+        lights = hud_lights(renderer.lights_on)
+        if lights:
+            method += f"  {lights}"
         second = f"{method}  F1: panel" if self.window is not None else method
         budget = size[0] * size[1] * HUD_MAX_SHARE
         base = imgui.get_style().font_size_base
@@ -389,6 +403,7 @@ class Overlay:
         if with_second:
             imgui.text_disabled(second)
         imgui.pop_font()
+        self.hud_lines = (first, second) if with_second else (first,)
         self._keep_rect()
         imgui.end()
         imgui.pop_style_var(3)
@@ -419,7 +434,7 @@ class Overlay:
     # -- the panel ----------------------------------------------------------------------------
     def _draw_panel(self, figures: Figures, renderer: Renderer, paused: bool,
                     size: tuple[int, int], render_scale: float | None, soft: bool | None,
-                    changes: Changes) -> None:
+                    selected_light: int, changes: Changes) -> None:
         w, h = panel_extent(size)
         imgui.set_next_window_pos(imgui.ImVec2(PANEL_MARGIN, PANEL_MARGIN),
                                   imgui.Cond_.always.value)
@@ -432,7 +447,7 @@ class Overlay:
         if self.message:
             imgui.text_colored(RENDERED_COLOUR, self.message)
         legend = self._draw_graph()
-        self._draw_controls(renderer, paused, render_scale, soft, changes)
+        self._draw_controls(renderer, paused, render_scale, soft, selected_light, changes)
         self._keep_rect()
         window = imgui.internal.get_current_window()
         inner = window.inner_rect
@@ -518,7 +533,7 @@ class Overlay:
 
     # -- controls -----------------------------------------------------------------------------
     def _draw_controls(self, renderer: Renderer, paused: bool, render_scale: float | None,
-                       soft: bool | None, changes: Changes) -> None:
+                       soft: bool | None, selected_light: int, changes: Changes) -> None:
         if not imgui.begin_tab_bar("controls"):
             return
         if self._tab("view"):
@@ -532,6 +547,11 @@ class Overlay:
             imgui.pop_item_width()
             for note in renderer.notes[-2:]:
                 imgui.text_wrapped(f"note: {note}")
+            imgui.end_tab_item()
+        if self._tab("lights"):
+            self._push_item_width(LIGHT_LABELS)
+            self.lights.draw(renderer, selected_light, changes)
+            imgui.pop_item_width()
             imgui.end_tab_item()
         if self._tab("maps"):
             self._push_item_width(MAPS_LABELS)
@@ -620,16 +640,17 @@ class Overlay:
         if light.kind != "directional":
             imgui.text(f"light: {light.kind} (sun controls need a directional light)")
             return
-        if self._azimuth_elevation is None:
-            self._azimuth_elevation = sun_angles(light.direction)
-        azimuth, elevation = self._azimuth_elevation
+        # Taken again from the light when something else turned it (the lights tab, a key).
+        if self._sun is None or not np.array_equal(self._sun[0], light.direction):
+            self._sun = (light.direction, sun_angles(light.direction))
+        azimuth, elevation = self._sun[1]
         a_changed, azimuth = imgui.slider_float("sun azimuth", azimuth, -180.0, 180.0, "%.1f deg")
         e_changed, elevation = imgui.slider_float("sun elevation", elevation, 1.0, 90.0,
                                                   "%.1f deg")
         if a_changed or e_changed:
-            self._azimuth_elevation = (azimuth, elevation)
-            changes.light = dataclasses.replace(light,
-                                                direction=sun_direction(azimuth, elevation))
+            direction = sun_direction(azimuth, elevation)
+            self._sun = (direction, (azimuth, elevation))
+            changes.lights[0] = dataclasses.replace(light, direction=direction)
 
     def draw_over_frame(self, renderer: Renderer, frame: Frame, dt: float) -> np.ndarray:
         """Headless: draw the panel (or the HUD) over the frame's picture

@@ -11,7 +11,9 @@ and is scaled up. The renderer keeps a G-buffer only while soft shadows or the t
 it (it costs fill on llvmpipe).
 
 The scene clock runs in real time (or in fixed steps, for scripts) and stops while the
-characters are paused. A minimised window, whose framebuffer is zero-sized, renders nothing
+characters are paused. The light keys select, switch and nudge one light of the scene, the one
+selected in the overlay's lights tab (game/app/window/light_editor.py); a light that moves has
+only its own maps re-rendered. A minimised window, whose framebuffer is zero-sized, renders nothing
 and waits.
 
 The GL context is the window's, wrapped once by game/gpu/context.py. It is always an EGL context
@@ -36,6 +38,8 @@ import glfw
 import numpy as np
 
 from game.app import interrupts, outputs
+from game.app.window import light_editor
+from game.app.window.camera_control import FAST_FACTOR, LIGHT_KEYS, REPEATING_KEYS
 from game.app.window.glfw_setup import KEY_NAMES, open_window
 from game.app.window.overlay import Figures, Overlay
 from game.app.window.present import Presenter
@@ -116,8 +120,12 @@ class Walkaround:
         glfw.set_mouse_button_callback(self.window, self._on_mouse_button)
         glfw.set_cursor_pos_callback(self.window, self._on_cursor)
         glfw.set_window_focus_callback(self.window, self._on_focus)
-        self.overlay = Overlay(self.window, panel=opts.panel) if opts.overlay else None
+        # A scene of several lights opens the panel on its lights tab.
+        tab = "lights" if len(scene.lights) > 1 else "view"
+        self.overlay = (Overlay(self.window, open_tab=tab, panel=opts.panel) if opts.overlay
+                        else None)
         self.paused = False
+        self.selected_light = 0   # the light that the lights tab and the light keys move
         self.scene_time = 0.0
         self.frames = 0
         self.quit = False
@@ -135,9 +143,10 @@ class Walkaround:
 
     # -- input --------------------------------------------------------------------------------
     def _on_key(self, window, key, scancode, action, mods) -> None:
-        if action == glfw.REPEAT:
+        name = KEY_NAMES.get(key, "")
+        if action == glfw.REPEAT and name not in REPEATING_KEYS:
             return
-        self.key(KEY_NAMES.get(key, ""), action == glfw.PRESS)
+        self.key(name, action != glfw.RELEASE)  # a held light key nudges again on each repeat
 
     def key(self, name: str, pressed: bool) -> None:
         """A key by name (camera_control's names) went down or up."""
@@ -157,6 +166,23 @@ class Walkaround:
         elif command == "capture_cursor":
             mode = glfw.CURSOR_DISABLED if self.controller.captured else glfw.CURSOR_NORMAL
             glfw.set_input_mode(self.window, glfw.CURSOR, mode)
+        elif command in LIGHT_KEYS.values():
+            self.light_key(command)
+
+    def light_key(self, command: str) -> None:
+        """A light key: select the previous or next light, switch the selected one off or on,
+        or nudge it (Shift: :data:`FAST_FACTOR` times as far); the renderer plans and draws
+        that light's maps anew only when it moved."""
+        lights, k = self.renderer.scene.lights, self.selected_light
+        if command in ("light_previous", "light_next"):
+            self.selected_light = (k + (1 if command == "light_next" else -1)) % len(lights)
+        elif command == "light_switch":
+            self.renderer.lights_on[k] = not self.renderer.lights_on[k]
+        else:
+            step = FAST_FACTOR if "shift" in self.controller.held else 1.0
+            light = light_editor.nudged(lights[k], command, self.controller.camera.yaw, step)
+            if light is not None:
+                self.renderer.set_light(light, k)
 
     def _on_mouse_button(self, window, button, action, mods) -> None:
         if button != glfw.MOUSE_BUTTON_RIGHT:
@@ -266,7 +292,8 @@ class Walkaround:
         if self.overlay is not None:
             with timer.measure("overlay", wall=True):
                 changes = self.overlay.draw(figures, self.renderer, self.paused, size,
-                                            render_scale=self.render_scale, soft=self.soft)
+                                            render_scale=self.render_scale, soft=self.soft,
+                                            selected_light=self.selected_light)
                 self.canvas.use()
                 self.overlay.render()
             if changes.paused is not None:
@@ -275,6 +302,8 @@ class Walkaround:
                 self.render_scale = changes.render_scale
             if changes.soft is not None:
                 self.set_soft(changes.soft)
+            if changes.selected_light is not None:
+                self.selected_light = changes.selected_light
             try:
                 changes.apply(self.renderer)
             except (GameError, ValueError) as exc:  # a setting the planner refuses: undo it

@@ -143,7 +143,10 @@ class CascadedShadows(ShadowMethod):
             if note not in self.notes:
                 self.notes.append(note)
             self._light_rot = None
-            self._static_points = deciding_points(g.all_static_points(), None)
+            self._statics = self.reached_statics()
+            points = [g.static_points[i] for i in self._statics]
+            self._static_points = deciding_points(
+                np.concatenate(points) if points else np.zeros((0, 3)), None)
             return
         self._light_rot = transforms.light_rotation(light.direction)
         # Light-space boxes of the statics, once per light: per-cascade culling is then a
@@ -166,9 +169,12 @@ class CascadedShadows(ShadowMethod):
                             for i in range(g.n_characters)]
         character_objects = [g.character_object(i) for i in range(g.n_characters)]
         if self.light.kind != "directional":
-            points = np.concatenate([self._static_points, *character_points])
+            reached = np.flatnonzero(self.reached_characters(models))
+            points = np.concatenate([self._static_points,
+                                     *(character_points[i] for i in reached)])
             fits = fits_for_light(points, self.light, None, res)
-            objects = [g.static_object(i) for i in range(g.n_statics)] + character_objects
+            objects = ([g.static_object(i) for i in self._statics]
+                       + [character_objects[i] for i in reached])
             maps = [MapRecord(name, KIND_ALL, fit, k, res, objects)
                     for k, (name, fit) in enumerate(zip(map_names("csm", len(fits)), fits,
                                                         strict=True))]

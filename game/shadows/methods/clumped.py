@@ -25,7 +25,7 @@ from game.shadows.fit import (
     outside_cone,
 )
 from game.shadows.map_grid import octahedral_encode
-from game.shadows.method import ShadowMethod
+from game.shadows.method import ShadowMethod, bounding_sphere
 from game.shadows.plan import (
     KIND_CHARACTER,
     KIND_CLUMP,
@@ -155,6 +155,10 @@ class ClumpedShadows(ShadowMethod):
         square = crowd.layer_square(self.settings.clump_resolution)
         per_layer = max(1, (square // crowd.pow2_at_least(self._character_resolution)) ** 2)
         want = -(-n // per_layer)
+        if self.light.range is not None:
+            # A lamp reaches few characters at once: one shared layer, the maps made smaller
+            # when more come (crowd.pack), leaves the rest to its clumps' maps.
+            want = min(want, 1)
         room = self.layer_limit - max(1, sum(len(ls) for ls in self._clump_layers))
         count = min(want, max(room, 1)) if n else 0
         while len(self._char_layers) > count:
@@ -206,9 +210,14 @@ class ClumpedShadows(ShadowMethod):
         Each unit has a key, (static name, serial), stable while its static is unchanged."""
         g = self.geom
         names = self._static_names()
+        # The faces beyond the light's range are in no clump, but the index buffer's order
+        # (static_pieces) must still hold every face.
+        reached = set(self.reached_statics())
+        self._beyond = [(i, np.arange(len(g.triangles[g.static_object(i)])))
+                        for i in range(g.n_statics) if i not in reached]
         parts: list[tuple[int, np.ndarray]] = []
         points: list[np.ndarray] = []
-        for i in range(g.n_statics):
+        for i in sorted(reached):
             labels = g.static_parts[i]
             order = np.argsort(labels, kind="stable")
             split = np.split(order, np.flatnonzero(np.diff(labels[order])) + 1)
@@ -221,15 +230,19 @@ class ClumpedShadows(ShadowMethod):
         rects = clumping.object_summaries(points, footprint)[0] if points else np.zeros((0, 4))
         self._units, self._unit_points, self._unit_keys = [], [], []
         serial = dict.fromkeys(range(g.n_statics), 0)
+        ranged = self.light.range is not None
         for (i, faces), part_points, rect in zip(parts, points, rects, strict=True):
             pieces = [faces]
             if clumping.rect_extent(rect) > limit and len(faces) > 1:
                 corners = g.static_corners(i, faces).reshape(-1, 3, 3)
                 pieces = clumping.split_wide(corners, faces, footprint, limit)
             for piece in pieces:
+                unit_points = part_points if len(pieces) == 1 else g.static_corners(i, piece)
+                if ranged and not self.light.reaches(*bounding_sphere(unit_points)):
+                    self._beyond.append((i, piece))  # a part of a large static out of range
+                    continue
                 self._units.append((i, piece))
-                self._unit_points.append(part_points if len(pieces) == 1
-                                         else g.static_corners(i, piece))
+                self._unit_points.append(unit_points)
                 self._unit_keys.append((names[i], serial[i]))
                 serial[i] += 1
         # A single face wider than one map at the target (a roof's edge, a long wall's side)
@@ -260,13 +273,21 @@ class ClumpedShadows(ShadowMethod):
             count = max(1, min(count, len(core)) - len(long_clumps)) if core else None
         clumps = clumping.make_clumps([points[u] for u in core], footprint, s.clumping,
                                       self._max_extent(per_metre), count) if core else []
-        if len(clumps) > room:
+        if self._layers_for(clumps, core) > room:
             self.notes.append(
                 f"{len(clumps) + len(long_clumps)} clumps would meet {s.texels_per_metre:g} "
-                f"texels/m; {self.max_clumps} fit the {s.budget_mib:g} MiB budget and the GL's "
-                "layers, so texels are coarser")
-            clumps = clumping.make_clumps([points[u] for u in core], footprint, s.clumping, 0.0,
-                                          room)
+                f"texels/m; {self.max_clumps} layers fit the {s.budget_mib:g} MiB budget and "
+                "the GL's layers, so texels are coarser")
+            # A clump around a point light takes a cube's six layers: fewer clumps until the
+            # maps of all of them fit.
+            count = room
+            while True:
+                clumps = clumping.make_clumps([points[u] for u in core], footprint, s.clumping,
+                                              0.0, count)
+                over = self._layers_for(clumps, core) - room
+                if over <= 0 or count == 1:
+                    break
+                count = max(1, min(count - 1, len(clumps) - over))
         for layers in self._clump_layers:
             for layer in layers:
                 self._give_layer(layer)
@@ -276,6 +297,14 @@ class ClumpedShadows(ShadowMethod):
         self._shared_faces: dict[tuple, tuple] = {}  # a clump's own keys -> faces it shares
         self._dirty = set(range(len(self._clump_keys)))
         self._refresh_static()
+
+    def _layers_for(self, clumps: list[clumping.Clump], core: list[int]) -> int:
+        """The layers these clumps' maps take: one each, six for a clump around the light."""
+        if self.light.kind == "directional":
+            return len(clumps)
+        return sum(1 if holds_in_one_frustum(
+            np.concatenate([self._unit_points[core[m]] for m in c.members]), self.light.position)
+            else 6 for c in clumps)
 
     def _long_clumps(self, keys: list[tuple[str, int]], footprint) -> list[list[tuple[str, int]]]:
         """The long faces ``keys`` in clumps of their own: few, each about as wide as two of
@@ -313,6 +342,7 @@ class ClumpedShadows(ShadowMethod):
             for u in members:
                 piece_of[u] = len(self.static_pieces)
                 self.static_pieces.append(self._units[u])
+        self.static_pieces += self._beyond
         long_units = sorted(index[key] for key in self._long if key in index)
         long_set = set(long_units)
         long_corners = (np.stack([footprint(self.geom.static_corners(*self._units[u]))
@@ -510,14 +540,14 @@ class ClumpedShadows(ShadowMethod):
                   + models[:, None, :3, 3])
         centres = models[:, :3, 3]
         radii = np.asarray(g.character_radius, float)
-        visible = np.ones(n, bool)
+        visible = self.reached_characters(models)
         needed = np.full(n, np.inf)
         if view is not None and view.size is not None and s.character_texels_per_pixel > 0:
             ground = min(self._ground, float(placed[..., 1].min()))
             eye = None if light.kind == "directional" else np.asarray(light.position, float)
             volumes, bounded = crowd.shadow_volumes(centres, radii, light.kind, light.direction,
                                                     eye, ground)
-            visible = ~(bounded & crowd.outside_view(volumes, view.proj @ view.view))
+            visible &= ~(bounded & crowd.outside_view(volumes, view.proj @ view.view))
             needed = crowd.texels_needed(volumes, centres, radii, view.view, view.proj,
                                          view.size[1], s.character_texels_per_pixel, eye)
         shown = np.flatnonzero(visible)

@@ -1,5 +1,6 @@
 """``single``: the baseline of one map fitted to every caster, re-rendered every frame (for a
-point light among its casters, the six faces of a cube, as an engine gives it)."""
+point light among its casters, the six faces of a cube, as an engine gives it). A spot or point
+light with a range fits only the casters within it."""
 
 from __future__ import annotations
 
@@ -38,7 +39,10 @@ class SingleShadows(ShadowMethod):
         """Keep only the statics' extreme points for this light; refitting is then cheap."""
         self.light = light
         self._light_rot = light_rotation_of(light)
-        self._static_points = deciding_points(self.geom.all_static_points(), self._light_rot)
+        self._statics = self.reached_statics()
+        points = [self.geom.static_points[i] for i in self._statics]
+        self._static_points = deciding_points(
+            np.concatenate(points) if points else np.zeros((0, 3)), self._light_rot)
 
     def update_statics(self, geom: PackedGeometry, changed: set[str]) -> list[int]:
         """Statics changed: the one map is re-fitted (it is re-rendered every frame anyway)."""
@@ -51,12 +55,13 @@ class SingleShadows(ShadowMethod):
 
     def plan(self, models: np.ndarray, view=None) -> ShadowPlan:
         res = self.settings.single_resolution
+        characters = np.flatnonzero(self.reached_characters(models))
         parts = [self._static_points] + [
             transforms.transform_points(models[i], self.geom.character_points[i])
-            for i in range(self.geom.n_characters)]
+            for i in characters]
         points = np.concatenate(parts)
-        objects = ([self.geom.static_object(i) for i in range(self.geom.n_statics)]
-                   + [self.geom.character_object(i) for i in range(self.geom.n_characters)])
+        objects = ([self.geom.static_object(i) for i in self._statics]
+                   + [self.geom.character_object(i) for i in characters])
         fits = fits_for_light(points, self.light, self._light_rot, res)
         names = map_names("single", len(fits))
         maps = [MapRecord(name, KIND_ALL, fit, layer, res, objects)

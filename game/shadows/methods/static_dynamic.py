@@ -59,9 +59,11 @@ class StaticDynamicShadows(ShadowMethod):
         """A new light refits (and re-renders) the static map."""
         self.light = light
         self._light_rot = light_rotation_of(light)
-        fits = fits_for_light(self.geom.all_static_points(), light, self._light_rot,
-                              self.resolution)
-        objects = [self.geom.static_object(i) for i in range(self.geom.n_statics)]
+        statics = self.reached_statics()
+        points = [self.geom.static_points[i] for i in statics]
+        fits = fits_for_light(np.concatenate(points) if points else np.zeros((0, 3)), light,
+                              self._light_rot, self.resolution)
+        objects = [self.geom.static_object(i) for i in statics]
         names = map_names("statics", len(fits))
         self._static = [MapRecord(name, KIND_CLUMP, fit, layer, self.resolution, objects)
                         for layer, (name, fit) in enumerate(zip(names, fits, strict=True))]
@@ -75,13 +77,13 @@ class StaticDynamicShadows(ShadowMethod):
         maps = list(self._static)
         render_static = list(range(len(maps))) if self._static_dirty else []
         render_dynamic = []
-        n = self.geom.n_characters
-        if n:
+        characters = np.flatnonzero(self.reached_characters(models))
+        if len(characters):
             points = np.concatenate([
                 transforms.transform_points(models[i], self.geom.character_points[i])
-                for i in range(n)])
+                for i in characters])
             fits = fits_for_light(points, self.light, self._light_rot, self.resolution)
-            objects = [self.geom.character_object(i) for i in range(n)]
+            objects = [self.geom.character_object(i) for i in characters]
             for k, (name, fit) in enumerate(zip(map_names("characters", len(fits)), fits,
                                                 strict=True)):
                 render_dynamic.append(len(maps))

@@ -1,0 +1,192 @@
+"""Every light's shadow maps as one plan: one method per light, one depth array, one budget.
+
+Each light gets its own planner of the chosen method (its own clumps, its own character maps:
+light-space clumping and the maps' fits depend on the light). The shadow memory budget is
+shared: each light first gets the layers its kind cannot do without (a point light's cube and a
+layer of character maps), and the rest goes by how much of the scene the light reaches (a
+directional light all of it, a lamp the disc of its range). The baselines give a light with a
+range maps of ``lamp_resolution`` texels, as engines give lamps smaller maps than the sun.
+
+Their plans are laid side by side in one depth array: light k's layers follow light k - 1's, and
+the layers of lights whose maps are smaller than the array's layers are packed into the squares
+of shared array layers. :class:`LightSpan` says where each light's maps are, for the
+shading pass's light records.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from game.scene.geometry import PackedGeometry
+from game.scene.model import Light
+from game.shadows import registry
+from game.shadows.fit import CUBE_FACES
+from game.shadows.method import ShadowMethod
+from game.shadows.plan import ShadowPlan, ShadowSettings
+
+DEPTH_TEXEL_BYTES = 4  # GL_DEPTH_COMPONENT32F
+MIN_LAMP_RESOLUTION = 128  # the smallest clump maps a lamp's share may make
+
+
+@dataclass(frozen=True)
+class LightSpan:
+    """Where one light's maps are in the frame's plan."""
+
+    first_map: int
+    map_count: int
+    first_layer: int
+
+
+def min_layers(light: Light) -> int:
+    """The clump layers a light cannot do without: a cube around a point light, one map for
+    others, and one layer that the character maps share."""
+    return (CUBE_FACES if light.kind == "point" else 1) + 1
+
+
+def reach_weight(light: Light, scene_radius: float) -> float:
+    """How much of the scene a light reaches: 1 for a light without a range, else the share of
+    the scene's disc that its range covers."""
+    if light.range is None or light.position is None:
+        return 1.0
+    return min(1.0, (light.range / max(scene_radius, 1e-6)) ** 2)
+
+
+def budget_shares(lights: list[Light], total_mib: float, resolution: int,
+                  scene_radius: float) -> tuple[list[float], list[int]]:
+    """Each light's share of the memory budget in MiB, and the side of its clump maps (see the
+    module's docstring): where the lights' floors take more than half the budget, the lamps'
+    clump maps are halved (down to :data:`MIN_LAMP_RESOLUTION`) until they do not, the other
+    lights' kept, so that the share by reach keeps half the budget."""
+    if len(lights) == 1:
+        return [total_mib], [resolution]
+    sides = [resolution] * len(lights)
+
+    def floors() -> list[float]:
+        return [min_layers(light) * DEPTH_TEXEL_BYTES * side ** 2 / 2**20
+                for light, side in zip(lights, sides, strict=True)]
+
+    lamps = [k for k, light in enumerate(lights) if light.range is not None]
+    while sum(floors()) > total_mib / 2 and lamps and sides[lamps[0]] > MIN_LAMP_RESOLUTION:
+        for k in lamps:
+            sides[k] //= 2
+    spare = total_mib - sum(floors())
+    if spare <= 0:
+        return [total_mib / len(lights)] * len(lights), sides
+    weights = [reach_weight(light, scene_radius) for light in lights]
+    return [f + spare * w / sum(weights) for f, w in zip(floors(), weights, strict=True)], sides
+
+
+class LightShadows:
+    """The shadow planners of every light of a scene. Holds no GL object."""
+
+    def __init__(self, geom: PackedGeometry, lights: list[Light], settings: ShadowSettings,
+                 max_layers: int, max_maps: int):
+        n = len(lights)
+        shares, sides = budget_shares(lights, settings.budget_mib, settings.clump_resolution,
+                                      _scene_radius(geom))
+        self.methods: list[ShadowMethod] = []
+        for light, share, side in zip(lights, shares, sides, strict=True):
+            own = dataclasses.replace(
+                settings, budget_mib=share, clump_resolution=side,
+                character_resolution=min(settings.character_resolution, side))
+            if light.range is not None:
+                own = dataclasses.replace(
+                    own, single_resolution=min(settings.single_resolution,
+                                               settings.lamp_resolution),
+                    cascade_resolution=min(settings.cascade_resolution,
+                                           settings.lamp_resolution))
+            self.methods.append(registry.create(geom, light, own, max(1, max_layers // n),
+                                                max(1, max_maps // n)))
+        self._bases: list[tuple[int, int]] | None = None
+        self._end = 0
+
+    def __len__(self) -> int:
+        return len(self.methods)
+
+    @property
+    def notes(self) -> list[str]:
+        """Each light's notes; with several lights, each says which light it is about."""
+        if len(self.methods) == 1:
+            return self.methods[0].notes
+        return [f"light {k}: {note}" for k, m in enumerate(self.methods) for note in m.notes]
+
+    @property
+    def resolution(self) -> int:
+        """Texels per side of the array's layers: the largest any light's method asks."""
+        return max(m.resolution for m in self.methods)
+
+    def _places(self) -> list[tuple[int, int]]:
+        """Where each light's first layer goes: (array layer, square in it). A light whose
+        layers are smaller than the array's takes squares of array layers, after the previous
+        light's squares of the same size; a layer never holds squares of two sizes."""
+        places, layer, used, size = [], 0, 0, None
+        for method in self.methods:
+            per = (self.resolution // method.resolution) ** 2
+            if used and (method.resolution != size or used == per):
+                layer, used = layer + 1, 0
+            places.append((layer, used))
+            size = method.resolution
+            squares = used + method.layers
+            layer, used = layer + squares // per, squares % per
+        self._end = layer + (1 if used else 0)
+        return places
+
+    def layer_bases(self) -> list[int]:
+        """The first array layer of each light's maps."""
+        return [layer for layer, _ in self._places()]
+
+    @property
+    def layers(self) -> int:
+        self._places()
+        return self._end
+
+    def mark_rendered_lost(self) -> None:
+        for method in self.methods:
+            method.mark_rendered_lost()
+
+    def plan(self, models: np.ndarray, view=None) -> tuple[ShadowPlan, list[LightSpan]]:
+        """This frame's maps of every light in one plan, and each light's span of it."""
+        places = self._places()
+        if self._bases is not None and places != self._bases:
+            # A light's share of the array moved: what its layers held belongs to another.
+            self.mark_rendered_lost()
+        self._bases = places
+        plans = [m.plan(models, view) for m in self.methods]
+        if len(plans) == 1:
+            return plans[0], [LightSpan(0, len(plans[0].maps), 0)]
+        resolution = self.resolution
+        combined = ShadowPlan(resolution=resolution, maps=[],
+                              static_pieces=plans[0].static_pieces, characters={},
+                              lights=len(plans))
+        spans = []
+        for k, (plan, (base, first_square)) in enumerate(zip(plans, places, strict=True)):
+            first = len(combined.maps)
+            side = resolution // plan.resolution  # squares per side of an array layer
+            for rec in plan.maps:
+                square = first_square + rec.layer
+                within = square % (side * side)
+                origin = (within % side * plan.resolution + rec.origin[0],
+                          within // side * plan.resolution + rec.origin[1])
+                # The index buffer holds light 0's clump order; other lights' clumps are drawn
+                # as whole statics (the map's frustum keeps only what it holds).
+                combined.maps.append(dataclasses.replace(
+                    rec, layer=base + square // (side * side), origin=origin,
+                    pieces=rec.pieces if k == 0 else None))
+            combined.render_static += [first + i for i in plan.render_static]
+            combined.render_dynamic += [first + i for i in plan.render_dynamic]
+            for key, value in plan.characters.items():
+                combined.characters[key] = combined.characters.get(key, 0) + value
+            spans.append(LightSpan(first, len(plan.maps), base))
+        return combined, spans
+
+
+def _scene_radius(geom: PackedGeometry) -> float:
+    """Half the diagonal of the ground plan (x, z) of the floors and statics."""
+    fixed = geom.objects < geom.first_character
+    if not fixed.any():
+        return 1.0
+    points = geom.positions[fixed][:, [0, 2]]
+    return float(np.linalg.norm(points.max(axis=0) - points.min(axis=0))) / 2

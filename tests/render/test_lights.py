@@ -1,0 +1,147 @@
+"""Many lights: every light's maps in one array and one budget, each light scored on its own."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from game.gpu import blocks
+from game.reference.score import score_frame
+from game.render.renderer import Renderer, View
+from game.scene import load_scene
+from game.scene.generate import generate_town
+from game.scene.loader import MAX_LIGHTS
+from game.shadows.lights import budget_shares, min_layers
+from game.shadows.plan import ShadowSettings
+from game.shadows.registry import MAP_METHODS
+from tests.conftest import SCENES
+from tests.shadow_check import occluders
+
+LAMPS = SCENES / "lamps.toml"
+SIZE = (160, 90)
+MAX_ERROR = 0.05
+
+
+def _render(ctx, method: str = "clumped", size=SIZE, on=None, **settings):
+    scene = load_scene(LAMPS)
+    renderer = Renderer(ctx, scene, size, ShadowSettings(method=method, **settings),
+                        gbuffer=True)
+    if on is not None:
+        renderer.lights_on = list(on)
+    frame = renderer.render(0.0, View.from_camera(scene.camera, size))
+    return renderer, frame
+
+
+@pytest.mark.parametrize("method", MAP_METHODS)
+def test_every_method_shadows_every_light_within_the_bar(ctx, method):
+    renderer, frame = _render(ctx, method)
+    try:
+        g = frame.gbuffer
+        assert g["lit_lights"].shape == (*SIZE[::-1], 3)
+        assert np.array_equal(g["lit_lights"][..., 0], g["lit"], equal_nan=True)
+        mesh = occluders(renderer.scene, 0.0)
+        for k, light in enumerate(renderer.scene.lights):
+            err = score_frame(g["lit_lights"][..., k], g["position"], g["normal"], mesh, light)
+            assert err["shadowed"] > 20, (k, err["shadowed"])  # the light casts shadows here
+            assert err["error"] <= MAX_ERROR, (method, k, err["error"])
+    finally:
+        renderer.release()
+
+
+def test_the_lights_of_the_picture_add_up_and_a_lamp_ends_at_its_range(ctx):
+    """Each lamp brightens only what lies within its range; the picture with all lights is
+    brighter than with any one of them off."""
+    images = {}
+    for on in ((False, False, False), (False, True, False), (True, True, True),
+               (True, False, True)):
+        renderer, frame = _render(ctx, on=on)
+        images[on] = frame.image.astype(int)
+        position = frame.gbuffer["position"]
+        renderer.release()
+    lamp = load_scene(LAMPS).lights[1]
+    distance = np.linalg.norm(position - lamp.position, axis=-1)
+    beyond = np.isfinite(distance) & (distance > lamp.range)
+    within = np.isfinite(distance) & (distance < 0.5 * lamp.range)
+    dark, lamp_only = images[(False, False, False)], images[(False, True, False)]
+    assert beyond.sum() > 1000 and within.sum() > 100
+    assert np.array_equal(lamp_only[beyond], dark[beyond])
+    assert (lamp_only[within].sum(axis=-1) > dark[within].sum(axis=-1)).mean() > 0.5
+    assert images[(True, True, True)].sum() > images[(True, False, True)].sum()
+
+
+def test_a_lamp_plans_no_map_for_casters_beyond_its_range(ctx):
+    renderer, _ = _render(ctx)
+    try:
+        far = renderer.geom.static_object(4)  # the far crate
+        for k, span in enumerate(renderer.last_spans):
+            maps = renderer.last_plan.maps[span.first_map:span.first_map + span.map_count]
+            holds = any(far in rec.objects for rec in maps)
+            assert holds == (k == 0), k  # only the sun reaches it
+    finally:
+        renderer.release()
+
+
+def test_moving_one_lamp_re_renders_only_its_maps(ctx):
+    renderer, _ = _render(ctx)
+    try:
+        view = View.from_camera(renderer.scene.camera, SIZE)
+        renderer.render(0.0, view)
+        assert not renderer.last_plan.render_static  # every clump map is cached
+        lamp = renderer.scene.lights[1]
+        renderer.set_light(dataclasses.replace(lamp, position=lamp.position + [0.5, 0.0, 0.0]),
+                           1)
+        renderer.render(0.0, view)
+        span = renderer.last_spans[1]
+        redrawn = renderer.last_plan.render_static
+        assert redrawn and all(span.first_map <= i < span.first_map + span.map_count
+                               for i in redrawn)
+    finally:
+        renderer.release()
+
+
+def test_every_light_shares_one_budget(ctx):
+    budget = 64.0
+    renderer, _ = _render(ctx, budget_mib=budget)
+    try:
+        assert renderer.shadow_memory_bytes <= budget * 2**20
+    finally:
+        renderer.release()
+
+
+def test_the_budget_goes_first_to_what_each_light_cannot_do_without():
+    scene = load_scene(LAMPS)
+    shares, sides = budget_shares(scene.lights, 512.0, 1024, 20.0)
+    assert sides == [1024] * 3 and sum(shares) == pytest.approx(512.0)
+    floors = [4.0 * min_layers(light) for light in scene.lights]
+    assert all(s >= f for s, f in zip(shares, floors, strict=True))
+    assert shares[0] > shares[1] and shares[0] > shares[2]  # the sun reaches the whole scene
+    # Sixty lamps cannot each have a cube of 1024-texel faces in 512 MiB: their maps shrink,
+    # the sun's stay.
+    many = [scene.lights[0]] + [scene.lights[1]] * 60
+    shares, sides = budget_shares(many, 512.0, 1024, 20.0)
+    assert sides[0] == 1024 and all(side < 1024 for side in sides[1:])
+    assert sum(shares) == pytest.approx(512.0)
+    assert all(s >= 4.0 * min_layers(x) * (side / 1024) ** 2
+               for s, x, side in zip(shares, many, sides, strict=True))
+
+
+def test_the_light_records_hold_as_many_lights_as_a_scene_may_have():
+    assert blocks.MAX_LIGHTS == MAX_LIGHTS
+
+
+def test_street_lamps_are_drawn_after_the_town_and_leave_it_as_it_was():
+    plain = generate_town({"seed": 5, "blocks": 2, "characters": 3})
+    lit = generate_town({"seed": 5, "blocks": 2, "characters": 3, "lamps": 6,
+                         "lamp_range": 12.0})
+    assert len(lit.lamps) == 6 and len(lit.statics) == len(plain.statics) + 6
+    for a, b in zip(plain.statics, lit.statics, strict=False):
+        assert np.array_equal(a.vertices, b.vertices)
+    assert all(np.array_equal(a.path, b.path) for a, b in zip(plain.walkers, lit.walkers,
+                                                              strict=True))
+    again = generate_town({"seed": 5, "blocks": 2, "characters": 3, "lamps": 6,
+                           "lamp_range": 12.0})
+    assert [tuple(x.position) for x in again.lamps] == [tuple(x.position) for x in lit.lamps]
+    for lamp, post in zip(lit.lamps, lit.statics[-6:], strict=True):
+        assert 3.0 < lamp.position[1] < post.bounds[1][1]  # under its post's arm
