@@ -34,7 +34,7 @@ def frame_stats(index: int, t: float, frame: Frame) -> dict:
     return {"frame": index, "time": t, "ms": ms, **ms,
             "maps_rendered": frame.maps_rendered, "maps_cached": frame.maps_cached,
             "maps_total": frame.maps_total, "triangles_to_maps": frame.triangles_to_maps,
-            "texels_to_maps": frame.texels_to_maps,
+            "texels_to_maps": frame.texels_to_maps, "maps_waiting": frame.maps_waiting,
             "camera_triangles": frame.camera_triangles, **frame.characters,
             "maps_per_fragment": round(frame.maps_per_fragment, 5),
             **headless.resource_stats(frame)}

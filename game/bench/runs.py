@@ -25,8 +25,9 @@ FLICKER_DEG = 0.25          # camera yaw per flicker frame (time frozen)
 ERROR_SPACING_S = 0.75      # scene seconds between error frames (characters move between them)
 PASSES = ("shadow_static", "shadow_dynamic", "cull", "shade", "total")
 PARAM_KEYS = ("clumping", "clump_count", "texels_per_metre", "clump_resolution",
-              "character_resolution", "character_texels_per_pixel", "single_resolution",
-              "cascades", "cascade_lambda", "cascade_resolution")
+              "character_resolution", "character_texels_per_pixel", "view_resolution",
+              "max_clump_resolution", "single_resolution", "cascades", "cascade_lambda",
+              "cascade_resolution")
 # Walker counts of the 4 x 4 town's crowd series (16 is town_4x4 itself).
 CROWD_SERIES = (4, 64, 128, 256)
 # Lights of the night town's series: the moon and street lamps, 1 to 64 lights in all.
@@ -223,9 +224,16 @@ def parse_param(text: str) -> tuple[str, tuple]:
     if key not in PARAM_KEYS:
         raise ValueError(f"{key!r}: not a swept parameter; valid: {', '.join(PARAM_KEYS)}")
     kind = {"clumping": str, "clump_count": int, "texels_per_metre": float,
-            "cascade_lambda": float, "character_texels_per_pixel": float}.get(key, int)
+            "cascade_lambda": float, "character_texels_per_pixel": float,
+            "view_resolution": bool}.get(key, int)
     out = []
     for v in (v.strip() for v in values.split(",")):
+        if kind is bool:
+            if v.lower() not in ("on", "off"):
+                raise ValueError(f"{key}: {v!r} is not on or off")
+            if (v.lower() == "on") not in out:
+                out.append(v.lower() == "on")
+            continue
         try:
             value = kind(v)
         except ValueError:

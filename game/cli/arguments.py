@@ -195,6 +195,13 @@ def _add_shadow_options(p: argparse.ArgumentParser) -> None:
                    default=d.character_texels_per_pixel,
                    help="character map texels per pixel where the shadow can be nearest the "
                         "camera; 0 keeps every character map at the most, every frame")
+    g.add_argument("--view-resolution", action=argparse.BooleanOptionalAction,
+                   default=d.view_resolution,
+                   help="clumped: size each clump map by what the view needs (up to "
+                        "--max-clump-resolution, within the same memory), instead of "
+                        "--clump-resolution for every clump map")
+    g.add_argument("--max-clump-resolution", type=positive_int, default=d.max_clump_resolution,
+                   help="clumped with --view-resolution: the largest side of a clump map")
     g.add_argument("--single-resolution", type=positive_int, default=d.single_resolution,
                    help="texels per side of the single baseline map")
     g.add_argument("--lamp-resolution", type=positive_int, default=d.lamp_resolution,
@@ -234,6 +241,7 @@ def shadow_settings(args) -> ShadowSettings:
         min_character_resolution=args.min_character_resolution,
         character_texels_per_pixel=args.character_texels_per_pixel,
         single_resolution=args.single_resolution, lamp_resolution=args.lamp_resolution,
+        view_resolution=args.view_resolution, max_clump_resolution=args.max_clump_resolution,
         normal_bias=args.normal_bias,
         depth_bias=args.depth_bias, slope_bias=args.slope_bias,
         pcf=args.pcf if args.pcf is not None else args.command == "play", grid=args.grid,

@@ -43,6 +43,7 @@ class Frame:
     gbuffer: dict[str, np.ndarray] | None = None  # position, normal, object, lit (and soft)
     gl_objects: dict[str, int] | None = None  # live GL objects by owner, after the frame
     texels_to_maps: int = 0    # depth texels cleared and rendered into maps this frame
+    maps_waiting: int = 0      # view-sized clump maps whose new side waits for a later frame
     # The character maps (ShadowPlan.characters): maps, characters skipped and grouped.
     characters: dict[str, int] = field(default_factory=dict)
     camera_triangles: int = 0  # triangles the camera pass drew (after culling)

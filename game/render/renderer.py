@@ -217,6 +217,7 @@ class Renderer(SceneEdits):
         counts = {"maps_rendered": rendered, "maps_cached": len(plan.maps) - rendered,
                   "maps_total": len(plan.maps), "triangles_to_maps": triangles,
                   "texels_to_maps": sum(plan.maps[i].viewport ** 2 for i in drawn),
+                  "maps_waiting": plan.backlog,
                   "characters": dict(plan.characters)}
         if not read:
             return Frame(image=None, covered=None, maps_sampled=None, ms=dict(self.timer.ms),

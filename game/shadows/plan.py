@@ -33,6 +33,11 @@ DEPTH_BIAS_TEXELS = 1.0        # offset towards the light
 SLOPE_BIAS_TEXELS = 1.0        # offset towards the light, times tan(angle to the light)
 MAX_SLOPE = 8.0                # cap on that tan, for grazing light
 SHADOW_BUDGET_MIB = 512        # depth-array memory the clumped method may use
+MAX_CLUMP_RESOLUTION = 4096    # view-sized clump maps: the largest side (the array's layers)
+MIN_CLUMP_RESOLUTION = 128     # view-sized clump maps: the smallest side
+VIEW_TEXELS_PER_PIXEL = 8.0    # view-sized clump maps: texels per pixel where their shadow
+#                                can be nearest the camera
+MAX_MAP_RENDERS = 16           # view-sized clump maps: most that change side in one frame
 CASCADES = 4                   # csm: cascades (Bevy, Godot and Filament default to 4)
 CASCADE_LAMBDA = 0.75          # csm: practical split blend, 1 logarithmic, 0 uniform
 CASCADE_RESOLUTION = 2048      # csm: texels per side of each cascade
@@ -59,6 +64,12 @@ class ShadowSettings:
     pcf: bool = False
     grid: str = "auto"
     budget_mib: float = SHADOW_BUDGET_MIB
+    # clumped: size each clump map by what the view needs, within the budget (else every clump
+    # map has clump_resolution texels per side)
+    view_resolution: bool = False
+    max_clump_resolution: int = MAX_CLUMP_RESOLUTION
+    view_texels_per_pixel: float = VIEW_TEXELS_PER_PIXEL
+    max_map_renders: int = MAX_MAP_RENDERS
     cascades: int = CASCADES
     cascade_lambda: float = CASCADE_LAMBDA
     cascade_resolution: int = CASCADE_RESOLUTION
@@ -101,4 +112,5 @@ class ShadowPlan:
     # The character maps of the frame, for the stats: maps, characters skipped (no visible
     # shadow), characters grouped (sharing a map), maps shrunk for want of layers.
     characters: dict[str, int] = field(default_factory=dict)
+    backlog: int = 0  # view-sized clump maps whose new side waits for a later frame
     lights: int = 1   # the lights whose maps the plan holds (game/shadows/lights.py)

@@ -123,6 +123,7 @@ class Figures:
     fps_from_total: bool = False      # headless: 1000 / total ms, not frames over wall time
     texels_to_maps: int = 0
     characters: dict[str, int] | None = None  # the character maps (ShadowPlan.characters)
+    maps_waiting: int = 0             # view-sized clump maps whose new side waits
 
     @staticmethod
     def of(frame: Frame, clock: str, fps: float | None,
@@ -133,7 +134,8 @@ class Figures:
                        maps_cached=frame.maps_cached,
                        triangles_to_maps=frame.triangles_to_maps,
                        maps_per_fragment=mpf if mpf is not None else maps_per_fragment, fps=fps,
-                       texels_to_maps=frame.texels_to_maps, characters=frame.characters)
+                       texels_to_maps=frame.texels_to_maps, characters=frame.characters,
+                       maps_waiting=frame.maps_waiting)
 
 
 @dataclass
@@ -475,7 +477,8 @@ class Overlay:
                 imgui.text(f"{value:7.2f} ms" if value is not None else "      -")
             imgui.end_table()
         mpf = f"{f.maps_per_fragment:.3f}" if f.maps_per_fragment is not None else "-"
-        imgui.text_wrapped(f"maps rendered {f.maps_rendered}, cached {f.maps_cached}")
+        imgui.text_wrapped(f"maps rendered {f.maps_rendered}, cached {f.maps_cached}"
+                           + (f", waiting {f.maps_waiting}" if f.maps_waiting else ""))
         imgui.text_wrapped(f"triangles into maps {f.triangles_to_maps}, "
                            f"texels {f.texels_to_maps}")
         if f.characters:

@@ -7,6 +7,7 @@ Floors are never drawn into any map.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -30,10 +31,12 @@ from game.shadows.plan import (
     KIND_CHARACTER,
     KIND_CLUMP,
     KIND_FALLBACK,
+    MIN_CLUMP_RESOLUTION,
     MapRecord,
     ShadowPlan,
     ShadowSettings,
 )
+from game.shadows.view_budget import ClumpRequest, ViewBudget
 
 
 def _footprint(light: Light, statics: list[np.ndarray]):
@@ -88,7 +91,8 @@ class ClumpedShadows(ShadowMethod):
                "in one depth array")
     resolution_fields = ("clump_resolution", "character_resolution")
     parameters = ("clumping", "clump_count", "texels_per_metre", "clump_resolution",
-                  "character_resolution", "character_texels_per_pixel")
+                  "character_resolution", "character_texels_per_pixel", "view_resolution",
+                  "max_clump_resolution")
     budgeted = True
 
     @classmethod
@@ -114,6 +118,7 @@ class ClumpedShadows(ShadowMethod):
             min(settings.min_character_resolution, self._character_resolution),
             self._character_resolution)
         self._assign_characters()
+        self.view_budget: ViewBudget | None = None
         self.set_light(light)
 
     # -- layers ---------------------------------------------------------------------------
@@ -133,11 +138,38 @@ class ClumpedShadows(ShadowMethod):
 
     @property
     def layers(self) -> int:
+        if self.view_budget is not None:
+            return self.view_budget.atlas.layers
         return max(1, self._high)
 
     @property
     def resolution(self) -> int:
+        if self.view_budget is not None:
+            return self.view_budget.atlas.resolution
         return self.settings.clump_resolution
+
+    def _make_view_budget(self) -> None:
+        """With ``view_resolution``, the squares the clump maps take by need
+        (game/shadows/view_budget.py), in as many texels as the fixed maps would take (their
+        layers, the characters' among them); the character maps keep squares of their own.
+        The layers' side is the largest power of two up to ``max_clump_resolution`` whose
+        whole layers hold those texels with at most a quarter more."""
+        s = self.settings
+        if not s.view_resolution:
+            return
+        texels = (len(self.static_maps) + len(self._char_layers)) * s.clump_resolution ** 2
+        side = crowd.pow2_at_least(max(s.max_clump_resolution, s.clump_resolution))
+        while side > s.clump_resolution and -(-texels // side ** 2) * side ** 2 > 1.25 * texels:
+            side //= 2
+        layers = max(1, -(-texels // side ** 2))
+        if self.view_budget is not None:
+            if (self.view_budget.atlas.layers, self.view_budget.atlas.resolution) == (layers,
+                                                                                       side):
+                return
+            self._dirty = set(range(len(self._clump_keys)))  # every map is placed anew
+        self.view_budget = ViewBudget(layers, side, MIN_CLUMP_RESOLUTION,
+                                      [s.clump_resolution] * len(self._char_layers),
+                                      s.max_map_renders)
 
     def _character_names(self) -> list[str]:
         g = self.geom
@@ -328,6 +360,7 @@ class ClumpedShadows(ShadowMethod):
                      if self.light.kind == "directional" else None)
         self._drop_empty_clumps()
         self.clumps, self.static_maps, self._map_of_clump = [], [], {}
+        self._clump_geometry: dict[int, tuple[np.ndarray, np.ndarray | None]] = {}
         self.static_pieces = []
         piece_of: dict[int, int] = {}
         member_rects = []
@@ -371,7 +404,9 @@ class ClumpedShadows(ShadowMethod):
                 theirs[:, 2:] = np.minimum(theirs[:, 2:], rect[2:])
                 cover = np.concatenate([rects, theirs])
             depth = np.concatenate([points[u] for u in extra]) if extra else None
-            fits = self._clump_fits(k, np.concatenate([points[u] for u in members]), depth)
+            core_points = np.concatenate([points[u] for u in members])
+            self._clump_geometry[k] = (core_points, depth)
+            fits = self._clump_fits(k, core_points, depth)
             self._map_of_clump[k] = []
             for fit, layer in zip(fits, self._clump_layers[k], strict=False):
                 self._map_of_clump[k].append(len(self.static_maps))
@@ -380,6 +415,7 @@ class ClumpedShadows(ShadowMethod):
                     layer=layer, viewport=s.clump_resolution,
                     objects=[self.geom.static_object(i) for i in statics], cover=cover,
                     pieces=pieces))
+        self._make_view_budget()
 
     def _drop_empty_clumps(self) -> None:
         """Clumps left without members go, and give back their layers."""
@@ -507,20 +543,69 @@ class ClumpedShadows(ShadowMethod):
         self.geom = geom
         self._char_boxes = None
         self._assign_characters()
+        if self.view_budget is not None:  # the characters' squares change: place all anew
+            self.view_budget = None
+            self._make_view_budget()
+            self._dirty = set(range(len(self._clump_keys)))
 
     # -- frame ------------------------------------------------------------------------------
     def plan(self, models: np.ndarray, view=None) -> ShadowPlan:
         """The maps for this frame; ``models`` are the characters' (n, 4, 4) matrices."""
-        s = self.settings
         maps = list(self.static_maps)
-        render_static = sorted(i for k in self._dirty for i in self._map_of_clump.get(k, []))
+        backlog = 0
+        if self.view_budget is not None and view is not None and view.size is not None:
+            drawn = self._view_sized(maps, view)
+            backlog = self.view_budget.backlog
+        else:
+            drawn = self._dirty
+        render_static = sorted(i for k in drawn for i in self._map_of_clump.get(k, []))
         render_dynamic = []
-        resolution = s.clump_resolution
         counts = self._character_maps(models, view, maps, render_dynamic)
         self._dirty = set()
-        return ShadowPlan(resolution=resolution, maps=maps,
+        return ShadowPlan(resolution=self.resolution, maps=maps,
                           render_static=render_static, render_dynamic=render_dynamic,
-                          static_pieces=self.static_pieces, characters=counts)
+                          static_pieces=self.static_pieces, characters=counts,
+                          backlog=backlog)
+
+    def _view_sized(self, maps: list[MapRecord], view) -> set[int]:
+        """Give each clump map the side this view needs (game/shadows/view_budget.py): its
+        records in ``maps`` are replaced; returns the clumps whose maps are drawn."""
+        s, light = self.settings, self.light
+        eye = None if light.kind == "directional" else np.asarray(light.position, float)
+        spheres = [bounding_sphere(self._clump_geometry[k][0])
+                   for k in range(len(self._clump_keys))]
+        centres = np.array([c for c, _ in spheres]).reshape(-1, 3)
+        radii = np.array([r for _, r in spheres], float)
+        volumes, bounded = crowd.shadow_volumes(centres, radii, light.kind, light.direction,
+                                                eye, self._ground)
+        hidden = bounded & crowd.outside_view(volumes, view.proj @ view.view)
+        need = crowd.texels_needed(volumes, centres, radii, view.view, view.proj,
+                                   view.size[1], s.view_texels_per_pixel, eye)
+        need[hidden] = 0.0
+        requests = [ClumpRequest(key=(tuple(keys), len(self._map_of_clump.get(k, []))),
+                                 maps=len(self._map_of_clump.get(k, [])), need=float(need[k]),
+                                 refit=lambda side, k=k: self._fits_at(k, side))
+                    for k, keys in enumerate(self._clump_keys)]
+        placements, drawn = self.view_budget.place(requests, self._dirty)
+        for k, placement in enumerate(placements):
+            for j, i in enumerate(self._map_of_clump.get(k, [])):
+                square = placement.squares[j]
+                maps[i] = dataclasses.replace(maps[i], fit=placement.fits[j],
+                                              layer=square.layer, viewport=placement.side,
+                                              origin=(square.x, square.y))
+        return drawn
+
+    def _fits_at(self, k: int, side: int) -> list[MapFit]:
+        """Clump k's maps fitted at ``side`` texels: as many as it has, of the same kind."""
+        points, depth = self._clump_geometry[k]
+        count = len(self._map_of_clump.get(k, []))
+        light = self.light
+        if light.kind == "directional":
+            return [fit_directional(points, self._light_rot, side, depth_points=depth)]
+        if count > 1:
+            return fit_cube_faces(points, light.position, side)
+        fit = self._fit(points, side)
+        return [fit] if fit is not None else []
 
     def _character_maps(self, models: np.ndarray, view, maps: list[MapRecord],
                         render_dynamic: list[int]) -> dict[str, int]:
@@ -579,11 +664,15 @@ class ClumpedShadows(ShadowMethod):
             if fit is None:
                 continue
             render_dynamic.append(len(maps))
+            layer, origin = self._char_layers[m.layer], m.origin
+            if self.view_budget is not None:  # the layer is a square of the view's atlas
+                square = self.view_budget.reserved[m.layer]
+                layer, origin = square.layer, (square.x + origin[0], square.y + origin[1])
             maps.append(MapRecord(name=f"character_{members[0]}", kind=KIND_CHARACTER, fit=fit,
-                                  layer=self._char_layers[m.layer], viewport=m.resolution,
+                                  layer=layer, viewport=m.resolution,
                                   objects=[g.character_object(i) for i in members],
                                   cover=None if covers is None else covers[members],
-                                  origin=m.origin))
+                                  origin=origin))
             drawn += 1
         return {"character_maps": drawn, "characters_skipped": int(n - len(shown)),
                 "characters_grouped": sum(len(m.members) for m in planned if len(m.members) > 1),

@@ -1,0 +1,151 @@
+"""Clump maps sized by what the view needs, inside the shadow memory budget.
+
+With a fixed texel density every clump map has the same side, near the camera or 300 m away. Here
+each frame gives each clump map the side its shadow needs on screen: the clump's shadow volume
+(its bounding sphere swept along the light to the ground, as for the characters' maps:
+game/shadows/crowd.py) is nearest the camera at some depth, where a pixel spans so many metres;
+the map gets ``texels_per_pixel`` texels per such pixel across its footprint, as a power of two
+between a minimum and the array's layer side. A map whose volume lies outside the view gets the
+minimum. Sides grow at once and shrink only when the need falls well under the smaller side
+(the characters' hysteresis), so small camera moves re-render nothing.
+
+The sides must fit the budget: while their texels exceed the array's, the largest side halves.
+The maps live in squares of the array's layers (game/shadows/atlas.py); a map keeps its square
+while its side stays, and a cached map is drawn again only when its side changes (or its clump
+does). At most ``max_renders`` maps change side in a frame; the others wait, keeping their old
+side and square, and :attr:`ViewBudget.backlog` counts them. Holds no GL object.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Hashable
+from dataclasses import dataclass
+
+import numpy as np
+
+from game.shadows.atlas import Atlas, Square
+from game.shadows.crowd import CrowdPlanner
+from game.shadows.fit import MapFit
+
+
+@dataclass
+class Placement:
+    """Where a clump's maps are this frame: their side, their squares and their fits."""
+
+    side: int
+    squares: list[Square]
+    fits: list[MapFit]
+
+
+@dataclass(frozen=True)
+class ClumpRequest:
+    """One clump as the budget sees it: a key that stays while the clump is unchanged, how
+    many maps it has, the side its view asks, and its fits at a given side."""
+
+    key: Hashable
+    maps: int
+    need: float
+    refit: Callable[[int], list[MapFit]]
+
+
+class ViewBudget:
+    """Sides and squares of the clump maps, frame after frame."""
+
+    def __init__(self, layers: int, resolution: int, min_side: int, reserved: list[int],
+                 max_renders: int):
+        self.atlas = Atlas(layers, resolution)
+        self.min_side = min(min_side, resolution)
+        self.max_renders = max_renders
+        self._reserved_sides = list(reserved)
+        self.reserved = [self.atlas.take(side) for side in reserved]
+        if any(square is None for square in self.reserved):
+            raise ValueError("the character maps' squares do not fit the shadow budget")
+        self._sizes = CrowdPlanner(self.min_side, resolution)
+        self.placed: dict[Hashable, Placement] = {}
+        self.backlog = 0
+
+    @property
+    def capacity(self) -> int:
+        """Texels the clump maps may take."""
+        total = self.atlas.layers * self.atlas.resolution ** 2
+        return total - sum(s * s for s in self._reserved_sides)
+
+    def sides(self, requests: list[ClumpRequest]) -> list[int]:
+        """Each clump's side this frame: its need, with the hysteresis, halved (largest first)
+        until all fit the budget."""
+        sides = self._sizes.sizes([str(r.key) for r in requests],
+                                  np.array([r.need for r in requests], float))
+        maps = [r.maps for r in requests]
+        while sum(m * s * s for m, s in zip(maps, sides, strict=True)) > self.capacity:
+            largest = max(range(len(sides)), key=lambda i: (sides[i], -requests[i].need))
+            if sides[largest] <= self.min_side:
+                raise ValueError("the clump maps do not fit the shadow budget at their "
+                                 "smallest side")
+            sides[largest] //= 2
+        return sides
+
+    def place(self, requests: list[ClumpRequest], must: set[int]) -> tuple[list[Placement],
+                                                                          set[int]]:
+        """Placements for every clump (in order) and the clumps whose maps are drawn this
+        frame: those in ``must`` (their content changed), new ones, and up to
+        :attr:`max_renders` maps whose side changed, smaller first (they free squares)."""
+        sides = self.sides(requests)
+        keys = {r.key for r in requests}
+        for key in [k for k in self.placed if k not in keys]:  # clumps that are gone
+            for square in self.placed.pop(key).squares:
+                self.atlas.give(square)
+        changes = [i for i, r in enumerate(requests)
+                   if r.key not in self.placed or self.placed[r.key].side != sides[i]]
+        forced = [i for i in changes if requests[i].key not in self.placed]
+        optional = sorted((i for i in changes if i not in forced),
+                          key=lambda i: (sides[i] > self.placed[requests[i].key].side,
+                                         -requests[i].need))
+        budget = self.max_renders - sum(requests[i].maps for i in forced)
+        applied = list(forced)
+        for i in optional:
+            if i in must or budget >= requests[i].maps:
+                applied.append(i)
+                budget -= 0 if i in must else requests[i].maps
+        self.backlog = len(changes) - len(applied)
+        drawn = set(must) | set(applied)
+        for i in applied:
+            old = self.placed.pop(requests[i].key, None)
+            if old is not None:
+                for square in old.squares:
+                    self.atlas.give(square)
+        for i in must:  # same side, new content (the light moved): new fits
+            if i not in applied and requests[i].key in self.placed:
+                self.placed[requests[i].key].fits = requests[i].refit(sides[i])
+        for i in sorted(applied, key=lambda i: -sides[i]):
+            squares = [self.atlas.take(sides[i]) for _ in range(requests[i].maps)]
+            if any(s is None for s in squares):
+                for s in squares:
+                    if s is not None:
+                        self.atlas.give(s)
+                return self._repack(requests, sides), set(range(len(requests)))
+            self.placed[requests[i].key] = Placement(sides[i], squares,
+                                                     requests[i].refit(sides[i]))
+        return [self.placed[r.key] for r in requests], drawn
+
+    def _repack(self, requests: list[ClumpRequest], sides: list[int]) -> list[Placement]:
+        """Every square anew (the free space was too broken up): every map is drawn again."""
+        wanted = self._reserved_sides + [s for r, s in zip(requests, sides, strict=True)
+                                         for _ in range(r.maps)]
+        squares = self.atlas.repack(wanted)
+        if squares is None:
+            raise ValueError("the clump maps do not fit the shadow budget")
+        self.reserved = squares[:len(self._reserved_sides)]
+        rest = iter(squares[len(self._reserved_sides):])
+        self.placed = {}
+        for r, side in zip(requests, sides, strict=True):
+            self.placed[r.key] = Placement(side, [next(rest) for _ in range(r.maps)],
+                                           r.refit(side))
+        self.backlog = 0
+        return [self.placed[r.key] for r in requests]
+
+    def forget(self) -> None:
+        """Every clump is placed anew on the next frame (its squares are given back)."""
+        for placement in self.placed.values():
+            for square in placement.squares:
+                self.atlas.give(square)
+        self.placed = {}
