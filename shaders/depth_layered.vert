@@ -1,9 +1,11 @@
 #version 430
 #extension GL_ARB_shader_viewport_layer_array : require
-// Every character's map in one draw: each vertex goes to its character's layer (gl_Layer from
-// the vertex shader), so the per-frame maps cost one framebuffer, not one per character. With
-// several lights the draw has one instance per light, each reading that light's entries.
+// Every character's map of one light in one draw: each vertex goes to its character's layer
+// (gl_Layer from the vertex shader), so the per-frame maps cost one framebuffer, not one per
+// character. With several lights, one draw per light that has character maps this frame.
 #include "world.glsl"
+
+uniform int u_light;  // whose character maps: index into u_lights
 
 in vec3 in_position;
 in int in_object;
@@ -14,7 +16,7 @@ in int in_object;
 out float gl_ClipDistance[4];
 
 void main() {
-    int map = u_character_maps[u_lights[gl_InstanceID].first_character_map + in_object
+    int map = u_character_maps[u_lights[u_light].first_character_map + in_object
                                - u_frame.first_character];
     if (map < 0) {
         gl_Position = vec4(2.0, 2.0, 2.0, 1.0);   // no map this frame (outside a spot's cone)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import bisect
+
 import moderngl
 
 from game.gpu import glsl, resources
@@ -70,9 +72,8 @@ class ShadowMapPass:
         return triangles
 
     def draw_dynamic(self, plan: ShadowPlan) -> int:
-        """Render the plan's per-frame maps: in one layered draw (an instance per light) when
-        they are all character maps and the GL allows it, else map by map. Returns the
-        triangles drawn."""
+        """Render the plan's per-frame maps: in one layered draw per light when they are all
+        character maps and the GL allows it, else map by map. Returns the triangles drawn."""
         indices = plan.render_dynamic
         if not (self.layered and all(plan.maps[i].kind == KIND_CHARACTER for i in indices)):
             return self.draw_maps(plan, indices)
@@ -85,12 +86,17 @@ class ShadowMapPass:
         fbo = array.layered
         fbo.use()
         fbo.viewport = (0, 0, array.resolution, array.resolution)
-        characters = [o for i in indices for o in plan.maps[i].objects]
         for plane in CLIP_PLANES:
             self.ctx.enable_direct(plane)
-        for first, count in self.buffers.layout.ranges(sorted(set(characters))):
-            self.layered_vao.render(moderngl.TRIANGLES, vertices=count, first=first,
-                                    instances=plan.lights)
+        # One draw per light that has character maps this frame, of the characters it holds.
+        by_light: dict[int, set[int]] = {}
+        for i in indices:
+            light = bisect.bisect_right(plan.light_first_maps, i) - 1
+            by_light.setdefault(light, set()).update(plan.maps[i].objects)
+        for light, characters in sorted(by_light.items()):
+            self.layered_prog["u_light"].value = light
+            for first, count in self.buffers.layout.ranges(sorted(characters)):
+                self.layered_vao.render(moderngl.TRIANGLES, vertices=count, first=first)
         for plane in CLIP_PLANES:
             self.ctx.disable_direct(plane)
         return sum(self.buffers.geom.triangle_count(plan.maps[i].objects) for i in indices)

@@ -160,7 +160,7 @@ class LightShadows:
         resolution = self.resolution
         combined = ShadowPlan(resolution=resolution, maps=[],
                               static_pieces=plans[0].static_pieces, characters={},
-                              lights=len(plans))
+                              light_first_maps=[])
         spans = []
         for k, (plan, (base, first_square)) in enumerate(zip(plans, places, strict=True)):
             first = len(combined.maps)
@@ -180,6 +180,7 @@ class LightShadows:
             for key, value in plan.characters.items():
                 combined.characters[key] = combined.characters.get(key, 0) + value
             spans.append(LightSpan(first, len(plan.maps), base))
+            combined.light_first_maps.append(first)
         return combined, spans
 
 

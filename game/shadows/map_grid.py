@@ -18,6 +18,7 @@ their cells from frame to frame, while only the maps that move are placed again.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -172,12 +173,19 @@ def _cell_points(size: int) -> np.ndarray:
     return np.stack(corners + extra, axis=1)  # (cells, 8, 2)
 
 
+@functools.lru_cache(maxsize=4)
+def _cell_directions(size: int) -> np.ndarray:
+    """The unit directions of :func:`_cell_points`, (cells * 8, 3): the same for every light
+    and frame, so made once."""
+    directions = octahedral_decode(_cell_points(size).reshape(-1, 2))
+    directions.flags.writeable = False
+    return directions
+
+
 def _octahedral_pairs(fits: list[MapFit], eye: np.ndarray, first: int = 0) -> np.ndarray:
     """As :func:`_ortho_pairs`, over the directions from a spot or point light at ``eye``."""
-    size = OCTAHEDRAL_GRID
-    pts = _cell_points(size)
-    cells = pts.shape[0]
-    dirs = octahedral_decode(pts.reshape(-1, 2))
+    dirs = _cell_directions(OCTAHEDRAL_GRID)
+    cells = len(dirs) // 8
     world = np.asarray(eye, float) + dirs  # one point along each direction
     hom = np.concatenate([world, np.ones((len(world), 1))], axis=1)
     hits = np.zeros((cells, len(fits)), bool)

@@ -113,4 +113,6 @@ class ShadowPlan:
     # shadow), characters grouped (sharing a map), maps shrunk for want of layers.
     characters: dict[str, int] = field(default_factory=dict)
     backlog: int = 0  # view-sized clump maps whose new side waits for a later frame
-    lights: int = 1   # the lights whose maps the plan holds (game/shadows/lights.py)
+    # Each light's first map (game/shadows/lights.py): the maps of light k start at
+    # light_first_maps[k].
+    light_first_maps: list[int] = field(default_factory=lambda: [0])

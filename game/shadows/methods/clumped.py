@@ -615,17 +615,20 @@ class ClumpedShadows(ShadowMethod):
         n = g.n_characters
         if not n:
             return {}
+        models = np.asarray(models, float)
+        visible = self.reached_characters(models)
+        if not visible.any():  # a lamp whose range holds no character now
+            return {"character_maps": 0, "characters_skipped": n, "characters_grouped": 0,
+                    "character_maps_shrunk": 0}
         names = self._character_names()
         self.crowd.forget(set(names))
         # Each character's bounding box, posed: its map's fit and cover need no more.
         if self._char_boxes is None or len(self._char_boxes) != n:
             self._char_boxes = np.stack([_box_corners(p) for p in g.character_points])
-        models = np.asarray(models, float)
         placed = (np.einsum("nij,nkj->nki", models[:, :3, :3], self._char_boxes)
                   + models[:, None, :3, 3])
         centres = models[:, :3, 3]
         radii = np.asarray(g.character_radius, float)
-        visible = self.reached_characters(models)
         needed = np.full(n, np.inf)
         if view is not None and view.size is not None and s.character_texels_per_pixel > 0:
             ground = min(self._ground, float(placed[..., 1].min()))
