@@ -421,8 +421,8 @@ def _stability_bars(plt, picked: list[dict], factor: str, what: str, unit: str,
 def lights_figure(plt, rows: list[dict]) -> Figure | None:
     """Per-frame cost and shadow error against the number of lights on the night town, every
     method at its defaults. None where no run fits."""
-    picked = [r for r in rows if r["group"] == "lights" and _ok(r) and _default(r)
-              and math.isfinite(row_number(r, "lights"))]
+    picked = [r for r in rows if r["group"] == "lights" and r["factor"] == "lights" and _ok(r)
+              and _default(r) and math.isfinite(row_number(r, "lights"))]
     if not picked:
         return None
     _need_two(row_number(r, "lights") for r in picked)

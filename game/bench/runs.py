@@ -30,8 +30,10 @@ PARAM_KEYS = ("clumping", "clump_count", "texels_per_metre", "clump_resolution",
               "cascade_resolution")
 # Walker counts of the 4 x 4 town's crowd series (16 is town_4x4 itself).
 CROWD_SERIES = (4, 64, 128, 256)
-# Lights of the night town's series: the moon and street lamps, 1 to 64 lights in all.
+# Lights of the night town's series: the moon and street lamps, 1 to 64 lights in all; and the
+# walkers of its 16-light town (12 is lights_16 itself).
 LIGHT_SERIES = (1, 4, 16, 64)
+LIGHT_CHARACTER_SERIES = (4, 48)
 # Bench-only parameter: re-render every cached map every frame, to measure the cost of many
 # small maps (framebuffer and layer switches, clears) against one map at equal triangles.
 RERENDER = "rerender_static"
@@ -153,14 +155,20 @@ characters          = {characters}
 """
 
 
-def night_text(lights: int, name: str) -> str:
-    """assets/night_town.toml with ``lights`` lights in all: the moon and ``lights - 1`` lamps."""
+def night_text(lights: int, name: str, characters: int | None = None) -> str:
+    """assets/night_town.toml with ``lights`` lights in all (the moon and ``lights - 1``
+    lamps), and ``characters`` walkers (default: its own)."""
     text = (ASSET_DIR / "night_town.toml").read_text(encoding="utf-8")
-    head, sep, _ = text.partition("lamps               = 16")
-    if not sep:
-        raise ValueError("assets/night_town.toml no longer sets lamps = 16")
-    return (head.replace('name = "night_town"', f'name = "{name}"')
-            + f"lamps               = {lights - 1}" + _.rstrip("\n") + "\n")
+    keys = {"lamps": lights - 1}
+    if characters is not None:
+        keys["characters"] = characters
+    for key, value in keys.items():
+        start = text.find(f"\n{key} ")
+        end = text.find("\n", start + 1)
+        if start < 0:
+            raise ValueError(f"assets/night_town.toml no longer sets {key}")
+        text = text[:start] + f"\n{key:<19} = {value}" + text[end:]
+    return text.replace('name = "night_town"', f'name = "{name}"')
 
 
 def bench_scenes(quick: bool) -> list[BenchScene]:
@@ -190,6 +198,9 @@ def bench_scenes(quick: bool) -> list[BenchScene]:
         for n in LIGHT_SERIES:
             out.append(BenchScene(f"lights_{n}", "lights", night_text(n, f"lights_{n}"),
                                   "lights", n))
+        for n in LIGHT_CHARACTER_SERIES:
+            out.append(BenchScene(f"lights_16_c{n}", "lights",
+                                  night_text(16, f"lights_16_c{n}", n), "characters", n))
     for name in REAL_SCENES if not quick else ():
         path = REAL_DIR / f"{name}.toml"
         if path.is_file():
