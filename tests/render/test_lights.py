@@ -71,14 +71,20 @@ def test_the_lights_of_the_picture_add_up_and_a_lamp_ends_at_its_range(ctx):
     assert images[(True, True, True)].sum() > images[(True, False, True)].sum()
 
 
-def test_a_lamp_plans_no_map_for_casters_beyond_its_range(ctx):
-    renderer, _ = _render(ctx)
+@pytest.mark.parametrize("method", MAP_METHODS)
+def test_a_lamp_plans_no_map_for_casters_beyond_its_range(ctx, method):
+    renderer, _ = _render(ctx, method)
     try:
-        far = renderer.geom.static_object(4)  # the far crate
+        crate = renderer.geom.static_object(4)      # the far crate
+        walker = renderer.geom.character_object(1)  # the far walker
+        near = renderer.geom.character_object(0)    # walks round the point lamp
         for k, span in enumerate(renderer.last_spans):
             maps = renderer.last_plan.maps[span.first_map:span.first_map + span.map_count]
-            holds = any(far in rec.objects for rec in maps)
-            assert holds == (k == 0), k  # only the sun reaches it
+            held = {o for rec in maps for o in rec.objects}
+            assert (crate in held) == (k == 0), k  # only the sun reaches them
+            assert (walker in held) == (k == 0), k
+            if k == 1:
+                assert near in held
     finally:
         renderer.release()
 
