@@ -1,15 +1,12 @@
 """Clump maps sized by what the view needs, inside the shadow memory budget.
 
 With a fixed texel density every clump map has the same side, near the camera or 300 m away. Here
-each frame gives each clump map the side its shadow needs on screen: the clump's shadow volume
-(its bounding sphere swept along the light to the ground, as for the characters' maps:
-game/shadows/crowd.py) is nearest the camera at some depth, where a pixel spans so many metres;
-the map gets ``texels_per_pixel`` texels per such pixel across its footprint, as a power of two
-between a minimum and the array's layer side. A map whose volume lies outside the view gets the
-minimum. Sides grow at once and shrink only when the need falls well under the smaller side
-(the characters' hysteresis), so small camera moves re-render nothing.
-
-The sides must fit the budget: while their texels exceed the array's, the largest side halves.
+each frame gives each clump map a side from the need its owner computes from the view (the
+clumped method: game/shadows/methods/clumped.py ``_view_sized``), as a power of two between a
+minimum and the array's layer side. All needs are scaled by one factor, the largest for which
+the sides fit the budget, so maps keep their share relative to each other. Sides grow at once
+and shrink only when the need falls well under the smaller side (the characters' hysteresis,
+game/shadows/crowd.py), so small camera moves re-render nothing.
 The maps live in squares of the array's layers (game/shadows/atlas.py); a map keeps its square
 while its side stays, and a cached map is drawn again only when its side changes (or its clump
 does). At most ``max_renders`` maps change side in a frame; the others wait, keeping their old
@@ -24,8 +21,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from game.shadows.atlas import Atlas, Square
-from game.shadows.crowd import CrowdPlanner
+from game.shadows.crowd import CrowdPlanner, pow2_at_least
 from game.shadows.fit import MapFit
+
+
+# The most the needs are scaled up to fill the budget (a need of 128 texels may become 4096).
+MAX_SCALE = 32.0
 
 
 @dataclass
@@ -71,11 +72,25 @@ class ViewBudget:
         return total - sum(s * s for s in self._reserved_sides)
 
     def sides(self, requests: list[ClumpRequest]) -> list[int]:
-        """Each clump's side this frame: its need, with the hysteresis, halved (largest first)
-        until all fit the budget."""
-        sides = self._sizes.sizes([str(r.key) for r in requests],
-                                  np.array([r.need for r in requests], float))
+        """Each clump's side this frame: its need, all needs scaled by one factor, the largest
+        that fits the budget (below 1 where the needs exceed it, so near maps keep more texels
+        than far ones; above 1 where they leave texels unused, since finer maps only make
+        shadows more exact), with the hysteresis; then, should the hysteresis's larger sides
+        not fit, the largest halved."""
         maps = [r.maps for r in requests]
+        needs = np.array([r.need for r in requests], float)
+        atlas = self.atlas
+
+        def texels(scale: float) -> int:
+            return sum(m * pow2_at_least(n * scale, self.min_side, atlas.resolution) ** 2
+                       for m, n in zip(maps, needs, strict=True))
+
+        low, high = 0.0, MAX_SCALE
+        for _ in range(32):  # the largest scale that fits
+            scale = (low + high) / 2
+            low, high = (scale, high) if texels(scale) <= self.capacity else (low, scale)
+        scale = low
+        sides = self._sizes.sizes([str(r.key) for r in requests], needs * scale)
         while sum(m * s * s for m, s in zip(maps, sides, strict=True)) > self.capacity:
             largest = max(range(len(sides)), key=lambda i: (sides[i], -requests[i].need))
             if sides[largest] <= self.min_side:

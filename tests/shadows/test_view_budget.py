@@ -55,40 +55,51 @@ def _requests(needs, maps=1):
             for k, need in enumerate(needs)]
 
 
-def test_sides_follow_the_need_within_the_budget():
+def test_sides_follow_the_need_and_fill_the_budget():
     budget = ViewBudget(layers=1, resolution=2048, min_side=128, reserved=[], max_renders=64)
-    assert budget.sides(_requests([100.0, 300.0, 900.0])) == [128, 512, 1024]
-    # Four maps asking 2048 each cannot all have it in one 2048 layer: the largest halve.
+    needs = [100.0, 300.0, 900.0]
+    sides = budget.sides(_requests(needs))
+    assert sides == sorted(sides) and sides[0] < sides[2]  # nearer maps get more texels
+    assert sum(s * s for s in sides) <= 2048 ** 2
+    # One scale for all: doubling the largest would not fit.
+    assert sum(s * s for s in sides) + 3 * sides[2] ** 2 > 2048 ** 2
+    # The same needs, all twice as large (the camera half as far): the same sides.
+    assert budget.sides(_requests([2 * n for n in needs])) == sides
+    # Four maps asking 2048 each cannot all have it in one 2048 layer.
     sides = budget.sides(_requests([5000.0] * 4))
-    assert sum(s * s for s in sides) <= 2048 ** 2 and max(sides) == 1024
+    assert sides == [1024] * 4
 
 
-def test_a_small_change_of_need_draws_nothing_again_and_a_large_one_draws_only_its_map():
+def test_a_small_change_of_need_draws_nothing_again_and_a_large_one_draws_what_changed():
     budget = ViewBudget(layers=2, resolution=2048, min_side=128, reserved=[1024],
                         max_renders=64)
     needs = [300.0, 600.0, 90.0, 1500.0]
     placed, drawn = budget.place(_requests(needs), set())
     assert drawn == {0, 1, 2, 3}
-    assert [p.side for p in placed] == [512, 1024, 128, 2048]
+    before = [p.side for p in placed]
     # A little nearer or farther: the hysteresis keeps every side.
-    placed, drawn = budget.place(_requests([n * 0.8 for n in needs]), set())
-    assert drawn == set() and [p.side for p in placed] == [512, 1024, 128, 2048]
-    # Map 2 comes much nearer: it alone is drawn again, at its new side.
-    placed, drawn = budget.place(_requests([300.0, 600.0, 700.0, 1500.0]), set())
-    assert drawn == {2} and placed[2].side == 1024
+    placed, drawn = budget.place(_requests([n * 0.9 for n in needs]), set())
+    assert drawn == set() and [p.side for p in placed] == before
+    # Map 2 comes much nearer: its side grows, and only maps whose side changed are drawn.
+    placed, drawn = budget.place(_requests([300.0, 600.0, 1200.0, 1500.0]), set())
+    after = [p.side for p in placed]
+    assert after[2] > before[2] and 2 in drawn
+    assert drawn == {i for i in range(4) if after[i] != before[i]}
     squares = [s for p in placed for s in p.squares] + budget.reserved
     assert not any(_overlap(a, b) for i, a in enumerate(squares) for b in squares[:i])
 
 
 def test_at_most_the_cap_of_maps_change_side_in_a_frame_and_the_rest_follow():
-    budget = ViewBudget(layers=4, resolution=2048, min_side=128, reserved=[], max_renders=3)
-    budget.place(_requests([100.0] * 10), set())
-    drawn_per_frame = []
-    for _ in range(5):
-        placed, drawn = budget.place(_requests([1000.0] * 10), set())
+    budget = ViewBudget(layers=2, resolution=2048, min_side=128, reserved=[], max_renders=3)
+    placed, _ = budget.place(_requests([1000.0] * 8), set())
+    assert all(p.side == 1024 for p in placed)
+    drawn_per_frame, waiting = [], []
+    for _ in range(4):  # the camera turns away: every map wants the least
+        placed, drawn = budget.place(_requests([0.0] * 8), set())
         drawn_per_frame.append(len(drawn))
-    assert drawn_per_frame[:3] == [3, 3, 3] and drawn_per_frame[3] == 1
-    assert budget.backlog == 0 and all(p.side == 1024 for p in placed)
+        waiting.append(budget.backlog)
+    assert drawn_per_frame == [3, 3, 2, 0] and waiting == [5, 2, 0, 0]
+    assert all(p.side == 128 for p in placed)
 
 
 def test_view_sized_clump_maps_hold_the_accuracy_bar_in_no_more_memory(ctx):
@@ -112,19 +123,23 @@ def test_view_sized_clump_maps_hold_the_accuracy_bar_in_no_more_memory(ctx):
     assert memory[True] <= 1.25 * memory[False]
 
 
-def test_walking_up_to_a_clump_re_renders_its_map_finer(ctx):
+def test_turning_away_shrinks_the_clump_maps_the_view_cannot_see(ctx):
     scene = load_scene(COURTYARD)
     size = (320, 180)
     renderer = Renderer(ctx, scene, size, ShadowSettings(view_resolution=True))
     try:
-        far = dataclasses.replace(scene.camera, position=scene.camera.position * 4.0)
-        renderer.render(0.0, View.from_camera(far, size))
-        before = {rec.name: rec.viewport for rec in renderer.last_plan.maps if rec.kind == 0}
         renderer.render(0.0, View.from_camera(scene.camera, size))
-        after = {rec.name: rec.viewport for rec in renderer.last_plan.maps if rec.kind == 0}
-        grown = [name for name in after if after[name] > before.get(name, 0)]
-        assert grown
-        redrawn = {renderer.last_plan.maps[i].name for i in renderer.last_plan.render_static}
-        assert set(grown) <= redrawn
+        before = {rec.name: rec.viewport for rec in renderer.last_plan.maps if rec.kind == 0}
+        away = dataclasses.replace(scene.camera, target=2 * scene.camera.position
+                                   - scene.camera.target)
+        smallest, redrawn = {}, set()
+        for _ in range(4):  # at most 16 maps change side a frame: let them all follow
+            renderer.render(0.0, View.from_camera(away, size))
+            plan = renderer.last_plan
+            redrawn |= {plan.maps[i].name for i in plan.render_static}
+            smallest = {rec.name: rec.viewport for rec in plan.maps if rec.kind == 0}
+        shrunk = {name for name in smallest if smallest[name] < before[name]}
+        assert shrunk and shrunk <= redrawn
+        assert min(smallest.values()) == 128
     finally:
         renderer.release()

@@ -579,8 +579,13 @@ class ClumpedShadows(ShadowMethod):
         volumes, bounded = crowd.shadow_volumes(centres, radii, light.kind, light.direction,
                                                 eye, self._ground)
         hidden = bounded & crowd.outside_view(volumes, view.proj @ view.view)
-        need = crowd.texels_needed(volumes, centres, radii, view.view, view.proj,
-                                   view.size[1], s.view_texels_per_pixel, eye)
+        # The density the clump's shadow needs where most of it is seen: at its centre's
+        # distance (at least its radius), not at its nearest point, which for a clump beside
+        # the camera would ask the most texels for a sliver of its shadow.
+        hom = np.concatenate([centres, np.ones((len(centres), 1))], axis=1)
+        depth = np.maximum(-(hom @ view.view[2]), np.maximum(radii, 1e-6))
+        need = (2.0 * radii * 0.5 * view.size[1] * view.proj[1, 1] / depth
+                * s.view_texels_per_pixel)
         need[hidden] = 0.0
         requests = [ClumpRequest(key=(tuple(keys), len(self._map_of_clump.get(k, []))),
                                  maps=len(self._map_of_clump.get(k, [])), need=float(need[k]),
