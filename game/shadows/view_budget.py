@@ -24,7 +24,6 @@ from game.shadows.atlas import Atlas, Square
 from game.shadows.crowd import CrowdPlanner, pow2_at_least
 from game.shadows.fit import MapFit
 
-
 # The most the needs are scaled up to fill the budget (a need of 128 texels may become 4096).
 MAX_SCALE = 32.0
 
