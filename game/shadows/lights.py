@@ -134,10 +134,6 @@ class LightShadows:
         self._end = layer + (1 if used else 0)
         return places
 
-    def layer_bases(self) -> list[int]:
-        """The first array layer of each light's maps."""
-        return [layer for layer, _ in self._places()]
-
     @property
     def layers(self) -> int:
         self._places()
@@ -179,6 +175,7 @@ class LightShadows:
             combined.render_dynamic += [first + i for i in plan.render_dynamic]
             for key, value in plan.characters.items():
                 combined.characters[key] = combined.characters.get(key, 0) + value
+            combined.backlog += plan.backlog
             spans.append(LightSpan(first, len(plan.maps), base))
             combined.light_first_maps.append(first)
         return combined, spans
