@@ -1,7 +1,13 @@
 #version 430
 // The soft-shadow compute pass: one invocation per pixel of the G-buffer, one shaded point each.
 // METHOD (a #define from game/soft/methods.py) picks how occluders are found; all methods share the
-// samples, the 3D-DDA and the ray-triangle test, so the accelerated ones equal METHOD_BRUTE.
+// samples, the leaf walk and the ray-triangle test, so the accelerated ones equal METHOD_BRUTE.
+//
+// Every point's work is split into dispatches ("rounds") by a step budget: each loop iteration
+// costs a step, and a point whose steps reach u_trace.step_budget saves where it is (its
+// cursor, in its PointResult) and resumes there in the next round. Mesa's llvmpipe stops all
+// loops of an invocation after 65,535 iterations in all (see loop_budget_left); the budget keeps
+// every invocation well below that, whatever the method, scene or grid.
 #include "blocks/trace.glsl"
 #include "trace.glsl"
 
@@ -11,12 +17,39 @@ uniform sampler2D u_position;  // xyz world position
 uniform sampler2D u_normal;    // xyz unit normal facing the camera
 uniform sampler2D u_colour;    // a > 0 where geometry covers the pixel
 
-// Per-point counters (this invocation's shaded point).
+// What a walk (a ray through the structure, a leaf's list, an enumeration) ended with.
+const int WALK_CLEAR = 0;  // finished, nothing hit
+const int WALK_HIT = 1;    // a triangle hides the sample
+const int WALK_STOP = 2;   // the step budget ran out: resume at the saved cursor
+
+// Per-dispatch counters of the current point, added to its PointResult at the end.
 uint g_ray_tri;
 uint g_tri_tri;
 uint g_voxels;
 uint g_candidates;
 uint g_overflows;
+uint g_bytes_triangles;   // read from the Triangles buffer
+uint g_bytes_cells;       // read from the structure: top table, sub-grid table, leaf offsets, ids
+uint g_bytes_candidates;  // candidate state read and written: voxel cache, tri-cache words
+
+// The step budget: steps taken in this dispatch, and whether anything was done since the point
+// resumed (a point may only stop after some progress, so every round moves it on).
+int g_steps;
+bool g_progress;
+
+bool must_stop(int cost) {
+    return g_progress && g_steps + cost > u_trace.step_budget;
+}
+
+// The cursor: where the current point resumes (read at the start of a dispatch) and where it
+// stopped (written on WALK_STOP). top/sub are cells (sampled methods) or enumeration indices
+// (analytic); -1 means from the start; ref is the entry of the leaf's list (brute: the triangle).
+int g_at_top;
+int g_at_sub;
+int g_at_ref;
+int g_stop_top;
+int g_stop_sub;
+int g_stop_ref;
 
 // The light triangle of the current point: its apex and the segment.
 vec3 g_apex;
@@ -46,40 +79,76 @@ bool mailbox_seen(int tri) {
     return false;
 }
 
+void load_triangle(int tri, out vec3 v0, out vec3 v1, out vec3 v2) {
+    g_bytes_triangles += uint(TRIANGLE_BYTES);
+    v0 = tri_vertex(tri, 0);
+    v1 = tri_vertex(tri, 1);
+    v2 = tri_vertex(tri, 2);
+}
+
 bool may_occlude_point(int tri) {
     g_tri_tri += 1u;
-    return triangles_may_meet(g_apex, g_la, g_lb, tri_vertex(tri, 0), tri_vertex(tri, 1),
-                              tri_vertex(tri, 2));
+    vec3 v0, v1, v2;
+    load_triangle(tri, v0, v1, v2);
+    return triangles_may_meet(g_apex, g_la, g_lb, v0, v1, v2);
 }
 
-int cell_size(int c, out int s0, out int d0, out int ns) {
-    s0 = u_static_cells[c];
-    ns = u_static_cells[c + 1] - s0;
-    d0 = u_dynamic_cells[c];
-    return ns + u_dynamic_cells[c + 1] - d0;
+// ---- The structure (game/soft/grid.py Structure.gpu_array) ----------------------------------
+// A leaf's lists (static, then the characters'): returns its n >= 0 entries and where each
+// list starts; or, for a subdivided top cell (TWO_LEVEL), a negative n that sub_dims unpacks,
+// with s0 its sub-grid's first leaf.
+int leaf_size(int leaf, out int s0, out int d0, out int ns) {
+    g_bytes_cells += 16u;
+    s0 = u_static_cells[2 * leaf];
+    ns = u_static_cells[2 * leaf + 1];
+    d0 = u_dynamic_cells[leaf];
+    return ns < 0 ? ns : ns + u_dynamic_cells[leaf + 1] - d0;
 }
 
-int cell_tri(int k, int s0, int d0, int ns) {
+// The cells per axis of the sub-grid that a negative leaf_size stands for.
+ivec3 sub_dims(int n) {
+    int bits = -1 - n;
+    int mask = (1 << SUB_DIMS_BITS) - 1;
+    return ivec3(bits & mask, (bits >> SUB_DIMS_BITS) & mask, bits >> (2 * SUB_DIMS_BITS));
+}
+
+int leaf_tri(int k, int s0, int d0, int ns) {
+    g_bytes_cells += 4u;
     return k < ns ? u_static_cells[s0 + k] : u_dynamic_cells[d0 + k - ns];
 }
 
+ivec3 unflatten(int i, ivec3 dims) {
+    return ivec3(i % dims.x, (i / dims.x) % dims.y, i / (dims.x * dims.y));
+}
+
+int flatten(ivec3 c, ivec3 dims) {
+    return c.x + dims.x * (c.y + dims.y * c.z);
+}
+
+// ---- Sampled methods: which triangles of a leaf a ray tests -------------------------------
 bool test_tri(Ray r, int tri) {
     if (mailbox_seen(tri)) {
         return false;
     }
     g_ray_tri += 1u;
+    g_bytes_triangles += uint(TRIANGLE_BYTES);
     return ray_hits_triangle(r, tri);
 }
 
-bool cell_all_tris(Ray r, int c) {
-    int s0, d0, ns;
-    int n = cell_size(c, s0, d0, ns);
-    for (int k = 0; k < n; ++k) {
-        if (test_tri(r, cell_tri(k, s0, d0, ns))) {
-            return true;
+// Every triangle of a leaf, from entry k on (the grid method; voxel-cache's overflow path).
+int list_walk(Ray r, int s0, int d0, int ns, int n, int k) {
+    for (; k < n; ++k) {
+        if (must_stop(1)) {
+            g_stop_ref = k;
+            return WALK_STOP;
         }
+        g_steps += 1;
+        if (test_tri(r, leaf_tri(k, s0, d0, ns))) {
+            return WALK_HIT;
+        }
+        g_progress = true;
     }
-    return false;
+    return WALK_CLEAR;
 }
 
 #if METHOD == METHOD_TRI_CACHE
@@ -89,35 +158,42 @@ uint g_ray_id;
 // flag per triangle. They share one 32-bit word, so a word another invocation overwrote only
 // costs a repeated test, never a wrong flag.
 bool tri_cache_may_occlude(int tri) {
+    g_bytes_candidates += 4u;
     uint state = u_tri_state[tri];
     if ((state >> 1u) == g_ray_id) {
         return (state & 1u) == 0u;
     }
     bool may = may_occlude_point(tri);
+    g_bytes_candidates += 4u;
     u_tri_state[tri] = (g_ray_id << 1u) | (may ? 0u : 1u);
     return may;
 }
 
-bool cell_occludes(Ray r, int c) {
-    int s0, d0, ns;
-    int n = cell_size(c, s0, d0, ns);
-    for (int k = 0; k < n; ++k) {
-        int tri = cell_tri(k, s0, d0, ns);
-        if (tri_cache_may_occlude(tri) && test_tri(r, tri)) {
-            return true;
+int leaf_walk(Ray r, int leaf, int s0, int d0, int ns, int n, int k) {
+    for (; k < n; ++k) {
+        if (must_stop(1)) {
+            g_stop_ref = k;
+            return WALK_STOP;
         }
+        g_steps += 1;
+        int tri = leaf_tri(k, s0, d0, ns);
+        if (tri_cache_may_occlude(tri) && test_tri(r, tri)) {
+            return WALK_HIT;
+        }
+        g_progress = true;
     }
-    return false;
+    return WALK_CLEAR;
 }
 #elif METHOD == METHOD_VOXEL_CACHE
-// The per-voxel scheme of "Some Ideas on Shadow Algorithms", with per-invocation state: a direct-mapped table of VC_SLOTS voxels whose
-// candidate lists (the voxel's triangles that may meet the light triangle) sit in a pool of
-// VC_POOL triangle ids, bump-allocated. It is reset per shaded point (the scheme's global ray id)
-// and lives in the invocation's private memory, so no other invocation can race on it. A slot
-// that is re-used leaks its pool space until the pool is full; then the whole table is flushed.
-// A voxel whose candidates alone exceed the pool overflows: counted, and its rays test every
-// triangle of the voxel (the grid method there).
-uint g_vc_key[VC_SLOTS];        // cell + 1; 0 = empty
+// The per-voxel scheme of "Some Ideas on Shadow Algorithms", with per-invocation state: a
+// direct-mapped table of VC_SLOTS leaves whose candidate lists (the leaf's triangles that may
+// meet the light triangle) sit in a pool of VC_POOL triangle ids, bump-allocated. It is reset
+// per shaded point and dispatch (the scheme's global ray id) and lives in the invocation's
+// private memory, so no other invocation can race on it. A slot that is re-used leaks its pool
+// space until the pool is full; then the whole table is flushed. A leaf whose candidates alone
+// exceed the pool, or whose list is longer than VC_BIG_LEAF, overflows: counted, and its rays
+// test every triangle of the leaf (the grid method there).
+uint g_vc_key[VC_SLOTS];        // leaf + 1; 0 = empty
 int g_vc_start[VC_SLOTS];       // first candidate in the pool
 int g_vc_count[VC_SLOTS];       // candidates; -1 = overflowed
 int g_vc_pool[VC_POOL];
@@ -128,124 +204,251 @@ void voxel_cache_reset() {
         g_vc_key[i] = 0u;
     }
     g_vc_used = 0;
+    g_steps += VC_SLOTS;
 }
 
-bool cell_occludes(Ray r, int c) {
-    int s0, d0, ns;
-    int n = cell_size(c, s0, d0, ns);
+// The leaf's candidates, built the first time the point's rays enter it; then its rays walk
+// them (or, for an overflowed leaf, the whole list) from entry k on. A resumed point builds the
+// candidates again, in the same order, so k means the same entry.
+int leaf_walk(Ray r, int leaf, int s0, int d0, int ns, int n, int k) {
     if (n == 0) {
-        return false;
+        return WALK_CLEAR;
     }
-    int slot = c & (VC_SLOTS - 1);
-    if (g_vc_key[slot] != uint(c) + 1u) {
-        if (g_vc_used + n > VC_POOL) {
-            voxel_cache_reset();
-        }
-        g_vc_key[slot] = uint(c) + 1u;
-        g_vc_start[slot] = g_vc_used;
-        int count = 0;
-        for (int k = 0; k < n; ++k) {
-            int tri = cell_tri(k, s0, d0, ns);
-            if (may_occlude_point(tri)) {
-                if (g_vc_used + count < VC_POOL) {
-                    g_vc_pool[g_vc_used + count] = tri;
-                }
-                count += 1;
-            }
-        }
-        g_candidates += uint(count);
-        if (g_vc_used + count > VC_POOL) {
+    int slot = leaf & (VC_SLOTS - 1);
+    bool raw = n > VC_BIG_LEAF;
+    if (raw) {
+        if (k == 0) {
             g_overflows += 1u;
-            g_vc_count[slot] = -1;
+        }
+    } else {
+        g_bytes_candidates += 4u;
+        if (g_vc_key[slot] != uint(leaf) + 1u) {
+            // Building the leaf's candidates is one step per triangle; it is not split.
+            if (must_stop(2 * n)) {
+                g_stop_ref = 0;
+                return WALK_STOP;
+            }
+            if (g_vc_used + n > VC_POOL) {
+                voxel_cache_reset();
+            }
+            g_vc_key[slot] = uint(leaf) + 1u;
+            g_vc_start[slot] = g_vc_used;
+            g_bytes_candidates += 12u;
+            int count = 0;
+            for (int j = 0; j < n; ++j) {
+                g_steps += 1;
+                int tri = leaf_tri(j, s0, d0, ns);
+                if (may_occlude_point(tri)) {
+                    if (g_vc_used + count < VC_POOL) {
+                        g_vc_pool[g_vc_used + count] = tri;
+                        g_bytes_candidates += 4u;
+                    }
+                    count += 1;
+                }
+            }
+            g_candidates += uint(count);
+            if (g_vc_used + count > VC_POOL) {
+                g_overflows += 1u;
+                g_vc_count[slot] = -1;
+            } else {
+                g_vc_count[slot] = count;
+                g_vc_used += count;
+            }
+            // Not progress: a point that stops before its first test here builds it again.
+        }
+        g_bytes_candidates += 8u;
+        raw = g_vc_count[slot] < 0;
+    }
+    int count = raw ? n : g_vc_count[slot];
+    int first = raw ? 0 : g_vc_start[slot];
+    for (; k < count; ++k) {
+        if (must_stop(1)) {
+            g_stop_ref = k;
+            return WALK_STOP;
+        }
+        g_steps += 1;
+        int tri;
+        if (raw) {
+            tri = leaf_tri(k, s0, d0, ns);
         } else {
-            g_vc_count[slot] = count;
-            g_vc_used += count;
+            g_bytes_candidates += 4u;
+            tri = g_vc_pool[first + k];
         }
-    }
-    int count = g_vc_count[slot];
-    if (count < 0) {
-        return cell_all_tris(r, c);
-    }
-    int first = g_vc_start[slot];
-    for (int j = 0; j < count; ++j) {
-        if (test_tri(r, g_vc_pool[first + j])) {
-            return true;
+        if (test_tri(r, tri)) {
+            return WALK_HIT;
         }
+        g_progress = true;
     }
-    return false;
+    return WALK_CLEAR;
 }
 #else
-bool cell_occludes(Ray r, int c) {
-    return cell_all_tris(r, c);
+int leaf_walk(Ray r, int leaf, int s0, int d0, int ns, int n, int k) {
+    return list_walk(r, s0, d0, ns, n, k);
 }
 #endif
 
-// Any hit of the ray o + s d, s in (0, 1)?
-bool occluded(vec3 o, vec3 d) {
+// ---- 3D-DDA through the structure -------------------------------------------------------
+// (Amanatides and Woo, "A Fast Voxel Traversal Algorithm", 1987.) The parameters where the ray
+// leaves a cell are computed from the cell's own coordinates at every step, not accumulated, so
+// that a walk resumed at a cell takes exactly the steps the unbroken walk would have.
+vec3 g_inv;     // 1 / d of the current ray (+-inf on a zero component)
+ivec3 g_step;   // sign of d
+
+// Ray parameters of the cell's far faces along each axis (1e30 where the ray is parallel).
+vec3 cell_exit(vec3 lo, vec3 size, ivec3 c, vec3 o) {
+    vec3 face = lo + (vec3(c) + vec3(greaterThan(g_step, ivec3(0)))) * size;
+    return mix((face - o) * g_inv, vec3(1e30), equal(g_step, ivec3(0)));
+}
+
+// Ray parameter where the ray enters the cell (the largest near-face parameter).
+float cell_entry(vec3 lo, vec3 size, ivec3 c, vec3 o) {
+    vec3 face = lo + (vec3(c) + vec3(lessThan(g_step, ivec3(0)))) * size;
+    vec3 s = mix((face - o) * g_inv, vec3(-1e30), equal(g_step, ivec3(0)));
+    return max(max(s.x, s.y), s.z);
+}
+
+int min_axis(vec3 v) {
+    return (v.x < v.y) ? (v.x < v.z ? 0 : 2) : (v.y < v.z ? 1 : 2);
+}
+
+int walk_ray(vec3 o, vec3 d) {
     Ray r = make_ray(o, d);
     mailbox_reset();
+    int at_top = g_at_top, at_sub = g_at_sub, k = g_at_ref;
+    g_at_top = -1;
+    g_at_sub = -1;
+    g_at_ref = 0;
 #if METHOD == METHOD_BRUTE
-    // Four triangles per iteration: a quarter of the loop budget (see loop_budget_left).
+    // Four triangles per iteration: a quarter of the steps.
     int n = u_trace.triangles;
-    for (int tri = 0; tri < n; tri += 4) {
+    for (int tri = k; tri < n; tri += 4) {
+        if (must_stop(1)) {
+            g_stop_top = 0;
+            g_stop_sub = -1;
+            g_stop_ref = tri;
+            return WALK_STOP;
+        }
+        g_steps += 1;
         int m = min(4, n - tri);
         g_ray_tri += uint(m);
+        g_bytes_triangles += uint(m * TRIANGLE_BYTES);
         if (ray_hits_triangle(r, tri)
             || (m > 1 && ray_hits_triangle(r, tri + 1))
             || (m > 2 && ray_hits_triangle(r, tri + 2))
             || (m > 3 && ray_hits_triangle(r, tri + 3))) {
-            return true;
+            return WALK_HIT;
         }
+        g_progress = true;
     }
-    return false;
+    return WALK_CLEAR;
 #else
-    // 3D-DDA (Amanatides and Woo, "A Fast Voxel Traversal Algorithm", 1987), clipped to the
-    // grid's box; the binning's padding covers a float step into a neighbouring cell.
+    // Clipped to the grid's box; the binning's padding covers a float step into a neighbouring
+    // cell.
     vec3 lo = u_trace.grid_origin;
     vec3 hi = lo + u_trace.grid_cell * vec3(u_trace.grid_dims);
-    vec3 inv = 1.0 / d;  // +-inf on a zero component: that slab never limits
-    vec3 t0 = (lo - o) * inv, t1 = (hi - o) * inv;
+    g_inv = 1.0 / d;
+    g_step = ivec3(sign(d));
+    vec3 t0 = (lo - o) * g_inv, t1 = (hi - o) * g_inv;
     vec3 tn = min(t0, t1), tf = max(t0, t1);
-    for (int a = 0; a < 3; ++a) {
-        if (d[a] == 0.0) {
-            tn[a] = (o[a] >= lo[a] && o[a] <= hi[a]) ? -1e30 : 1e30;
-            tf[a] = (o[a] >= lo[a] && o[a] <= hi[a]) ? 1e30 : -1e30;
-        }
-    }
+    // A slab the ray runs parallel to: all or nothing, by whether the origin is inside it.
+    bvec3 flat_axis = equal(d, vec3(0.0));
+    bvec3 within = bvec3(uvec3(greaterThanEqual(o, lo)) & uvec3(lessThanEqual(o, hi)));
+    tn = mix(tn, mix(vec3(1e30), vec3(-1e30), within), flat_axis);
+    tf = mix(tf, mix(vec3(-1e30), vec3(1e30), within), flat_axis);
     float s0 = max(max(tn.x, tn.y), max(tn.z, 0.0));
     float s1 = min(min(tf.x, tf.y), min(tf.z, 1.0));
     if (s0 > s1) {
-        return false;
+        return WALK_CLEAR;
     }
-    vec3 start = o + d * s0;
-    ivec3 cell = clamp(ivec3(floor((start - lo) / u_trace.grid_cell)), ivec3(0),
-                       u_trace.grid_dims - 1);
-    ivec3 step = ivec3(sign(d));
-    vec3 next, delta;
-    for (int a = 0; a < 3; ++a) {
-        if (step[a] == 0) {
-            next[a] = 1e30;
-            delta[a] = 1e30;
-        } else {
-            float boundary = lo[a] + float(cell[a] + (step[a] > 0 ? 1 : 0)) * u_trace.grid_cell[a];
-            next[a] = (boundary - o[a]) / d[a];
-            delta[a] = u_trace.grid_cell[a] / abs(d[a]);
-        }
+    // One loop and one leaf walk for both levels, and one cell-exit computation per step:
+    // llvmpipe runs every branch of a loop body under a lane mask, so whatever a step might do
+    // costs on every step. The current grid is the top grid or one top cell's sub-grid.
+    ivec3 dims = u_trace.grid_dims;
+    vec3 box = lo, size = u_trace.grid_cell;
+    int first = 0;  // leaf id of the current grid's cell 0
+    ivec3 c;
+    float s_in = s0;  // where the ray enters the current cell
+    if (at_top >= 0) {
+        c = unflatten(at_top, dims);
+        s_in = max(s0, cell_entry(lo, size, c, o));
+    } else {
+        c = clamp(ivec3(floor((o + d * s0 - lo) / size)), ivec3(0), dims - 1);
     }
+#if TWO_LEVEL
+    bool inside = false;
+    ivec3 top = c;
+#endif
     for (;;) {
+        int id = flatten(c, dims);
+#if TWO_LEVEL
+        int top_id = inside ? flatten(top, u_trace.grid_dims) : id;
+        int sub = inside ? id : -1;
+#else
+        int top_id = id, sub = -1;
+#endif
+        if (must_stop(1)) {
+            g_stop_top = top_id;
+            g_stop_sub = sub;
+            g_stop_ref = 0;
+            return WALK_STOP;
+        }
+        g_steps += 1;
+        int leaf = first + id;
+        int s0_, d0, ns;
+        int n = leaf_size(leaf, s0_, d0, ns);
+#if TWO_LEVEL
+        if (n < 0) {
+            // A subdivided top cell: on into its sub-grid, at the cell where the ray enters.
+            inside = true;
+            top = c;
+            first = s0_;
+            dims = sub_dims(n);
+            box = lo + vec3(c) * u_trace.grid_cell;
+            size = u_trace.grid_cell / vec3(dims);
+            c = at_sub >= 0 ? unflatten(at_sub, dims)
+                            : clamp(ivec3(floor((o + d * s_in - box) / size)), ivec3(0), dims - 1);
+            at_sub = -1;
+            continue;
+        }
+#endif
         g_voxels += 1u;
-        if (cell_occludes(r, cell_index(cell))) {
-            return true;
+        int walked = leaf_walk(r, leaf, s0_, d0, ns, n, k);
+        if (walked == WALK_STOP) {
+            g_stop_top = top_id;
+            g_stop_sub = sub;
         }
-        int a = (next.x < next.y) ? (next.x < next.z ? 0 : 2) : (next.y < next.z ? 1 : 2);
-        if (next[a] > s1) {
-            return false;
+        if (walked != WALK_CLEAR) {
+            return walked;
         }
-        cell[a] += step[a];
-        if (cell[a] < 0 || cell[a] >= u_trace.grid_dims[a]) {
-            return false;
+        k = 0;
+        g_progress = true;
+        vec3 nxt = cell_exit(box, size, c, o);
+        int a = min_axis(nxt);
+        if (nxt[a] > s1) {
+            return WALK_CLEAR;
         }
-        next[a] += delta[a];
+        s_in = nxt[a];
+        c[a] += g_step[a];
+        if (c[a] < 0 || c[a] >= dims[a]) {
+#if TWO_LEVEL
+            if (!inside) {
+                return WALK_CLEAR;
+            }
+            // Out of the sub-grid is out of its top cell, through the same face.
+            inside = false;
+            c = top;
+            c[a] += g_step[a];
+            dims = u_trace.grid_dims;
+            box = lo;
+            size = u_trace.grid_cell;
+            first = 0;
+            if (c[a] < 0 || c[a] >= dims[a]) {
+                return WALK_CLEAR;
+            }
+#else
+            return WALK_CLEAR;
+#endif
+        }
     }
 #endif
 }
@@ -260,6 +463,34 @@ vec3 light_point(vec3 o, float t) {
     return mix(u_trace.light_a, u_trace.light_b, t);
 }
 
+// The samples from `at` on; counts the visible ones. WALK_STOP: `at` is where to resume.
+int sampled_walk(vec3 o, vec3 nrm, uint point, inout int at, inout uint visible) {
+    int n = u_trace.samples;
+    for (; at < n; ++at) {
+        if (must_stop(1)) {
+            g_stop_top = -1;
+            g_stop_sub = -1;
+            g_stop_ref = 0;
+            return WALK_STOP;
+        }
+        g_steps += 1;
+        vec3 target = light_point(o, sample_t(point, at, n));
+        vec3 d = target - o;
+        if (dot(d, nrm) <= 0.0) {
+            continue;  // below the receiver's horizon: the receiver hides it
+        }
+        int walked = walk_ray(o, d);
+        if (walked == WALK_STOP) {
+            return WALK_STOP;
+        }
+        if (walked == WALK_CLEAR) {
+            visible += 1u;
+        }
+        g_progress = true;
+    }
+    return WALK_CLEAR;
+}
+
 #if METHOD == METHOD_ANALYTIC
 // Union of occluded intervals of the segment parameter, kept disjoint.
 vec2 g_iv[MAX_INTERVALS];
@@ -271,6 +502,7 @@ void add_interval(float l, float r) {
     if (!(r > l)) {
         return;
     }
+    g_steps += g_niv;
     for (int i = 0; i < g_niv; ) {
         if (l <= g_iv[i].y && r >= g_iv[i].x) {
             l = min(l, g_iv[i].x);
@@ -284,6 +516,7 @@ void add_interval(float l, float r) {
     if (g_niv == MAX_INTERVALS) {
         // Full: merge with the nearest interval (covers its gap too; counted, never silent).
         g_overflows += 1u;
+        g_steps += g_niv;
         int best = 0;
         float gap = 1e30;
         for (int i = 0; i < g_niv; ++i) {
@@ -300,6 +533,51 @@ void add_interval(float l, float r) {
     g_niv += 1;
 }
 
+// A point that stops keeps its union in its PointResult: at most ANALYTIC_KEPT intervals. More
+// are merged first, closing the smallest gaps (counted in overflows, as a full list is).
+void keep_intervals(inout PointResult res) {
+    g_steps += g_niv * g_niv;
+    // Insertion sort by start (the list is disjoint, so ends follow).
+    for (int i = 1; i < g_niv; ++i) {
+        vec2 v = g_iv[i];
+        int j = i - 1;
+        for (; j >= 0 && g_iv[j].x > v.x; --j) {
+            g_iv[j + 1] = g_iv[j];
+        }
+        g_iv[j + 1] = v;
+    }
+    while (g_niv > ANALYTIC_KEPT) {
+        g_overflows += 1u;
+        int best = 0;
+        float gap = 1e30;
+        for (int i = 0; i + 1 < g_niv; ++i) {
+            float g = g_iv[i + 1].x - g_iv[i].y;
+            if (g < gap) {
+                gap = g;
+                best = i;
+            }
+        }
+        g_iv[best].y = max(g_iv[best].y, g_iv[best + 1].y);
+        for (int i = best + 1; i + 1 < g_niv; ++i) {
+            g_iv[i] = g_iv[i + 1];
+        }
+        g_niv -= 1;
+    }
+    for (int i = 0; i < g_niv; ++i) {
+        res.kept_intervals[i >> 1][2 * (i & 1)] = g_iv[i].x;
+        res.kept_intervals[i >> 1][2 * (i & 1) + 1] = g_iv[i].y;
+    }
+    res.intervals = g_niv;
+}
+
+void restore_intervals(PointResult res) {
+    g_niv = res.intervals;
+    for (int i = 0; i < g_niv; ++i) {
+        g_iv[i] = vec2(res.kept_intervals[i >> 1][2 * (i & 1)],
+                       res.kept_intervals[i >> 1][2 * (i & 1) + 1]);
+    }
+}
+
 // Edge function of x against the edge (u -> v) of the light triangle, >= 0 inside.
 float edge_fn(vec3 u, vec3 v, vec3 x, vec3 n) {
     return dot(cross(v - u, x - u), n);
@@ -313,55 +591,70 @@ float param_of(vec3 x, vec3 n, out bool ok) {
     return ok ? wb / (wa + wb) : 0.0;
 }
 
-// The interval of the segment that triangle tri hides from the apex, as (l, r); empty if r <= l.
-vec2 hidden_interval(int tri) {
-    vec3 n = cross(g_la - g_apex, g_lb - g_apex);
-    vec3 q[3] = vec3[3](tri_vertex(tri, 0), tri_vertex(tri, 1), tri_vertex(tri, 2));
-    float dist[3];
-    for (int k = 0; k < 3; ++k) {
-        dist[k] = dot(q[k] - g_apex, n);
+// Appends x to the crossing (x0, x1), of which np points are set (at most two are kept).
+void add_point(vec3 x, inout vec3 x0, inout vec3 x1, inout int np) {
+    if (np == 0) {
+        x0 = x;
+    } else if (np == 1) {
+        x1 = x;
     }
-    if (dist[0] == 0.0 && dist[1] == 0.0 && dist[2] == 0.0) {
+    np = min(np + 1, 2);
+}
+
+// Where the edge (qa, qb), with signed distances (da, db) from the light triangle's plane,
+// meets the plane: its first corner if on the plane, and a crossing if the edge changes side.
+void plane_crossing(vec3 qa, vec3 qb, float da, float db, inout vec3 x0, inout vec3 x1,
+                    inout int np) {
+    if (da == 0.0) {
+        add_point(qa, x0, x1, np);
+    }
+    if ((da < 0.0 && db > 0.0) || (da > 0.0 && db < 0.0)) {
+        add_point(qa + (qb - qa) * (da / (da - db)), x0, x1, np);
+    }
+}
+
+// Liang-Barsky against one edge (u -> v) of the light triangle: narrows [lo, hi] of the
+// segment x0-x1; false if the segment lies wholly outside the edge.
+bool clip_edge(vec3 u, vec3 v, vec3 x0, vec3 x1, vec3 n, inout float lo, inout float hi) {
+    float e0 = edge_fn(u, v, x0, n);
+    float e1 = edge_fn(u, v, x1, n);
+    if (e0 < 0.0 && e1 < 0.0) {
+        return false;
+    }
+    if (e0 < 0.0) {
+        lo = max(lo, e0 / (e0 - e1));
+    } else if (e1 < 0.0) {
+        hi = min(hi, e0 / (e0 - e1));
+    }
+    return true;
+}
+
+// The interval of the segment that the triangle (q0, q1, q2) hides from the apex, as (l, r);
+// empty if r <= l. (Written without loops, as triangles_may_meet is.)
+vec2 hidden_interval(vec3 q0, vec3 q1, vec3 q2) {
+    vec3 n = cross(g_la - g_apex, g_lb - g_apex);
+    float d0 = dot(q0 - g_apex, n), d1 = dot(q1 - g_apex, n), d2 = dot(q2 - g_apex, n);
+    if (d0 == 0.0 && d1 == 0.0 && d2 == 0.0) {
         return vec2(1.0, 0.0);  // coplanar: rays graze it, as the ray-triangle test says
     }
     // Where the triangle crosses the light triangle's plane: a segment x0-x1.
-    vec3 pts[2];
+    vec3 x0 = vec3(0.0), x1 = vec3(0.0);
     int np = 0;
-    for (int k = 0; k < 3; ++k) {
-        int j = (k + 1) % 3;
-        if (dist[k] == 0.0 && np < 2) {
-            pts[np++] = q[k];
-        }
-        if ((dist[k] < 0.0 && dist[j] > 0.0) || (dist[k] > 0.0 && dist[j] < 0.0)) {
-            if (np < 2) {
-                pts[np++] = q[k] + (q[j] - q[k]) * (dist[k] / (dist[k] - dist[j]));
-            }
-        }
-    }
+    plane_crossing(q0, q1, d0, d1, x0, x1, np);
+    plane_crossing(q1, q2, d1, d2, x0, x1, np);
+    plane_crossing(q2, q0, d2, d0, x0, x1, np);
     if (np < 2) {
         return vec2(1.0, 0.0);
     }
     // Clip it to the light triangle (Liang-Barsky against the three edges).
     float lo = 0.0, hi = 1.0;
-    vec3 ev[4] = vec3[4](g_apex, g_la, g_lb, g_apex);
-    for (int k = 0; k < 3; ++k) {
-        float e0 = edge_fn(ev[k], ev[k + 1], pts[0], n);
-        float e1 = edge_fn(ev[k], ev[k + 1], pts[1], n);
-        if (e0 < 0.0 && e1 < 0.0) {
-            return vec2(1.0, 0.0);
-        }
-        if (e0 < 0.0) {
-            lo = max(lo, e0 / (e0 - e1));
-        } else if (e1 < 0.0) {
-            hi = min(hi, e0 / (e0 - e1));
-        }
-    }
-    if (!(hi > lo)) {
+    if (!clip_edge(g_apex, g_la, x0, x1, n, lo, hi) || !clip_edge(g_la, g_lb, x0, x1, n, lo, hi)
+        || !clip_edge(g_lb, g_apex, x0, x1, n, lo, hi) || !(hi > lo)) {
         return vec2(1.0, 0.0);
     }
     bool ok0, ok1;
-    float t0 = param_of(mix(pts[0], pts[1], lo), n, ok0);
-    float t1 = param_of(mix(pts[0], pts[1], hi), n, ok1);
+    float t0 = param_of(mix(x0, x1, lo), n, ok0);
+    float t1 = param_of(mix(x0, x1, hi), n, ok1);
     if (!ok0) {
         t0 = t1;
     }
@@ -378,6 +671,7 @@ Ray g_line;         // from the apex to the farther end
 float g_near_hit;   // nearest hit distance along g_line, as a share of it
 
 void collinear_candidate(int tri) {
+    g_bytes_triangles += uint(TRIANGLE_BYTES);
     float s = ray_triangle_s(g_line, tri);
     if (s > 0.0) {
         g_near_hit = min(g_near_hit, s);
@@ -405,63 +699,165 @@ void collinear_finish(vec3 o) {
     }
 }
 
-float analytic_visibility(vec3 o, vec3 nrm) {
-    g_niv = 0;
+// Cost in steps of one entry of a list (its interval may walk the whole union twice), and room
+// for keep_intervals, which runs when the point stops.
+const int ANALYTIC_ENTRY_STEPS = 2 * MAX_INTERVALS + 2 + MAX_INTERVALS * MAX_INTERVALS;
+
+// The triangles of a leaf (whose cell may touch the light triangle), from entry k on.
+int analytic_leaf(int s0, int d0, int ns, int n, int k) {
+    if (k == 0) {
+        g_voxels += 1u;
+    }
+    for (; k < n; ++k) {
+        if (must_stop(ANALYTIC_ENTRY_STEPS)) {
+            g_stop_ref = k;
+            return WALK_STOP;
+        }
+        g_steps += 1;
+        int tri = leaf_tri(k, s0, d0, ns);
+        if (!mailbox_seen(tri)) {
+            g_tri_tri += 1u;
+            vec3 v0, v1, v2;
+            load_triangle(tri, v0, v1, v2);
+            if (triangles_may_meet(g_apex, g_la, g_lb, v0, v1, v2)) {
+                g_candidates += 1u;
+                if (g_collinear) {
+                    collinear_candidate(tri);
+                } else {
+                    vec2 iv = hidden_interval(v0, v1, v2);
+                    add_interval(iv.x, iv.y);
+                }
+            }
+        }
+        g_progress = true;
+    }
+    return WALK_CLEAR;
+}
+
+// Every leaf that the light triangle may touch: the top cells of its bounding box, and in a
+// subdivided one the sub-cells of the box's part inside it, each kept if the light triangle may
+// touch it. One loop walks both levels, with one call of analytic_leaf (see walk_ray).
+// WALK_STOP saves the enumeration indices (top, sub) and the list entry.
+int analytic_walk() {
+    vec3 lo = min(min(g_apex, g_la), g_lb), hi = max(max(g_apex, g_la), g_lb);
+    vec3 cell = u_trace.grid_cell;
+    vec3 pad = cell * BIN_PAD_CELLS;
+    ivec3 c0 = clamp(ivec3(floor((lo - pad - u_trace.grid_origin) / cell)), ivec3(0),
+                     u_trace.grid_dims - 1);
+    ivec3 c1 = clamp(ivec3(floor((hi + pad - u_trace.grid_origin) / cell)), ivec3(0),
+                     u_trace.grid_dims - 1);
+    ivec3 span = c1 - c0 + 1;
+    int count = span.x * span.y * span.z;
+    int i = max(g_at_top, 0), k = g_at_ref;
+#if TWO_LEVEL
+    int at_sub = g_at_sub, j = 0;
+    bool inside = false;  // enumerating the sub-cells of top cell i
+    ivec3 dims = ivec3(1), d0 = ivec3(0), sspan = ivec3(1);
+    vec3 box = vec3(0.0), size = vec3(1.0);
+    int first = 0, scount = 0;
+#endif
+    while (i < count) {
+#if TWO_LEVEL
+        int sub = inside ? j : -1;
+#else
+        int sub = -1;
+#endif
+        if (must_stop(1)) {
+            g_stop_top = i;
+            g_stop_sub = sub;
+            g_stop_ref = 0;
+            return WALK_STOP;
+        }
+        g_steps += 1;
+        ivec3 c = c0 + unflatten(i, span);
+        vec3 centre = cell_centre(c), half_size = cell * (0.5 + BIN_PAD_CELLS);
+        int leaf = cell_index(c);
+#if TWO_LEVEL
+        if (inside) {
+            ivec3 sc = d0 + unflatten(j, sspan);
+            leaf = first + flatten(sc, dims);
+            centre = box + (vec3(sc) + 0.5) * size;
+            half_size = size * (0.5 + BIN_PAD_CELLS);
+        }
+#endif
+        // The box test first: it reads nothing, and most cells of the box fail it.
+        int s0 = 0, e0 = 0, ns = 0, n = 0;
+        bool walk = triangle_may_touch_box(g_apex, g_la, g_lb, centre, half_size);
+        if (walk) {
+            n = leaf_size(leaf, s0, e0, ns);
+            walk = n != 0;
+        }
+#if TWO_LEVEL
+        if (walk && n < 0) {
+            // A subdivided top cell the light triangle may touch: its sub-cells in the box.
+            inside = true;
+            first = s0;
+            dims = sub_dims(n);
+            box = u_trace.grid_origin + vec3(c) * cell;
+            size = cell / vec3(dims);
+            vec3 spad = size * BIN_PAD_CELLS;
+            d0 = clamp(ivec3(floor((lo - spad - box) / size)), ivec3(0), dims - 1);
+            ivec3 d1 = clamp(ivec3(floor((hi + spad - box) / size)), ivec3(0), dims - 1);
+            sspan = d1 - d0 + 1;
+            scount = sspan.x * sspan.y * sspan.z;
+            j = max(at_sub, 0);
+            at_sub = -1;
+            continue;
+        }
+#endif
+        if (walk) {
+            int walked = analytic_leaf(s0, e0, ns, n, k);
+            if (walked == WALK_STOP) {
+                g_stop_top = i;
+                g_stop_sub = sub;
+                return walked;
+            }
+        }
+        k = 0;
+        g_progress = true;
+#if TWO_LEVEL
+        if (inside) {
+            j += 1;
+            if (j < scount) {
+                continue;
+            }
+            inside = false;
+        }
+#endif
+        i += 1;
+    }
+    return WALK_CLEAR;
+}
+
+// Exact visibility of the segment: WALK_CLEAR with `vis` set, or WALK_STOP (the union and the
+// cursor are kept in `res`).
+int analytic_visibility(vec3 o, vec3 nrm, inout PointResult res, out float vis) {
+    vis = 0.0;
+    restore_intervals(res);
     vec3 tn = cross(g_la - o, g_lb - o);
     g_collinear = length(tn) <= 1e-6 * length(g_la - o) * length(g_lb - o);
     if (g_collinear) {
         vec3 far_end = distance(g_la, o) > distance(g_lb, o) ? g_la : g_lb;
         g_line = make_ray(o, far_end - o);
-        g_near_hit = 2.0;
+        g_near_hit = res.near_hit;
     }
     // The part of the segment below the receiver's horizon is hidden by the receiver itself.
+    // (Adding it again on a resumed point changes nothing: the union already holds it.)
     float h0 = dot(g_la - o, nrm), h1 = dot(g_lb - o, nrm);
     if (h0 <= 0.0 && h1 <= 0.0) {
-        return 0.0;
+        return WALK_CLEAR;
     }
     if (h0 <= 0.0) {
         add_interval(0.0, h0 / (h0 - h1));
     } else if (h1 <= 0.0) {
         add_interval(h0 / (h0 - h1), 1.0);
     }
-    // Every cell the light triangle touches, every triangle there that may meet it.
-    vec3 lo = min(min(g_apex, g_la), g_lb), hi = max(max(g_apex, g_la), g_lb);
-    vec3 pad = u_trace.grid_cell * BIN_PAD_CELLS;
-    ivec3 c0 = clamp(ivec3(floor((lo - pad - u_trace.grid_origin) / u_trace.grid_cell)), ivec3(0),
-                     u_trace.grid_dims - 1);
-    ivec3 c1 = clamp(ivec3(floor((hi + pad - u_trace.grid_origin) / u_trace.grid_cell)), ivec3(0),
-                     u_trace.grid_dims - 1);
-    vec3 half_size = u_trace.grid_cell * (0.5 + BIN_PAD_CELLS);
     mailbox_reset();
-    for (int z = c0.z; z <= c1.z; ++z) {
-        for (int y = c0.y; y <= c1.y; ++y) {
-            for (int x = c0.x; x <= c1.x; ++x) {
-                ivec3 cell = ivec3(x, y, z);
-                int c = cell_index(cell);
-                int s0, d0, ns;
-                int n = cell_size(c, s0, d0, ns);
-                if (n == 0) {
-                    continue;
-                }
-                g_voxels += 1u;
-                if (!triangle_may_touch_box(g_apex, g_la, g_lb, cell_centre(cell), half_size)) {
-                    continue;
-                }
-                for (int k = 0; k < n; ++k) {
-                    int tri = cell_tri(k, s0, d0, ns);
-                    if (mailbox_seen(tri) || !may_occlude_point(tri)) {
-                        continue;
-                    }
-                    g_candidates += 1u;
-                    if (g_collinear) {
-                        collinear_candidate(tri);
-                    } else {
-                        vec2 iv = hidden_interval(tri);
-                        add_interval(iv.x, iv.y);
-                    }
-                }
-            }
-        }
+    int walked = analytic_walk();
+    if (walked == WALK_STOP) {
+        res.near_hit = g_near_hit;
+        keep_intervals(res);
+        return walked;
     }
     if (g_collinear) {
         collinear_finish(o);
@@ -470,14 +866,15 @@ float analytic_visibility(vec3 o, vec3 nrm) {
     for (int i = 0; i < g_niv; ++i) {
         hidden += g_iv[i].y - g_iv[i].x;
     }
-    return clamp(1.0 - hidden, 0.0, 1.0);
+    vis = clamp(1.0 - hidden, 0.0, 1.0);
+    return WALK_CLEAR;
 }
 #endif
 
 // Mesa's llvmpipe (22.3) stops every loop of an invocation once their iterations add up to 65535
 // (one shared counter, LP_MAX_TGSI_LOOP_ITERATIONS): the work left is silently skipped. A loop
 // of u_trace.loop_probe_trips = 2 trips then runs once; that flags the point as truncated, and
-// game/soft/tracer.py re-runs such traces with fewer samples per dispatch.
+// game/soft/tracer.py runs such traces again with a smaller step budget.
 bool loop_budget_left() {
     int trips = 0;
     for (int i = 0; i < u_trace.loop_probe_trips; ++i) {
@@ -486,20 +883,11 @@ bool loop_budget_left() {
     return trips == u_trace.loop_probe_trips;
 }
 
-uint sampled_visible(vec3 o, vec3 nrm, uint point) {
-    int n = u_trace.samples;
-    uint visible = 0u;
-    for (int i = u_trace.first_sample; i < u_trace.first_sample + u_trace.sample_count; ++i) {
-        vec3 target = light_point(o, sample_t(point, i, n));
-        vec3 d = target - o;
-        if (dot(d, nrm) <= 0.0) {
-            continue;  // below the receiver's horizon: the receiver hides it
-        }
-        if (!occluded(o, d)) {
-            visible += 1u;
-        }
-    }
-    return visible;
+// A 64-bit counter kept as (low, high) words.
+uvec2 add64(uvec2 total, uint v) {
+    uint carry;
+    uint low = uaddCarry(total.x, v, carry);
+    return uvec2(low, total.y + carry);
 }
 
 void main() {
@@ -508,51 +896,107 @@ void main() {
         return;
     }
     int index = px.y * u_trace.width + px.x;
+    int summary = u_trace.width * u_trace.height;  // the record after the points: totals
+    PointResult res;
+    if (u_trace.round_index == 0) {
+        res.visibility = -1.0;  // no geometry
+        res.ray_triangle_tests = 0u;
+        res.triangle_triangle_tests = 0u;
+        res.voxels_visited = 0u;
+        res.candidates = 0u;
+        res.overflows = 0u;
+        res.truncated = 0u;
+        res.visible = 0u;
+        res.bytes_triangles = uvec2(0u);
+        res.bytes_cells = uvec2(0u);
+        res.bytes_candidates = uvec2(0u);
+        res.dispatches = 0u;
+        res.pending = 0u;
+        res.at_sample = 0;
+        res.at_top = -1;
+        res.at_sub = -1;
+        res.at_ref = 0;
+        res.near_hit = 2.0;
+        res.intervals = 0;
+        res.kept_intervals = mat4(0.0);
+        if (texelFetch(u_colour, px, 0).a <= 0.0) {
+            u_results[index] = res;
+            return;
+        }
+    } else {
+        res = u_results[index];
+        if (res.pending == 0u) {
+            return;  // finished in an earlier round, or no geometry
+        }
+    }
     g_ray_tri = 0u;
     g_tri_tri = 0u;
     g_voxels = 0u;
     g_candidates = 0u;
     g_overflows = 0u;
-    float vis = -1.0;  // no geometry
-    uint visible = 0u;
-    if (texelFetch(u_colour, px, 0).a > 0.0) {
-        vec3 p = texelFetch(u_position, px, 0).xyz;
-        vec3 nrm = normalize(texelFetch(u_normal, px, 0).xyz);
-        // Receiver self-occlusion: start the rays off the surface along its normal.
-        vec3 o = p + nrm * (u_trace.ray_offset + u_trace.ray_offset_per_metre * length(p));
-        g_apex = o;
-        g_la = u_trace.light_a;
-        g_lb = u_trace.light_b;
+    g_bytes_triangles = 0u;
+    g_bytes_cells = 0u;
+    g_bytes_candidates = 0u;
+    g_steps = 0;
+    g_progress = false;
+    g_at_top = res.at_top;
+    g_at_sub = res.at_sub;
+    g_at_ref = res.at_ref;
+    g_stop_top = -1;
+    g_stop_sub = -1;
+    g_stop_ref = 0;
+
+    vec3 p = texelFetch(u_position, px, 0).xyz;
+    vec3 nrm = normalize(texelFetch(u_normal, px, 0).xyz);
+    // Receiver self-occlusion: start the rays off the surface along its normal.
+    vec3 o = p + nrm * (u_trace.ray_offset + u_trace.ray_offset_per_metre * length(p));
+    g_apex = o;
+    g_la = u_trace.light_a;
+    g_lb = u_trace.light_b;
 #if METHOD == METHOD_TRI_CACHE
-        g_ray_id = uint(u_trace.ray_id_base + index) & 0x7fffffffu;
+    g_ray_id = uint(u_trace.ray_id_base + index) & 0x7fffffffu;
 #elif METHOD == METHOD_VOXEL_CACHE
-        voxel_cache_reset();
+    voxel_cache_reset();
 #endif
+    int walked;
 #if METHOD == METHOD_ANALYTIC
-        if (u_trace.light_mode == TRACE_LIGHT_SEGMENT) {
-            vis = analytic_visibility(o, nrm);
-        } else {
-            visible = sampled_visible(o, nrm, uint(index));
+    if (u_trace.light_mode == TRACE_LIGHT_SEGMENT) {
+        float vis;
+        walked = analytic_visibility(o, nrm, res, vis);
+        if (walked == WALK_CLEAR) {
+            res.visibility = vis;
         }
-#else
-        visible = sampled_visible(o, nrm, uint(index));
+    } else
 #endif
+    {
+        int at = res.at_sample;
+        uint visible = res.visible;
+        walked = sampled_walk(o, nrm, uint(index), at, visible);
+        res.at_sample = at;
+        res.visible = visible;
+        if (walked == WALK_CLEAR) {
+            res.visibility = float(visible) / float(u_trace.samples);
+        }
     }
-    uint truncated = loop_budget_left() ? 0u : 1u;
-    if (u_trace.accumulate != 0) {
-        PointResult before = u_results[index];
-        g_ray_tri += before.ray_triangle_tests;
-        g_tri_tri += before.triangle_triangle_tests;
-        g_voxels += before.voxels_visited;
-        g_candidates += before.candidates;
-        g_overflows += before.overflows;
-        truncated = max(truncated, before.truncated);
-        visible += before.visible;
+    res.at_top = g_stop_top;
+    res.at_sub = g_stop_sub;
+    res.at_ref = g_stop_ref;
+    res.ray_triangle_tests += g_ray_tri;
+    res.triangle_triangle_tests += g_tri_tri;
+    res.voxels_visited += g_voxels;
+    res.candidates += g_candidates;
+    res.overflows += g_overflows;
+    res.bytes_triangles = add64(res.bytes_triangles, g_bytes_triangles);
+    res.bytes_cells = add64(res.bytes_cells, g_bytes_cells);
+    res.bytes_candidates = add64(res.bytes_candidates, g_bytes_candidates);
+    res.dispatches += 1u;
+    res.pending = walked == WALK_STOP ? 1u : 0u;
+    if (!loop_budget_left()) {
+        res.truncated = 1u;
+        atomicAdd(u_results[summary].truncated, 1u);
     }
-    bool exact = METHOD == METHOD_ANALYTIC && u_trace.light_mode == TRACE_LIGHT_SEGMENT;
-    if (texelFetch(u_colour, px, 0).a > 0.0 && !exact) {
-        vis = float(visible) / float(u_trace.samples);
+    if (walked == WALK_STOP) {
+        atomicAdd(u_results[summary].pending, 1u);
     }
-    u_results[index] = PointResult(vis, g_ray_tri, g_tri_tri, g_voxels, g_candidates,
-                                   g_overflows, truncated, visible);
+    u_results[index] = res;
 }

@@ -108,6 +108,8 @@ bool separated_on(vec3 axis, vec3 p0, vec3 p1, vec3 p2, vec3 q0, vec3 q1, vec3 q
 }
 
 // Can triangle Q = (q0, q1, q2) meet triangle P = (p0, p1, p2)? Coordinates relative to p0.
+// The eleven axes are written out: llvmpipe does not unroll a loop that can return early, and
+// each of its trips would count against the invocation's loop budget.
 bool triangles_may_meet(vec3 p0, vec3 p1, vec3 p2, vec3 q0, vec3 q1, vec3 q2) {
     p1 -= p0;
     p2 -= p0;
@@ -117,20 +119,37 @@ bool triangles_may_meet(vec3 p0, vec3 p1, vec3 p2, vec3 q0, vec3 q1, vec3 q2) {
     p0 = vec3(0.0);
     float scale = max(max(max(length(p1), length(p2)), max(length(q0), length(q1))),
                       length(q2));
-    vec3 ep[3] = vec3[3](p1 - p0, p2 - p1, p0 - p2);
-    vec3 eq[3] = vec3[3](q1 - q0, q2 - q1, q0 - q2);
-    if (separated_on(cross(ep[0], ep[1]), p0, p1, p2, q0, q1, q2, scale)
-        || separated_on(cross(eq[0], eq[1]), p0, p1, p2, q0, q1, q2, scale)) {
-        return false;
-    }
-    for (int i = 0; i < 3; ++i) {
-        for (int j = 0; j < 3; ++j) {
-            if (separated_on(cross(ep[i], eq[j]), p0, p1, p2, q0, q1, q2, scale)) {
-                return false;
-            }
-        }
-    }
-    return true;
+    vec3 ep0 = p1 - p0, ep1 = p2 - p1, ep2 = p0 - p2;
+    vec3 eq0 = q1 - q0, eq1 = q2 - q1, eq2 = q0 - q2;
+    return !(separated_on(cross(ep0, ep1), p0, p1, p2, q0, q1, q2, scale)
+             || separated_on(cross(eq0, eq1), p0, p1, p2, q0, q1, q2, scale)
+             || separated_on(cross(ep0, eq0), p0, p1, p2, q0, q1, q2, scale)
+             || separated_on(cross(ep0, eq1), p0, p1, p2, q0, q1, q2, scale)
+             || separated_on(cross(ep0, eq2), p0, p1, p2, q0, q1, q2, scale)
+             || separated_on(cross(ep1, eq0), p0, p1, p2, q0, q1, q2, scale)
+             || separated_on(cross(ep1, eq1), p0, p1, p2, q0, q1, q2, scale)
+             || separated_on(cross(ep1, eq2), p0, p1, p2, q0, q1, q2, scale)
+             || separated_on(cross(ep2, eq0), p0, p1, p2, q0, q1, q2, scale)
+             || separated_on(cross(ep2, eq1), p0, p1, p2, q0, q1, q2, scale)
+             || separated_on(cross(ep2, eq2), p0, p1, p2, q0, q1, q2, scale));
+}
+
+// Does the axis e x (one box axis) separate the triangle (v0, v1, v2), relative to the box's
+// centre, from the box of half-size h? The axis is (0, -e.z, e.y), (e.z, 0, -e.x) or
+// (-e.y, e.x, 0), given as its two non-zero components j and m: (a_j, a_m).
+bool edge_axis_separates(float aj, float am, int j, int m, vec3 v0, vec3 v1, vec3 v2,
+                         vec3 h) {
+    float p0 = aj * v0[j] + am * v0[m];
+    float p1 = aj * v1[j] + am * v1[m];
+    float p2 = aj * v2[j] + am * v2[m];
+    float r = abs(aj) * h[j] + abs(am) * h[m];
+    return min(min(p0, p1), p2) > r || max(max(p0, p1), p2) < -r;
+}
+
+bool edge_separates(vec3 e, vec3 v0, vec3 v1, vec3 v2, vec3 h) {
+    return edge_axis_separates(-e.z, e.y, 1, 2, v0, v1, v2, h)
+        || edge_axis_separates(e.z, -e.x, 0, 2, v0, v1, v2, h)
+        || edge_axis_separates(-e.y, e.x, 0, 1, v0, v1, v2, h);
 }
 
 // Can the triangle (t0, t1, t2) touch the box centre +- half? (Akenine-Moeller 2001.)
@@ -140,24 +159,14 @@ bool triangle_may_touch_box(vec3 t0, vec3 t1, vec3 t2, vec3 centre, vec3 half_si
     if (any(greaterThan(lo, half_size)) || any(lessThan(hi, -half_size))) {
         return false;
     }
-    vec3 e[3] = vec3[3](v1 - v0, v2 - v1, v0 - v2);
-    vec3 n = cross(e[0], e[1]);
+    vec3 e0 = v1 - v0, e1 = v2 - v1, e2 = v0 - v2;
+    vec3 n = cross(e0, e1);
     if (abs(dot(n, v0)) > dot(abs(n), half_size)) {
         return false;
     }
-    for (int k = 0; k < 3; ++k) {
-        vec3 axes[3] = vec3[3](vec3(0.0, -e[k].z, e[k].y), vec3(e[k].z, 0.0, -e[k].x),
-                               vec3(-e[k].y, e[k].x, 0.0));
-        for (int m = 0; m < 3; ++m) {
-            vec3 a = axes[m];
-            float p0 = dot(a, v0), p1 = dot(a, v1), p2 = dot(a, v2);
-            float r = dot(abs(a), half_size);
-            if (min(min(p0, p1), p2) > r || max(max(p0, p1), p2) < -r) {
-                return false;
-            }
-        }
-    }
-    return true;
+    return !(edge_separates(e0, v0, v1, v2, half_size)
+             || edge_separates(e1, v0, v1, v2, half_size)
+             || edge_separates(e2, v0, v1, v2, half_size));
 }
 
 // ---- Cells ----------------------------------------------------------------------------------

@@ -1,7 +1,8 @@
 """Headless frame capture (``python -m game capture``): frames, dumps and stats
 (docs/reference.md).
 
-Scene -> Renderer -> Frame -> files. Frame k is rendered at scene time ``time + k / fps``.
+Scene -> Renderer -> Frame -> files. Frame k is rendered at scene time ``time + k / fps``. A run
+that takes more than a moment shows its progress on a terminal (game/app/progress.py).
 """
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from game.app import headless
+from game.app import headless, progress
 from game.gpu import context
 from game.render.renderer import Frame, Renderer, View
 from game.scene import Scene, floors
@@ -55,8 +56,13 @@ def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
     renderer.debug_view = opts.debug_view
     hud = _overlay() if opts.overlay else None
     view = View.from_camera(scene.camera, opts.size)
+    report = progress.Progress("capture", opts.frames)
+    if report.enabled:  # a long trace (--soft, traced) goes in bands of rows, each reported
+        renderer.traced.progress = report.part
+    interrupted = True
 
     def render(t: float) -> Frame:
+        report.frame()
         frame = renderer.render(t, view, soft=opts.soft)
         if hud is not None:
             frame.image = hud.draw_over_frame(renderer, frame, 1.0 / opts.fps)
@@ -82,6 +88,7 @@ def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
             "frames": frames,
         }
     finally:
+        report.close(done=not interrupted)
         if hud is not None:
             hud.release()
         renderer.release()

@@ -2,7 +2,8 @@
 
 Scene -> Renderer (G-buffer, then the tracer and the soft composite) -> files:
 ``frame_kkkk.png`` (the soft-shadowed image), with ``--dump`` the arrays of docs/reference.md
-section 3 plus ``soft``, with ``--stats`` the JSON of section 4 plus the tracer's counters.
+section 3 plus ``soft``, with ``--stats`` the JSON of section 4 plus the tracer's counters. A run
+that takes more than a moment shows its progress on a terminal (game/app/progress.py).
 """
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from game.app import headless
+from game.app import headless, progress
 from game.errors import GameError
 from game.gpu import context
 from game.render.renderer import Frame, Renderer, View
@@ -34,7 +35,10 @@ def frame_stats(index: int, t: float, frame: Frame, result: TraceResult) -> dict
     return {"frame": index, "time": t, "ms": ms, **ms,
             "maps_rendered": frame.maps_rendered, "triangles_to_maps": frame.triangles_to_maps,
             "shaded_points": int(covered.sum()),
-            # llvmpipe's loop budget: samples per dispatch used, points still cut short (0).
+            # llvmpipe's loop budget: the dispatches the trace took, the loop iterations each
+            # point had per dispatch, samples per dispatch of the most split point, and the
+            # points still cut short (0).
+            "rounds": result.rounds, "step_budget": result.step_budget,
             "samples_per_dispatch": result.samples_per_dispatch,
             "truncated_points": result.truncated,
             "mean_visibility": round(float(np.nanmean(result.visibility)), 6)
@@ -50,26 +54,26 @@ def run(ctx, scene: Scene, opts: TraceOptions) -> dict:
     opts.prepare()
     renderer = Renderer(ctx, scene, opts.size, gbuffer=True, clock=opts.clock)
     view = View.from_camera(scene.camera, opts.size)
+    report = progress.Progress("trace", opts.frames)
+    if report.enabled:  # a long trace goes in bands of rows, each reported
+        renderer.traced.progress = report.part
+    interrupted = True
+
+    def render(t: float) -> Frame:
+        report.frame()
+        return renderer.render(t, view, soft=opts.settings)
+
     try:
         frames, interrupted = opts.run_frames(
-            scene, view, lambda t: renderer.render(t, view, soft=opts.settings),
-            lambda k, t, frame: frame_stats(k, t, frame, frame.soft))
+            scene, view, render, lambda k, t, frame: frame_stats(k, t, frame, frame.soft))
         tracer = renderer.soft_tracer
-        spec = tracer.grid.spec
-        counts = tracer.grid.static.counts()
         stats = {
             **context.describe(ctx), "clock": tracer.timer.clock,
             "scene": scene.given,
             "scene_sha256": scene.sha256,
             "method": opts.settings.method, "samples": opts.settings.samples,
             "size": list(opts.size), "settings": asdict(opts.settings),
-            "grid": {"dims": [int(x) for x in spec.dims], "cells": spec.n_cells,
-                     "cell_m": [round(float(x), 5) for x in spec.cell],
-                     "static_triangles": tracer.grid.n_static,
-                     "character_triangles": tracer.grid.n_character_tris,
-                     "static_entries": int(counts.sum()),
-                     "mean_per_nonempty_cell": round(float(counts[counts > 0].mean()), 3)
-                     if (counts > 0).any() else 0.0},
+            "grid": tracer.grid.describe(),
             "memory_bytes": {**tracer.memory_bytes(),
                              "voxel_cache_per_point": opts.settings.voxel_cache_bytes_per_point},
             "counters": list(COUNTERS),
@@ -77,6 +81,7 @@ def run(ctx, scene: Scene, opts: TraceOptions) -> dict:
             "frames": frames,
         }
     finally:
+        report.close(done=not interrupted)
         renderer.release()
     opts.finish(stats, frames)
     return stats
@@ -88,4 +93,5 @@ def summary(stats: dict) -> str:
     return (f"{stats['method']} N={stats['samples']}: build {f['build']:.1f} ms, trace "
             f"{f['trace']:.1f} ms, total {f['total']:.1f} ms; per point: ray-triangle "
             f"{f['ray_triangle_tests']:.2f}, triangle-triangle {f['triangle_triangle_tests']:.2f},"
-            f" voxels {f['voxels_visited']:.2f} ({stats['clock']} on {stats['renderer']})")
+            f" voxels {f['voxels_visited']:.2f}, bytes read {f['bytes_total']:.0f} "
+            f"({stats['clock']} on {stats['renderer']})")

@@ -48,6 +48,10 @@ TEXTURE_UNITS = {
     "soft_visibility": 4,    # the traced visibility (soft composite)
     "composite_shading": 5,  # the G-buffer's shading normal and base colour (soft composite)
     "composite_albedo": 6,
+    "upsample_samples": 7,   # the reduced soft trace, one texel per block: position and
+    "upsample_sample_normals": 8,  # visibility, normal, and where the samples agree
+    "upsample_agreed": 9,
+    "upsample_accumulated": 10,  # its per-pixel mean while nothing moves (game/soft/upsample.py)
     "layer_view": 0,         # the overlay's layer viewer reads the depth array
     "present_frame": 0,      # the window's picture of the frame
 }
@@ -114,11 +118,11 @@ MAX_LIGHTS = 64  # light records in the Lights block (the scene loader's limit)
 
 # The soft-shadow tracer's parameters (uniform block TraceParams).
 TRACE_DTYPE = np.dtype([
-    ("grid_origin", "<f4", 3),     # the grid's lower corner
+    ("grid_origin", "<f4", 3),     # the (top) grid's lower corner
     ("_pad0", "<f4"),
-    ("grid_cell", "<f4", 3),       # cell size along each axis, metres
+    ("grid_cell", "<f4", 3),       # top cell size along each axis, metres
     ("_pad1", "<f4"),
-    ("grid_dims", "<i4", 3),       # cells per axis
+    ("grid_dims", "<i4", 3),       # top cells per axis
     ("_pad2", "<i4"),
     ("light_a", "<f4", 3),         # segment start; point light: position; directional: to the light
     ("_pad3", "<f4"),
@@ -132,14 +136,16 @@ TRACE_DTYPE = np.dtype([
     ("ray_id_base", "<i4"),        # tri-cache: ray id of pixel 0
     ("width", "<i4"),              # G-buffer size
     ("height", "<i4"),
-    ("first_sample", "<i4"),       # this dispatch's samples: [first_sample, + sample_count)
-    ("sample_count", "<i4"),
-    ("accumulate", "<i4"),         # 1: add to the stored results (a later dispatch)
+    ("round_index", "<i4"),        # 0: the first dispatch of a trace; later: resume the cursors
+    ("step_budget", "<i4"),        # loop iterations a point may take per dispatch
     ("loop_probe_trips", "<i4"),   # 2: the loop that detects llvmpipe's loop limit
+    ("_pad4", "<i4"),
 ])
 assert TRACE_DTYPE.itemsize == 128
 
-# One shaded point's result (struct PointResult, an element of the Results buffer).
+# One shaded point's result and where its work resumes (struct PointResult, an element of the
+# Results buffer). The record after the points (index width * height) holds totals of a
+# dispatch: the points it left pending and those it truncated.
 TRACE_RESULT_DTYPE = np.dtype([
     ("visibility", "<f4"),              # visible share of the light; < 0 where no geometry
     ("ray_triangle_tests", "<u4"),
@@ -149,8 +155,21 @@ TRACE_RESULT_DTYPE = np.dtype([
     ("overflows", "<u4"),
     ("truncated", "<u4"),               # 1: the shader ran out of llvmpipe's loop budget
     ("visible", "<u4"),                 # visible samples so far (accumulated over dispatches)
+    ("bytes_triangles", "<u4", 2),      # bytes read from Triangles, (low, high) 32-bit words
+    ("bytes_cells", "<u4", 2),          # bytes read from the structure's tables and lists
+    ("bytes_candidates", "<u4", 2),     # bytes of candidate state read and written
+    ("dispatches", "<u4"),              # dispatches this point had work in
+    ("pending", "<u4"),                 # 1: work is left for the next dispatch
+    ("at_sample", "<i4"),               # the cursor: the sample where the work resumes,
+    ("at_top", "<i4"),                  # its top cell (analytic: enumeration index), -1: start
+    ("at_sub", "<i4"),                  # its sub-cell (analytic: enumeration index), -1: start
+    ("at_ref", "<i4"),                  # the entry of the leaf's list (brute: the triangle)
+    ("near_hit", "<f4"),                # analytic, collinear point: nearest hit so far
+    ("intervals", "<i4"),               # analytic: hidden intervals kept in kept_intervals
+    ("_pad0", "<i4", 2),
+    ("kept_intervals", "<f4", (4, 4)),  # analytic: up to 8 (l, r), two per column
 ])
-assert TRACE_RESULT_DTYPE.itemsize == 32
+assert TRACE_RESULT_DTYPE.itemsize == 160
 
 # The camera pass's triangle culling (uniform block CullParams).
 CULL_DTYPE = np.dtype([
@@ -298,6 +317,7 @@ GROUPS: dict[str, list[Struct | Block]] = {
         Block("buffer", "Triangles", array=("vec4", "u_tri", ""), access="readonly"),
         # Cell lists in CSR form (game/soft/grid.py CellLists.gpu_array): entries 0..cells are
         # offsets into the same array; the triangle ids of cell c are [cells[c], cells[c + 1]).
+        # The statics' (Structure.gpu_array): a (start, count) pair per leaf, then the ids.
         Block("buffer", "StaticCells", array=("int", "u_static_cells", ""), access="readonly"),
         Block("buffer", "DynamicCells", array=("int", "u_dynamic_cells", ""),
               access="readonly"),

@@ -3,9 +3,19 @@ composite.
 
 Two things use it: soft shadows of the scene's linear light, and the ``traced`` hard-shadow
 method, whose exact visibility replaces the maps' (one ray per point toward the hard light).
+
+Both trace every pixel of the frame, unless a caller asks for less: the window traces soft
+shadows at a reduced resolution and upsamples them (:meth:`TracedLighting.reduce_soft`,
+game/soft/upsample.py); a long headless run reports its progress (:attr:`TracedLighting.progress`)
+and then traces in bands of rows, each the same pixels with the same pixel indices, so the
+visibility is the same as in one pass.
 """
 
 from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Callable
 
 import numpy as np
 
@@ -19,6 +29,13 @@ from game.scene.model import Scene
 from game.soft.composite import SoftComposite
 from game.soft.methods import EXACT_HARD, TraceSettings, hard_light
 from game.soft.tracer import SoftTracer, TraceResult
+from game.soft.upsample import ReducedState, ReducedTrace, Upsampling
+
+# A trace that reports progress first traces 1/PROGRESS_BANDS of the rows; if the whole would
+# take PROGRESS_AFTER_S or more at that pace it goes on band by band, reporting after each,
+# otherwise it traces the rest at once.
+PROGRESS_BANDS = 16
+PROGRESS_AFTER_S = 2.0
 
 
 class TracedLighting:
@@ -32,6 +49,25 @@ class TracedLighting:
         self.timer = timer
         self.tracer: SoftTracer | None = None
         self.composite = SoftComposite(ctx, defines)
+        # The window's reduced soft trace (made on first use and kept) and what it is asked for.
+        self.reduced: ReducedTrace | None = None
+        self._upsampling: Upsampling | None = None
+        self._view_key = b""
+        # Called with the share of the frame's trace done, when set (a long headless run).
+        self.progress: Callable[[float], None] | None = None
+
+    def reduce_soft(self, upsampling: Upsampling | None, view_key: bytes = b"") -> None:
+        """Trace soft shadows at a reduced resolution and upsample them (the window), or with
+        None at every pixel (the default: captures, traces and their dumps). ``view_key`` is the
+        caller's view (its matrices): while it, the characters and the settings stay the same,
+        frames accumulate (:class:`~game.soft.upsample.ReducedTrace`)."""
+        self._upsampling = upsampling
+        self._view_key = view_key
+
+    @property
+    def reduced_state(self) -> ReducedState | None:
+        """Where the reduced trace stood after the last soft frame (None: not reduced)."""
+        return self.reduced.state if self.reduced is not None and self._upsampling else None
 
     def segment(self) -> tuple[int, np.ndarray, np.ndarray]:
         """The tracer's light tuple for the scene's linear light."""
@@ -46,14 +82,63 @@ class TracedLighting:
         pixel of ``target``."""
         if not target.gbuffer:
             raise RuntimeError("the soft-shadow pass needs a renderer made with gbuffer=True")
+        textures = (target.position, target.normal, target.colour)
+        light = light or self.segment()
+        if self.progress is not None:
+            return self._trace_in_bands(target, geom, models, settings, light)
+        return self._tracer(geom, settings).trace(textures, target.size, models, settings, light)
+
+    def _tracer(self, geom: PackedGeometry, settings: TraceSettings) -> SoftTracer:
         tracer = self.tracer
         if tracer is None or tracer.grid.cells_per_triangle != settings.cells_per_triangle:
             if tracer is not None:
                 tracer.release()
             tracer = self.tracer = SoftTracer(self.ctx, geom, self.scene,
                                               settings.cells_per_triangle, self.timer.clock)
-        textures = (target.position, target.normal, target.colour)
-        return tracer.trace(textures, target.size, models, settings, light or self.segment())
+        return tracer
+
+    def _trace_in_bands(self, target: FrameTarget, geom: PackedGeometry, models: np.ndarray,
+                        settings: TraceSettings, light: tuple) -> TraceResult:
+        """Trace every pixel in bands of rows, calling :attr:`progress` after each.
+
+        Each band is the whole G-buffer with the coverage of the other rows cleared, so a point
+        keeps its pixel index (which seeds its samples) and gets the visibility one pass would
+        give it; the results are put together row by row. A trace that would be done within
+        :data:`PROGRESS_AFTER_S` at the first band's pace does the rest in one go."""
+        tracer = self._tracer(geom, settings)
+        w, h = target.size
+        alpha = target.read_colour()[..., 3]            # row 0 at the top
+        mask = self.ctx.texture((w, h), 4)
+        rows = -(-h // PROGRESS_BANDS)
+        parts: list[tuple[int, int, TraceResult]] = []
+        try:
+            start, top = time.perf_counter(), 0
+            while top < h:
+                bottom = min(h, top + rows)
+                covered = np.zeros((h, w, 4), np.uint8)
+                covered[top:bottom, :, 3] = alpha[top:bottom]
+                mask.write(np.ascontiguousarray(covered[::-1]).tobytes())
+                parts.append((top, bottom, tracer.trace(
+                    (target.position, target.normal, mask), (w, h), models, settings, light)))
+                top = bottom
+                self.progress(top / h)
+                pace = (time.perf_counter() - start) / top * h
+                if len(parts) == 1 and pace < PROGRESS_AFTER_S:
+                    rows = h - top   # quick: the rest at once
+        finally:
+            mask.release()
+        first = parts[0][2]
+        vis = np.full((h, w), np.nan, np.float32)
+        counters = {name: np.zeros((h, w), v.dtype) for name, v in first.counters.items()}
+        ms: dict[str, float] = {}
+        for top, bottom, part in parts:
+            vis[top:bottom] = part.visibility[top:bottom]
+            for name, values in counters.items():
+                values[top:bottom] = part.counters[name][top:bottom]
+            for key, value in part.ms.items():
+                ms[key] = ms.get(key, 0.0) + value
+        return dataclasses.replace(first, visibility=vis, counters=counters, ms=ms,
+                                   truncated=sum(part.truncated for *_, part in parts))
 
     def light_frame(self, frame: Frame, target: FrameTarget, geom: PackedGeometry,
                     models: np.ndarray, soft: TraceSettings | None, read: bool) -> TraceResult:
@@ -67,33 +152,67 @@ class TracedLighting:
         else:
             light = self.segment()
             settings, soft_light, prefix = soft, (light[1] + light[2]) / 2, "soft"
-        result = self.trace(target, geom, models, settings, light)
-        before = self.timer.ms.get("composite", 0.0)
+        before = {k: self.timer.ms.get(k, 0.0) for k in ("composite", "soft_upsample")}
+        if soft is not None and self._upsampling is not None:
+            result, visibility = self._reduced_trace(target, geom, models, soft, light)
+        else:
+            result = self.trace(target, geom, models, settings, light)
+            visibility = result.visibility
         with self.timer.measure("composite"):
             self.composite.draw((target.position, target.normal, target.colour, target.shading,
                                  target.albedo), target.size,
-                                result.visibility, blocks.LIGHT_KINDS[self.scene.light.kind],
+                                visibility, blocks.LIGHT_KINDS[self.scene.light.kind],
                                 hard=soft_light is None, soft_light=soft_light)
         if read:
             frame.image = self.composite.read()
         frame.ms.update({f"{prefix}_{k}": v for k, v in result.ms.items()})
-        frame.ms["composite"] = self.timer.ms["composite"]
-        frame.ms["total"] = (frame.ms.get("total", 0.0) + result.ms["total"]
-                             + frame.ms["composite"] - before)
+        extra = 0.0
+        for name, ms in before.items():
+            if name in self.timer.ms:
+                frame.ms[name] = self.timer.ms[name]
+                extra += self.timer.ms[name] - ms
+        frame.ms["total"] = frame.ms.get("total", 0.0) + result.ms["total"] + extra
         return result
 
+    def _reduced_trace(self, target: FrameTarget, geom: PackedGeometry, models: np.ndarray,
+                       settings: TraceSettings, light: tuple):
+        """The window's soft trace: a share of the pixels, upsampled (game/soft/upsample.py).
+        Returns the reduced trace and the full-resolution visibility texture."""
+        if self.reduced is None:
+            self.reduced = ReducedTrace(self.ctx, self._upsampling)
+        self.reduced.set_upsampling(self._upsampling)
+        key = b"".join((self._view_key, np.asarray(target.size, np.int64).tobytes(),
+                        np.ascontiguousarray(models, np.float64).tobytes(),
+                        repr(settings).encode(),
+                        np.asarray(light[1:], np.float64).tobytes()))
+        tracer = self._tracer(geom, settings)
+
+        def trace(textures, size):
+            return tracer.trace(textures, size, models, settings, light)
+
+        textures = (target.position, target.normal, target.colour)
+        result = self.reduced.run(textures, target.size, key, trace, self.timer)
+        return result, self.reduced.visibility
+
     def invalidate(self) -> None:
-        """The geometry changed: the next trace builds its grid anew."""
+        """The geometry changed: the next trace builds its grid anew (and accumulates anew)."""
         if self.tracer is not None:
             self.tracer.release()
             self.tracer = None
+        if self.reduced is not None:
+            self.reduced.restart()
 
     def gl_objects(self) -> dict[str, int]:
         counts = {"composite": self.composite.gl_objects()}
         if self.tracer is not None:
             counts["tracer"] = self.tracer.gl_objects()
+        if self.reduced is not None:
+            counts["upsample"] = self.reduced.gl_objects()
         return counts
 
     def release(self) -> None:
         self.invalidate()
         self.composite.release()
+        if self.reduced is not None:
+            self.reduced.release()
+            self.reduced = None

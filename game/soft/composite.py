@@ -51,16 +51,20 @@ class SoftComposite:
         self.texture = self.ctx.texture(size, 4)
         self.framebuffer = self.ctx.framebuffer([self.texture])
 
-    def draw(self, textures, size: tuple[int, int], visibility: np.ndarray, light_kind: int,
+    def draw(self, textures, size: tuple[int, int], visibility, light_kind: int,
              hard: bool, soft_light: np.ndarray | None = None) -> None:
-        """Light the frame through ``visibility`` ((H, W), row 0 at the top; NaN where no
-        geometry) into :attr:`framebuffer`. ``textures`` are the frame's (position, normal,
-        colour, shading normal, albedo); the Frame block must be bound as the frame left it."""
+        """Light the frame through ``visibility`` into :attr:`framebuffer`: an (H, W) array
+        (row 0 at the top; NaN where no geometry), uploaded here, or a one-channel texture of
+        ``size`` already on the GPU (the upsampled reduced trace, game/soft/upsample.py).
+        ``textures`` are the frame's (position, normal, colour, shading normal, albedo); the
+        Frame block must be bound as the frame left it."""
         self._resize(size)
-        vis = np.nan_to_num(visibility[::-1], nan=1.0).astype(np.float32)
-        self.visibility.write(np.ascontiguousarray(vis).tobytes())
+        if isinstance(visibility, np.ndarray):
+            vis = np.nan_to_num(visibility[::-1], nan=1.0).astype(np.float32)
+            self.visibility.write(np.ascontiguousarray(vis).tobytes())
+            visibility = self.visibility
         prog, vao = self._program(light_kind, hard)
-        for tex, (name, unit) in zip((*textures, self.visibility), UNITS.items(), strict=True):
+        for tex, (name, unit) in zip((*textures, visibility), UNITS.items(), strict=True):
             tex.use(unit)
             if name in prog:  # a directional light needs no position: the compiler drops it
                 prog[name].value = unit

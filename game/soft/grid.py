@@ -1,14 +1,21 @@
-"""The soft-shadow tracer's acceleration structure: a uniform grid of triangle lists.
+"""The soft-shadow tracer's acceleration structures: grids of triangle lists, one or two levels.
 
-Every triangle is listed in every cell its surface touches (conservative triangle-box binning:
-the separating-axis test of Akenine-Moeller, "Fast 3D triangle-box overlap testing", 2001, with
-each cell grown by ``BIN_PAD_CELLS`` so that the float32 3D-DDA on the GPU, which may round a ray
-into a neighbouring cell at a boundary, still finds every triangle it can hit).
+Every triangle is listed in every leaf cell its surface touches (conservative triangle-box
+binning: the separating-axis test of Akenine-Moeller, "Fast 3D triangle-box overlap testing",
+2001, with each cell grown by ``BIN_PAD_CELLS`` so that the float32 3D-DDA on the GPU, which may
+round a ray into a neighbouring cell at a boundary, still finds every triangle it can hit).
 
-The grid covers the floors, the statics and every place a character can walk to, so it is fixed
-for a scene: the statics' lists are built once and cached, the characters' lists are rebuilt every
-frame from their posed triangles. The GPU reads two lists per cell (static, dynamic) in the CSR
-layout of :class:`CellLists`.
+Two structures (:data:`STRUCTURES`) share one layout. ``uniform`` is one grid whose cells are the
+leaves. ``two-level`` is a coarser top grid whose dense cells each hold their own uniform
+sub-grid, sized by the triangles in that cell (Kalojanov, Billeter and Slusallek, "Two-Level
+Grids for Ray Tracing on GPUs", 2011): a level whose triangles crowd into a few places gets small
+cells there and large ones elsewhere.
+
+The structure covers the floors, the statics and every place a character can walk to, so it is
+fixed for a scene: the statics' lists are built once and cached, the characters' lists are
+rebuilt every frame from their posed triangles into the same leaves. The GPU reads two lists per
+leaf (static, dynamic): the static ones as (start, count) pairs (:meth:`Structure.gpu_array`),
+the characters' in the CSR layout of :class:`CellLists`.
 """
 
 from __future__ import annotations
@@ -28,6 +35,28 @@ MAX_CELLS_PER_AXIS = 512
 BIN_PAD_CELLS = 1e-3
 # Triangle-cell pairs tested per numpy batch: bounds the build's memory on the 1 M-triangle town.
 PAIRS_PER_BATCH = 4_000_000
+
+# two-level: the top grid is the uniform grid (TOP_SHARE of ``cells_per_triangle`` cells per
+# triangle); a top cell holding more than SUBDIVIDE_ABOVE static triangles gets a sub-grid of
+# about ``cells_per_triangle`` cells per triangle it holds, at most MAX_SUB_CELLS_PER_AXIS per
+# axis, and MAX_SUB_LEAVES sub-cells in all (denser grids are made coarser to fit). The
+# characters are binned into whatever leaves are where they stand. Measured on the courtyard and
+# the monastery (docs/design/soft-tracer.md): a coarser top grid, subdividing for the characters'
+# paths, or sparser sub-grids did not pay on llvmpipe, where a DDA step costs about what a
+# ray-triangle test costs.
+TOP_SHARE = 1.0
+SUBDIVIDE_ABOVE = 16
+MAX_SUB_CELLS_PER_AXIS = 32
+MAX_SUB_LEAVES = 1 << 22
+SUB_DIMS_BITS = 6  # a sub-grid's cells per axis, packed in its top cell's entry
+assert MAX_SUB_CELLS_PER_AXIS < 1 << SUB_DIMS_BITS
+
+# The one list of structure names: the tracer's settings, the sweep and the docs read it.
+STRUCTURES: dict[str, str] = {
+    "uniform": "one uniform grid; its cells are the leaves",
+    "two-level": "a coarse uniform grid whose dense cells hold their own uniform sub-grid",
+}
+DEFAULT_STRUCTURE = "two-level"
 
 
 @dataclass(frozen=True)
@@ -53,7 +82,7 @@ class GridSpec:
 
 @dataclass
 class CellLists:
-    """Triangle lists of every cell, in CSR form: ``ids[offsets[c]:offsets[c + 1]]``."""
+    """Triangle lists of every cell (or leaf), in CSR form: ``ids[offsets[c]:offsets[c + 1]]``."""
 
     offsets: np.ndarray  # (n_cells + 1,) int64
     ids: np.ndarray      # (pairs,) int32, triangle indices
@@ -86,54 +115,15 @@ def grid_spec(lower: np.ndarray, upper: np.ndarray, n_triangles: int,
     return GridSpec(origin=lower, cell=extent / dims, dims=dims)
 
 
-def _overlap_pairs(spec: GridSpec, tris: np.ndarray, cells: np.ndarray,
-                   index: np.ndarray) -> np.ndarray:
-    """Which (triangle, cell) pairs overlap: the separating-axis test, vectorised over pairs."""
-    dims = spec.dims
-    ix = cells % dims[0]
-    iy = (cells // dims[0]) % dims[1]
-    iz = cells // (dims[0] * dims[1])
-    centre = spec.origin + (np.stack([ix, iy, iz], axis=1) + 0.5) * spec.cell
-    half = spec.cell * (0.5 + BIN_PAD_CELLS)
-    v = tris[index] - centre[:, None, :]          # (P, 3, 3), the box at the origin
-    e = np.stack([v[:, 1] - v[:, 0], v[:, 2] - v[:, 1], v[:, 0] - v[:, 2]], axis=1)
-    keep = np.ones(len(cells), bool)
-    # The triangle's plane against the box.
-    n = np.cross(e[:, 0], e[:, 1])
-    r = np.abs(n) @ half
-    keep &= np.abs(np.einsum("ij,ij->i", n, v[:, 0])) <= r
-    # The nine cross products of the box axes with the triangle's edges.
-    for k in range(3):
-        edge = e[:, k]
-        for axis in range(3):
-            a = np.zeros_like(edge)
-            j, m = (axis + 1) % 3, (axis + 2) % 3
-            a[:, j] = -edge[:, m]
-            a[:, m] = edge[:, j]
-            p = np.einsum("pvk,pk->pv", v, a)
-            r = np.abs(a) @ half
-            keep &= (p.min(axis=1) <= r) & (p.max(axis=1) >= -r)
-    return keep
-
-
-def bin_triangles(spec: GridSpec, tris: np.ndarray, first_id: int = 0) -> CellLists:
-    """List triangles (F, 3, 3) in the cells they touch; ids start at ``first_id``."""
-    n_cells = spec.n_cells
-    if len(tris) == 0:
-        return CellLists(np.zeros(n_cells + 1, np.int64), np.zeros(0, np.int32))
-    tris = np.asarray(tris, np.float64)
-    pad = spec.cell * BIN_PAD_CELLS
-    lo = np.floor((tris.min(axis=1) - pad - spec.origin) / spec.cell).astype(np.int64)
-    hi = np.floor((tris.max(axis=1) + pad - spec.origin) / spec.cell).astype(np.int64)
-    lo = np.clip(lo, 0, spec.dims - 1)
-    hi = np.clip(hi, 0, spec.dims - 1)
+def _expand(lo: np.ndarray, hi: np.ndarray):
+    """Every cell of every item's inclusive cell range [lo, hi] (both (F, 3) int64), in batches
+    of about PAIRS_PER_BATCH: yields (item index (K,), cell coordinates (K, 3))."""
     span = hi - lo + 1
     counts = np.prod(span, axis=1)
     ends = np.cumsum(counts)
-    all_cells, all_ids = [], []
     start = 0
-    while start < len(tris):
-        # As many triangles as fit the batch (at least one, however many cells it spans).
+    while start < len(lo):
+        # As many items as fit the batch (at least one, however many cells it spans).
         base = ends[start - 1] if start else 0
         stop = max(start + 1, int(np.searchsorted(ends, base + PAIRS_PER_BATCH, side="right")))
         sel = np.arange(start, stop)
@@ -141,20 +131,197 @@ def bin_triangles(spec: GridSpec, tris: np.ndarray, first_id: int = 0) -> CellLi
         index = np.repeat(sel, c)
         local = np.arange(int(c.sum())) - np.repeat(np.cumsum(c) - c, c)
         sx, sy = span[index, 0], span[index, 1]
-        cx = lo[index, 0] + local % sx
-        cy = lo[index, 1] + (local // sx) % sy
-        cz = lo[index, 2] + local // (sx * sy)
-        cells = cx + spec.dims[0] * (cy + spec.dims[1] * cz)
-        keep = _overlap_pairs(spec, tris, cells, index)
-        all_cells.append(cells[keep])
-        all_ids.append(index[keep])
+        coords = np.stack([lo[index, 0] + local % sx, lo[index, 1] + (local // sx) % sy,
+                           lo[index, 2] + local // (sx * sy)], axis=1)
+        yield index, coords
         start = stop
-    cells = np.concatenate(all_cells)
-    ids = np.concatenate(all_ids)
-    order = np.argsort(cells, kind="stable")
-    offsets = np.zeros(n_cells + 1, np.int64)
-    offsets[1:] = np.cumsum(np.bincount(cells, minlength=n_cells))
+
+
+def _overlaps(v: np.ndarray, half: np.ndarray) -> np.ndarray:
+    """Which triangles (P, 3, 3), given relative to their box's centre, overlap the box of
+    half-size ``half`` ((P, 3) or (3,)): the separating-axis test, vectorised over pairs, on the
+    survivors of each stage only."""
+    half = np.broadcast_to(half, (len(v), 3))
+    v0, v1, v2 = v[:, 0], v[:, 1], v[:, 2]
+    # The box's own three axes.
+    keep = ((np.minimum(np.minimum(v0, v1), v2) <= half)
+            & (np.maximum(np.maximum(v0, v1), v2) >= -half)).all(axis=1)
+    idx = np.nonzero(keep)[0]
+    v0, v1, v2, h = v0[idx], v1[idx], v2[idx], half[idx]
+    edges = (v1 - v0, v2 - v1, v0 - v2)
+    # The triangle's plane against the box.
+    n = np.cross(edges[0], edges[1])
+    ok = np.abs((n * v0).sum(axis=1)) <= (np.abs(n) * h).sum(axis=1)
+    # The nine cross products of the box axes with the triangle's edges: the axis e x X_a has
+    # components j = a + 1 and m = a + 2 (mod 3), -e_m and e_j.
+    for e in edges:
+        for axis in range(3):
+            j, m = (axis + 1) % 3, (axis + 2) % 3
+            ej, em = e[:, j], e[:, m]
+            p0 = ej * v0[:, m] - em * v0[:, j]
+            p1 = ej * v1[:, m] - em * v1[:, j]
+            p2 = ej * v2[:, m] - em * v2[:, j]
+            r = np.abs(em) * h[:, j] + np.abs(ej) * h[:, m]
+            ok &= (np.minimum(np.minimum(p0, p1), p2) <= r) & (np.maximum(np.maximum(p0, p1), p2)
+                                                              >= -r)
+    keep[idx] = ok
+    return keep
+
+
+def _cell_range(tris: np.ndarray, origin: np.ndarray, cell: np.ndarray,
+                dims: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The padded cell range [lo, hi] of each triangle's bounding box, clipped to the grid.
+    ``origin``, ``cell`` and ``dims`` are (3,) or one row per triangle."""
+    pad = cell * BIN_PAD_CELLS
+    lo = np.floor((tris.min(axis=1) - pad - origin) / cell).astype(np.int64)
+    hi = np.floor((tris.max(axis=1) + pad - origin) / cell).astype(np.int64)
+    return np.clip(lo, 0, dims - 1), np.clip(hi, 0, dims - 1)
+
+
+def _linear(coords: np.ndarray, dims: np.ndarray) -> np.ndarray:
+    """Cell index x + dx (y + dy z); ``dims`` is (3,) or one row per cell."""
+    dims = np.broadcast_to(dims, coords.shape)
+    return coords[:, 0] + dims[:, 0] * (coords[:, 1] + dims[:, 1] * coords[:, 2])
+
+
+def _cell_pairs(spec: GridSpec, tris: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every (cell, triangle) pair of a uniform grid whose padded cell the triangle touches."""
+    if len(tris) == 0:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    lo, hi = _cell_range(tris, spec.origin, spec.cell, spec.dims)
+    half = spec.cell * (0.5 + BIN_PAD_CELLS)
+    cells, ids = [], []
+    for index, coords in _expand(lo, hi):
+        centre = spec.origin + (coords + 0.5) * spec.cell
+        keep = _overlaps(tris[index] - centre[:, None, :], half)
+        cells.append(_linear(coords[keep], spec.dims))
+        ids.append(index[keep])
+    return np.concatenate(cells), np.concatenate(ids)
+
+
+def _csr(keys: np.ndarray, ids: np.ndarray, n: int, first_id: int = 0) -> CellLists:
+    order = np.argsort(keys, kind="stable")
+    offsets = np.zeros(n + 1, np.int64)
+    offsets[1:] = np.cumsum(np.bincount(keys, minlength=n))
     return CellLists(offsets, (ids[order] + first_id).astype(np.int32))
+
+
+def bin_triangles(spec: GridSpec, tris: np.ndarray, first_id: int = 0) -> CellLists:
+    """List triangles (F, 3, 3) in the cells of a uniform grid they touch; ids start at
+    ``first_id``."""
+    cells, ids = _cell_pairs(spec, np.asarray(tris, np.float64))
+    return _csr(cells, ids, spec.n_cells, first_id)
+
+
+@dataclass
+class Structure:
+    """Where the leaves are: the top grid, and for each subdivided top cell its sub-grid.
+
+    Leaf ids: top cell ``t`` is leaf ``t`` unless it is subdivided (``sub_of[t] >= 0``); the
+    cells of sub-grid ``g`` are leaves ``sub_first[g] + x + dx (y + dy z)``.
+    """
+
+    kind: str
+    spec: GridSpec            # the top grid
+    sub_of: np.ndarray        # (T,) int64: -1, or the top cell's sub-grid
+    sub_dims: np.ndarray      # (S, 3) int64: cells per axis of each sub-grid
+    sub_first: np.ndarray     # (S,) int64: leaf id of each sub-grid's first cell
+
+    @property
+    def n_subgrids(self) -> int:
+        return len(self.sub_dims)
+
+    @property
+    def n_leaves(self) -> int:
+        return self.spec.n_cells + int(np.prod(self.sub_dims, axis=1).sum())
+
+    def leaf_pairs(self, tris: np.ndarray, top_pairs: tuple | None = None
+                   ) -> tuple[np.ndarray, np.ndarray]:
+        """Every (leaf, triangle) pair whose padded leaf cell the triangle touches;
+        ``top_pairs`` are the triangles' top-cell pairs if they are known already."""
+        spec = self.spec
+        cells, ids = top_pairs if top_pairs is not None else _cell_pairs(spec, tris)
+        g = self.sub_of[cells] if len(cells) else np.zeros(0, np.int64)
+        direct = g < 0
+        leaves, out_ids = [cells[direct]], [ids[direct]]
+        if not direct.all():
+            top, tri, g = cells[~direct], ids[~direct], g[~direct]
+            d = spec.dims
+            top_xyz = np.stack([top % d[0], (top // d[0]) % d[1], top // (d[0] * d[1])], axis=1)
+            box_lo = spec.origin + top_xyz * spec.cell
+            dims = self.sub_dims[g]
+            cell = spec.cell / dims
+            t = tris[tri]
+            lo, hi = _cell_range(t, box_lo, cell, dims)
+            for index, coords in _expand(lo, hi):
+                centre = box_lo[index] + (coords + 0.5) * cell[index]
+                keep = _overlaps(t[index] - centre[:, None, :],
+                                 cell[index] * (0.5 + BIN_PAD_CELLS))
+                index, coords = index[keep], coords[keep]
+                leaves.append(self.sub_first[g[index]] + _linear(coords, dims[index]))
+                out_ids.append(tri[index])
+        return np.concatenate(leaves), np.concatenate(out_ids)
+
+    def lists(self, tris: np.ndarray, first_id: int = 0,
+              top_pairs: tuple | None = None) -> CellLists:
+        """The leaf lists of triangles (F, 3, 3); ids start at ``first_id``."""
+        leaves, ids = self.leaf_pairs(np.asarray(tris, np.float64), top_pairs)
+        return _csr(leaves, ids, self.n_leaves, first_id)
+
+    def gpu_array(self, lists: CellLists) -> np.ndarray:
+        """The static int32 array the shader reads: a (start, count) pair per leaf, then the
+        triangle ids (a start is an absolute position in this array).
+
+        A subdivided top cell holds its sub-grid instead: (first leaf, -1 - packed dims), the
+        cells per axis packed in SUB_DIMS_BITS bits each, so reaching a sub-grid costs the
+        traversal no read beyond the pair it reads for any leaf.
+        """
+        n = self.n_leaves
+        pairs = np.zeros((n, 2), np.int64)
+        pairs[:, 0] = lists.offsets[:-1] + 2 * n
+        pairs[:, 1] = lists.counts()
+        top = np.nonzero(self.sub_of >= 0)[0]
+        g = self.sub_of[top]
+        d = self.sub_dims[g]
+        pairs[top, 0] = self.sub_first[g]
+        pairs[top, 1] = -1 - (d[:, 0] | (d[:, 1] << SUB_DIMS_BITS) | (d[:, 2] << 2 * SUB_DIMS_BITS))
+        array = np.concatenate([pairs.ravel(), lists.ids])
+        if array.size and array.max() > np.iinfo(np.int32).max:
+            raise ValueError("the scene's triangle lists do not fit 32-bit indices")
+        return array.astype(np.int32)
+
+
+def uniform_structure(lower: np.ndarray, upper: np.ndarray, n_triangles: int,
+                      cells_per_triangle: float) -> Structure:
+    spec = grid_spec(lower, upper, n_triangles, cells_per_triangle)
+    return Structure("uniform", spec, np.full(spec.n_cells, -1, np.int64),
+                     np.zeros((0, 3), np.int64), np.zeros(0, np.int64))
+
+
+def two_level_structure(lower: np.ndarray, upper: np.ndarray, static_tris: np.ndarray,
+                        n_triangles: int, cells_per_triangle: float) -> tuple[Structure, tuple]:
+    """The top grid at ``TOP_SHARE`` of the density for ``n_triangles``, and a sub-grid in every
+    top cell holding more than SUBDIVIDE_ABOVE static triangles. Returns the structure and the
+    statics' top-level pairs (to bin them without redoing it)."""
+    top = grid_spec(lower, upper, n_triangles, cells_per_triangle * TOP_SHARE)
+    cells, ids = _cell_pairs(top, static_tris)
+    load = np.bincount(cells, minlength=top.n_cells).astype(np.float64)
+    dense = np.nonzero(load > SUBDIVIDE_ABOVE)[0]
+    density = cells_per_triangle
+    while True:
+        side = (float(np.prod(top.cell)) / (density * load[dense])) ** (1.0 / 3.0)
+        dims = np.clip(np.ceil(top.cell[None, :] / side[:, None]), 1,
+                       MAX_SUB_CELLS_PER_AXIS).astype(np.int64)
+        if np.prod(dims, axis=1).sum() <= MAX_SUB_LEAVES:
+            break
+        density /= 2.0
+    split = np.prod(dims, axis=1) > 1
+    dense, dims = dense[split], dims[split]
+    sub_of = np.full(top.n_cells, -1, np.int64)
+    sub_of[dense] = np.arange(len(dense))
+    sizes = np.prod(dims, axis=1)
+    first = top.n_cells + np.cumsum(sizes) - sizes
+    return Structure("two-level", top, sub_of, dims, first), (cells, ids)
 
 
 def static_triangles(geom: PackedGeometry) -> np.ndarray:
@@ -191,29 +358,60 @@ def scene_bounds(geom: PackedGeometry, scene: Scene) -> tuple[np.ndarray, np.nda
 
 
 class SceneGrid:
-    """The scene's grid: the statics' lists built once, the characters' lists per frame."""
+    """The scene's structure: the statics' leaf lists built once, the characters' per frame."""
 
     def __init__(self, geom: PackedGeometry, scene: Scene,
-                 cells_per_triangle: float = CELLS_PER_TRIANGLE):
+                 cells_per_triangle: float = CELLS_PER_TRIANGLE,
+                 structure: str = DEFAULT_STRUCTURE):
+        if structure not in STRUCTURES:
+            raise ValueError(f"unknown structure {structure!r}; valid: {', '.join(STRUCTURES)}")
         self.geom = geom
         self.cells_per_triangle = cells_per_triangle
+        self.kind = structure
         lower, upper = scene_bounds(geom, scene)
         start = time.perf_counter()
         self.static_tris = static_triangles(geom)
         self.n_character_tris = sum(len(geom.triangles[geom.character_object(i)])
                                     for i in range(geom.n_characters))
-        self.spec = grid_spec(lower, upper, len(self.static_tris) + self.n_character_tris,
-                              cells_per_triangle)
-        self.static = bin_triangles(self.spec, self.static_tris)
+        tris = self.static_tris.astype(np.float64)
+        pairs = None
+        if structure == "uniform":
+            self.structure = uniform_structure(lower, upper,
+                                               len(tris) + self.n_character_tris,
+                                               cells_per_triangle)
+        else:
+            self.structure, pairs = two_level_structure(lower, upper, tris,
+                                                        len(tris) + self.n_character_tris,
+                                                        cells_per_triangle)
+        self.static = self.structure.lists(tris, top_pairs=pairs)
         self.static_ms = (time.perf_counter() - start) * 1e3
+
+    @property
+    def spec(self) -> GridSpec:
+        """The top grid (for ``uniform``, the only one)."""
+        return self.structure.spec
 
     @property
     def n_static(self) -> int:
         return len(self.static_tris)
 
     def characters(self, models: np.ndarray) -> tuple[np.ndarray, CellLists, float]:
-        """Posed character triangles, their cell lists (ids after the statics') and build ms."""
+        """Posed character triangles, their leaf lists (ids after the statics') and build ms."""
         start = time.perf_counter()
         tris = character_triangles(self.geom, models)
-        lists = bin_triangles(self.spec, tris, first_id=self.n_static)
+        lists = self.structure.lists(tris, first_id=self.n_static)
         return tris, lists, (time.perf_counter() - start) * 1e3
+
+    def describe(self) -> dict:
+        """What the stats report of the structure."""
+        s = self.structure
+        counts = self.static.counts()
+        full = counts[counts > 0]
+        return {"structure": self.kind, "dims": [int(x) for x in s.spec.dims],
+                "cells": s.spec.n_cells, "cell_m": [round(float(x), 5) for x in s.spec.cell],
+                "subgrids": s.n_subgrids, "leaves": s.n_leaves,
+                "static_triangles": self.n_static,
+                "character_triangles": self.n_character_tris,
+                "static_entries": int(counts.sum()),
+                "mean_per_nonempty_cell": round(float(full.mean()), 3) if len(full) else 0.0,
+                "max_per_cell": int(counts.max()) if len(counts) else 0}

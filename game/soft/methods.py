@@ -12,7 +12,7 @@ import numpy as np
 
 from game.gpu import blocks
 from game.scene.model import Light
-from game.soft.grid import CELLS_PER_TRIANGLE
+from game.soft.grid import CELLS_PER_TRIANGLE, DEFAULT_STRUCTURE, STRUCTURES
 
 
 @dataclass(frozen=True)
@@ -55,6 +55,7 @@ class TraceSettings:
     method: str = DEFAULT_METHOD
     samples: int = 32
     cells_per_triangle: float = CELLS_PER_TRIANGLE
+    structure: str = DEFAULT_STRUCTURE  # the acceleration structure (game/soft/grid.py)
     vc_slots: int = 64       # voxel-cache: voxels cached per shaded point (a power of two)
     vc_pool: int = 256       # voxel-cache: candidate ids cached per shaded point
     mailbox: int = 8         # triangles remembered per ray
@@ -63,6 +64,9 @@ class TraceSettings:
     def __post_init__(self) -> None:
         if self.method not in METHODS:
             raise ValueError(f"unknown trace method {self.method!r}; valid: {', '.join(METHODS)}")
+        if self.structure not in STRUCTURES:
+            raise ValueError(f"unknown structure {self.structure!r}; valid: "
+                             f"{', '.join(STRUCTURES)}")
         if self.samples < 1:
             raise ValueError("samples must be at least 1")
         if self.vc_slots < 1 or self.vc_slots & (self.vc_slots - 1):

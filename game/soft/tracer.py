@@ -22,18 +22,43 @@ from game.gpu.timing import PassTimer
 from game.reference.hard import RAY_OFFSET_DISTANCE, RAY_OFFSET_SCENE
 from game.scene import Scene
 from game.scene.geometry import PackedGeometry
-from game.soft.grid import BIN_PAD_CELLS, CELLS_PER_TRIANGLE, SceneGrid
+from game.soft.grid import (
+    BIN_PAD_CELLS,
+    CELLS_PER_TRIANGLE,
+    DEFAULT_STRUCTURE,
+    SUB_DIMS_BITS,
+    SceneGrid,
+)
 from game.soft.methods import METHODS, TraceSettings
 
 COUNTERS = ("ray_triangle_tests", "triangle_triangle_tests", "voxels_visited", "candidates",
-            "overflows")
+            "overflows", "bytes_triangles", "bytes_cells", "bytes_candidates", "dispatches")
+# Memory traffic per point, by what is read: the Triangles buffer, the structure (top table,
+# sub-grid table, leaf offsets and ids), and the candidate state (voxel-cache's table and pool,
+# tri-cache's per-triangle words; read and written). 64-bit counts, kept as two 32-bit words.
+BYTE_COUNTERS = ("bytes_triangles", "bytes_cells", "bytes_candidates")
+TRIANGLE_BYTES = 48       # three vec4 per triangle in the Triangles buffer
 LOCAL_SIZE = 8            # invocations per side of a workgroup; keep in sync with trace.comp
 RAY_ID_LIMIT = 1 << 31    # tri-cache ids use 31 bits of the state word
 POINTS_PER_ROW = 1024      # trace_points: G-buffer width
 # Mesa llvmpipe stops all loops of a shader invocation after 65535 iterations in all (measured
-# on Mesa 22.3.6; see loop_budget_left in shaders/trace.comp). Dispatches aim below this.
-LOOP_BUDGET = 60_000
+# on Mesa 22.3.6; see loop_budget_left in shaders/trace.comp). It runs eight invocations in the
+# lanes of one 256-bit vector, and a loop runs as long as any lane needs it: lanes whose loops
+# diverge add up, so eight points of STEP_BUDGET steps each stay below the limit (the steps
+# count every loop trip a point makes, and at most a few hundred more run before a point can
+# stop). A trace that the probe still finds cut short (wider vectors, say) runs again with half
+# the budget, down to MIN_STEP_BUDGET.
+STEP_BUDGET = 7_000
+MIN_STEP_BUDGET = 500
 LOOP_PROBE_TRIPS = 2
+# A point makes progress in every dispatch, so this many rounds mean a fault in the shader.
+MAX_ROUNDS = 1 << 20
+# voxel-cache: a leaf longer than this is walked as the grid method walks it (an overflow), so
+# that building one leaf's candidates, which is not split (two steps per entry), stays within
+# one point's STEP_BUDGET.
+VC_BIG_LEAF = 2048
+# analytic: hidden intervals a point keeps between dispatches (PointResult.kept_intervals).
+ANALYTIC_KEPT = 8
 TEXTURE_UNITS = {"u_position": blocks.TEXTURE_UNITS["trace_position"],
                  "u_normal": blocks.TEXTURE_UNITS["trace_normal"],
                  "u_colour": blocks.TEXTURE_UNITS["trace_colour"]}
@@ -44,33 +69,45 @@ class TraceResult:
     """What one trace produced; images have row 0 at the top."""
 
     visibility: np.ndarray            # (H, W) float32, NaN where no geometry
-    counters: dict[str, np.ndarray]   # per counter (H, W) uint32
+    counters: dict[str, np.ndarray]   # per counter (H, W): uint32, the byte counts uint64
     ms: dict[str, float] = field(default_factory=dict)
     truncated: int = 0                # points whose work llvmpipe's loop budget cut short
+    # Samples per dispatch of the point that needed the most dispatches (the samples when none
+    # was split; for analytic on a segment, the samples asked for).
     samples_per_dispatch: int = 0
+    rounds: int = 0                   # dispatches the trace took
+    step_budget: int = 0              # loop iterations each point was given per dispatch
 
     @property
     def covered(self) -> np.ndarray:
         return np.isfinite(self.visibility)
 
     def means(self) -> dict[str, float]:
-        """Mean of every counter per shaded point."""
+        """Mean of every counter per shaded point, and ``bytes_total``."""
         n = int(self.covered.sum())
-        return {k: (float(v[self.covered].sum()) / n if n else 0.0)
-                for k, v in self.counters.items()}
+        out = {k: (float(v[self.covered].sum()) / n if n else 0.0)
+               for k, v in self.counters.items()}
+        if all(k in out for k in BYTE_COUNTERS):
+            out["bytes_total"] = sum(out[k] for k in BYTE_COUNTERS)
+        return out
 
 
 class SoftTracer:
     """Owns the compute programs and buffers of the soft-shadow pass for one scene."""
 
     def __init__(self, ctx, geom: PackedGeometry, scene: Scene,
-                 cells_per_triangle: float = CELLS_PER_TRIANGLE, clock: str = "auto"):
+                 cells_per_triangle: float = CELLS_PER_TRIANGLE, clock: str = "auto",
+                 structure: str = DEFAULT_STRUCTURE):
         self.ctx = ctx
         self.geom = geom
-        self.grid = SceneGrid(geom, scene, cells_per_triangle)
+        self.scene = scene
+        self.cells_per_triangle = cells_per_triangle
         self.timer = PassTimer(ctx, clock)
         self._programs: dict[tuple, object] = {}
-        self._pending_static_ms = self.grid.static_ms
+        self._grids: dict[str, SceneGrid] = {}
+        self._static: dict[str, np.ndarray] = {}
+        self._pending_static_ms = 0.0
+        self.grid = self._grid(structure)
         start = time.perf_counter()
         n_static = self.grid.n_static
         self.n_triangles = n_static + self.grid.n_character_tris
@@ -78,15 +115,39 @@ class SoftTracer:
         tris[:n_static, :, :3] = self.grid.static_tris
         self._tris = tris
         self.tri_ssbo = ctx.buffer(tris.tobytes())
-        self.static_ssbo = ctx.buffer(self.grid.static.gpu_array().tobytes())
-        self.dynamic_ssbo = ctx.buffer(reserve=4 * (self.grid.spec.n_cells + 2))
+        self.static_ssbo = ctx.buffer(self._static[structure].tobytes())
+        self.dynamic_ssbo = ctx.buffer(reserve=4 * (self.grid.structure.n_leaves + 2))
         self.state_ssbo = ctx.buffer(reserve=4 * max(1, self.n_triangles))
         self.state_ssbo.clear()
         self.params_ubo = ctx.buffer(reserve=TRACE_DTYPE.itemsize)
         self.results_ssbo = ctx.buffer(reserve=TRACE_RESULT_DTYPE.itemsize)
         self._pending_static_ms += (time.perf_counter() - start) * 1e3
         self._ray_id_base = 1
-        self._chunks: dict[tuple, int] = {}  # samples per dispatch that last worked
+        self._budgets: dict[tuple, int] = {}  # the step budget that last worked
+
+    def _grid(self, structure: str) -> SceneGrid:
+        """The scene's structure of that kind, built (on the CPU) the first time it is asked
+        for; its build time is reported by the next trace."""
+        grid = self._grids.get(structure)
+        if grid is None:
+            grid = SceneGrid(self.geom, self.scene, self.cells_per_triangle, structure)
+            start = time.perf_counter()
+            self._static[structure] = grid.structure.gpu_array(grid.static)
+            self._pending_static_ms += grid.static_ms + (time.perf_counter() - start) * 1e3
+            self._grids[structure] = grid
+        return grid
+
+    def _use_structure(self, structure: str) -> None:
+        """Make ``structure`` the one the pass reads (its static part uploaded)."""
+        if structure == self.grid.kind:
+            return
+        self.grid = self._grid(structure)
+        start = time.perf_counter()
+        array = self._static[structure]
+        if self.static_ssbo.size != array.nbytes:
+            self.static_ssbo.orphan(array.nbytes)
+        self.static_ssbo.write(array.tobytes())
+        self._pending_static_ms += (time.perf_counter() - start) * 1e3
 
     # -- ownership -------------------------------------------------------------------------------
     def _buffers(self) -> list:
@@ -106,14 +167,14 @@ class SoftTracer:
         self.timer.release()
 
     def memory_bytes(self) -> dict[str, int]:
-        """GPU memory of the pass's buffers, by buffer."""
+        """GPU memory of the pass's buffers, by buffer (the structure in use)."""
         return {"triangles": self.tri_ssbo.size, "static_cells": self.static_ssbo.size,
                 "dynamic_cells": self.dynamic_ssbo.size, "tri_state": self.state_ssbo.size,
                 "results": self.results_ssbo.size}
 
     def _program(self, settings: TraceSettings):
-        key = (settings.method, settings.vc_slots, settings.vc_pool, settings.mailbox,
-               settings.max_intervals)
+        key = (settings.method, settings.structure, settings.vc_slots, settings.vc_pool,
+               settings.mailbox, settings.max_intervals)
         prog = self._programs.get(key)
         if prog is None:
             defines = {f"METHOD_{name.upper().replace('-', '_')}": method.shader_id
@@ -122,6 +183,9 @@ class SoftTracer:
                 METHOD=METHODS[settings.method].shader_id, MAILBOX_SIZE=settings.mailbox,
                 VC_SLOTS=settings.vc_slots, VC_POOL=settings.vc_pool,
                 MAX_INTERVALS=settings.max_intervals, BIN_PAD_CELLS=BIN_PAD_CELLS,
+                TRIANGLE_BYTES=TRIANGLE_BYTES, VC_BIG_LEAF=VC_BIG_LEAF,
+                ANALYTIC_KEPT=ANALYTIC_KEPT, TWO_LEVEL=settings.structure != "uniform",
+                SUB_DIMS_BITS=SUB_DIMS_BITS,
                 TRACE_LIGHT_SEGMENT=blocks.TRACE_LIGHT_SEGMENT,
                 TRACE_LIGHT_POINT=blocks.TRACE_LIGHT_POINT,
                 TRACE_LIGHT_DIRECTIONAL=blocks.TRACE_LIGHT_DIRECTIONAL)
@@ -160,7 +224,8 @@ class SoftTracer:
 
     # -- the pass --------------------------------------------------------------------------------
     def _upload_characters(self, models: np.ndarray) -> float:
-        """Pose the characters, re-bin them and upload; returns the build ms (CPU)."""
+        """Pose the characters, bin them into the structure's leaves and upload; returns the
+        build ms (CPU)."""
         n_static = self.grid.n_static
         start = time.perf_counter()
         tris, lists, _ = self.grid.characters(models)
@@ -174,7 +239,7 @@ class SoftTracer:
         return (time.perf_counter() - start) * 1e3
 
     def _params(self, size: tuple[int, int], mode: int, a, b, samples: int,
-                first: int = 0, count: int | None = None) -> np.ndarray:
+                round_index: int = 0, budget: int = STEP_BUDGET) -> np.ndarray:
         spec = self.grid.spec
         p = np.zeros(1, TRACE_DTYPE)
         p["grid_origin"], p["grid_cell"], p["grid_dims"] = spec.origin, spec.cell, spec.dims
@@ -187,33 +252,36 @@ class SoftTracer:
         p["samples"], p["triangles"] = samples, self.n_triangles
         p["ray_id_base"] = self._ray_id_base
         p["width"], p["height"] = size
-        p["first_sample"] = first
-        p["sample_count"] = samples if count is None else count
-        p["accumulate"] = int(first > 0)
+        p["round_index"] = round_index
+        p["step_budget"] = budget
         p["loop_probe_trips"] = LOOP_PROBE_TRIPS
         return p
 
-    def _first_chunk(self, settings: TraceSettings) -> int:
-        """Samples per dispatch to try first: all of them, except for brute force, whose
-        iterations per sample (a quarter of the triangles) are known in advance."""
-        if settings.method == "brute":
-            per_sample = self.n_triangles // 4 + 8
-            return max(1, min(settings.samples, LOOP_BUDGET // per_sample))
-        return settings.samples
-
-    def _dispatch_all(self, prog, size, mode, a, b, settings: TraceSettings,
-                      chunk: int) -> None:
+    def _rounds(self, prog, size, mode, a, b, settings: TraceSettings,
+                budget: int) -> tuple[int, bool]:
+        """Dispatch until no point has work left; returns the rounds and whether any point was
+        cut short (its results are then incomplete). Above MIN_STEP_BUDGET the first cut ends
+        the attempt, which runs again with a smaller budget."""
+        cut = False
         w, h = size
-        n = settings.samples
-        exact = not METHODS[settings.method].sampled and mode == blocks.TRACE_LIGHT_SEGMENT
-        starts = [0] if exact else range(0, n, chunk)
-        for first in starts:
-            count = n if exact else min(chunk, n - first)
-            self.params_ubo.write(self._params(size, mode, a, b, n, first, count).tobytes())
+        item = TRACE_RESULT_DTYPE.itemsize
+        totals = w * h * item  # the record after the points
+        zero = np.zeros(1, TRACE_RESULT_DTYPE).tobytes()
+        for r in range(MAX_ROUNDS):
+            self.results_ssbo.write(zero, offset=totals)
+            self.params_ubo.write(self._params(size, mode, a, b, settings.samples, r,
+                                               budget).tobytes())
             prog.run((w + LOCAL_SIZE - 1) // LOCAL_SIZE, (h + LOCAL_SIZE - 1) // LOCAL_SIZE)
-            # The next dispatch adds to these results: make the writes visible to it.
+            # The next round reads these results, and so does the CPU.
             self.ctx.memory_barrier()
-        context.unbind_program()
+            summary = np.frombuffer(self.results_ssbo.read(size=item, offset=totals),
+                                    TRACE_RESULT_DTYPE)[0]
+            cut = cut or bool(summary["truncated"])
+            if cut and budget > MIN_STEP_BUDGET:
+                return r + 1, True
+            if summary["pending"] == 0:
+                return r + 1, cut
+        raise RuntimeError(f"the soft-shadow trace did not finish in {MAX_ROUNDS} dispatches")
 
     def trace(self, textures, size: tuple[int, int], models: np.ndarray,
               settings: TraceSettings, light: tuple[int, np.ndarray, np.ndarray]) -> TraceResult:
@@ -237,10 +305,11 @@ class SoftTracer:
         mode, a, b = light
         with timer.measure("total", wall=True):
             with timer.measure("build", wall=True):
+                self._use_structure(settings.structure)
                 build_ms = self._pending_static_ms
                 self._pending_static_ms = 0.0
                 dynamic_ms = self._upload_characters(models)
-                need = TRACE_RESULT_DTYPE.itemsize * w * h
+                need = TRACE_RESULT_DTYPE.itemsize * (w * h + 1)
                 if self.results_ssbo.size != need:
                     self.results_ssbo.orphan(need)
                 if self._ray_id_base + 2 * w * h >= RAY_ID_LIMIT:
@@ -258,34 +327,47 @@ class SoftTracer:
                     prog[name].value = unit
                 except KeyError:  # the method does not read it; the compiler dropped it
                     pass
-            # llvmpipe's loop budget (shaders/trace.comp loop_budget_left): halve the samples
-            # per dispatch until no point runs out; the discarded attempts are timed apart.
-            key = (settings.method, settings.samples, settings.vc_slots, settings.vc_pool)
-            chunk = self._chunks.get(key) or self._first_chunk(settings)
+            # llvmpipe's loop budget (shaders/trace.comp loop_budget_left): rounds of
+            # dispatches, each point resuming where its step budget ran out; a trace that
+            # still cut a point short runs again with half the budget, timed apart.
+            key = (settings.method, settings.structure, settings.samples, settings.vc_slots,
+                   settings.vc_pool, settings.max_intervals)
+            budget = self._budgets.get(key, STEP_BUDGET)
             discarded = 0.0
             while True:
                 timer.ms.pop("trace", None)
                 with timer.measure("trace"):
-                    self._dispatch_all(prog, size, mode, a, b, settings, chunk)
-                results = np.frombuffer(self.results_ssbo.read(), TRACE_RESULT_DTYPE)
-                if not results["truncated"].any() or chunk == 1:
+                    rounds, cut = self._rounds(prog, size, mode, a, b, settings, budget)
+                if not cut or budget <= MIN_STEP_BUDGET:
                     break
                 discarded += timer.ms["trace"]
-                chunk = (chunk + 1) // 2
-            # Later frames start from the split that worked (frames change little).
-            self._chunks[key] = chunk
-        raw = results.reshape(h, w)[::-1]  # the last attempt's read, used for everything
+                budget = max(MIN_STEP_BUDGET, budget // 2)
+            # Later frames start from the budget that worked (frames change little).
+            self._budgets[key] = budget
+            context.unbind_program()
+            results = np.frombuffer(
+                self.results_ssbo.read(size=TRACE_RESULT_DTYPE.itemsize * w * h),
+                TRACE_RESULT_DTYPE)
+        raw = results.reshape(h, w)[::-1]
         vis = raw["visibility"].astype(np.float32)
         vis = np.where(vis < 0.0, np.nan, vis).astype(np.float32)
         ms = dict(timer.ms)
         ms["build_static"] = build_ms
         ms["build_dynamic"] = dynamic_ms
-        # The static part's CPU build ran in __init__, before this frame: count it here once.
+        # The static part's CPU build ran before this frame: count it here once.
         ms["build"] = ms.get("build", 0.0) + build_ms
         ms["total"] = ms.get("total", 0.0) + build_ms
         ms["trace_discarded"] = discarded
-        counters = {name: np.ascontiguousarray(raw[name]) for name in COUNTERS}
-        sampled = METHODS[settings.method].sampled
+        counters = {}
+        for name in COUNTERS:
+            v = raw[name]
+            if name in BYTE_COUNTERS:
+                v = v[..., 0].astype(np.uint64) + (v[..., 1].astype(np.uint64) << np.uint64(32))
+            counters[name] = np.ascontiguousarray(v)
+        covered = np.isfinite(vis)
+        most = int(counters["dispatches"][covered].max()) if covered.any() else 1
+        exact = not METHODS[settings.method].sampled and mode == blocks.TRACE_LIGHT_SEGMENT
+        per_dispatch = settings.samples if exact else -(-settings.samples // max(1, most))
         return TraceResult(visibility=vis, counters=counters, ms=ms,
-                           truncated=int(raw["truncated"][np.isfinite(vis)].sum()),
-                           samples_per_dispatch=chunk if sampled else settings.samples)
+                           truncated=int(raw["truncated"][covered].sum()),
+                           samples_per_dispatch=per_dispatch, rounds=rounds, step_budget=budget)

@@ -37,11 +37,31 @@ def test_trace_writes_frames_dumps_and_stats(tmp_path):
     for f in stats["frames"]:
         for key in ("build", "trace", "total", "ray_triangle_tests", "triangle_triangle_tests",
                     "voxels_visited", "candidates", "overflows", "maps_rendered",
-                    "triangles_to_maps"):
+                    "triangles_to_maps", "rounds", "step_budget", "dispatches"):
             assert key in f, key
         assert f["ms"]["total"] >= f["ms"]["trace"] > 0
+        assert f["truncated_points"] == 0 and f["rounds"] >= 1
+        # Memory traffic per shaded point, by what is read, and its total.
+        parts = [f[k] for k in ("bytes_triangles", "bytes_cells", "bytes_candidates")]
+        assert min(parts) > 0 and f["bytes_total"] == pytest.approx(sum(parts), abs=1e-3)
+    assert stats["grid"]["structure"] == stats["settings"]["structure"]
     # The statics' grid is built once: only the first frame pays for it.
     assert stats["frames"][0]["build_static"] > 0 and stats["frames"][1]["build_static"] == 0
+
+
+@pytest.mark.skipif(not (ROOT / "assets" / "real" / "monastery.toml").exists(),
+                    reason="the real level is fetched by assets/fetch_real.py")
+@pytest.mark.parametrize("method", ["analytic", "voxel-cache"])
+def test_trace_of_the_real_level_cuts_no_point_short(tmp_path, method):
+    # Before its work was split, analytic ran out of llvmpipe's loop budget on most points of
+    # this level (125,000 triangles, a light triangle spanning the whole compound).
+    result = run("trace", ROOT / "assets" / "real" / "monastery.toml", "--method", method,
+                 "--samples", "8", "--size", "48x27", "--out", tmp_path / "o", "--stats",
+                 tmp_path / "s.json")
+    assert result.returncode == 0, result.stderr
+    assert "loop budget" not in result.stderr
+    frame = json.loads((tmp_path / "s.json").read_text())["frames"][0]
+    assert frame["shaded_points"] > 500 and frame["truncated_points"] == 0
 
 
 @pytest.mark.parametrize("args, fragment, status", [
@@ -113,14 +133,42 @@ def test_sweep_writes_csv_json_and_chart(tmp_path):
     for r in rows[1:]:
         assert r["embree_ms"] > 0 and r["trace_ms"] > 0 and r["truncated"] == 0
     assert rows[3]["rmse_analytic"] < rows[1]["rmse_analytic"]
-    assert (tmp_path / "s.csv").read_text().startswith("method,samples,")
+    assert (tmp_path / "s.csv").read_text().startswith("scene,structure,method,samples,")
     for chart in ("s.png", "s_counters.png"):
+        assert (tmp_path / chart).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_sweep_of_several_scenes_and_structures_sets_rays_per_second_beside_embree(tmp_path):
+    from tests.conftest import COURTYARD
+
+    result = subprocess.run(
+        [sys.executable, "-m", "game.bench.soft_sweep", "--scenes", f"{TINY},{COURTYARD}",
+         "--structures", "uniform,two-level", "--size", "40x24", "--samples", "2",
+         "--methods", "grid,voxel-cache", "--repeats", "1", "--out", str(tmp_path),
+         "--name", "s"], cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stderr
+    rows = json.loads((tmp_path / "s.json").read_text())["rows"]
+    assert {(r["scene"], r["structure"]) for r in rows} == {
+        (scene, structure) for scene in ("tiny", "courtyard")
+        for structure in ("uniform", "two-level")}
+    for r in rows:
+        assert r["truncated"] == 0
+        if r["method"] != "analytic":
+            assert r["rays"] > 0 and r["rays_per_s"] > 0 and r["embree_rays_per_s"] > 0
+            assert r["bytes_total"] > 0
+    # Same rays, so the same visibility error whatever the structure.
+    for scene in ("tiny", "courtyard"):
+        errors = {r["rmse_embree"] for r in rows if r["scene"] == scene
+                  and r["method"] == "voxel-cache"}
+        assert len(errors) == 1
+    for chart in ("s_tiny.png", "s_courtyard_counters.png", "s_rays.png"):
         assert (tmp_path / chart).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 def test_sweep_refuses_bad_values_in_one_line():
     for args, code in ((["--size", "abc"], 2), (["--samples", "0,4"], 2),
-                       (["--methods", "grid,nope"], 2), (["missing.toml"], 1)):
+                       (["--methods", "grid,nope"], 2), (["--structures", "octree"], 2),
+                       (["missing.toml"], 1)):
         result = subprocess.run([sys.executable, "-m", "game.bench.soft_sweep", *args], cwd=ROOT,
                                 capture_output=True, text=True, timeout=60)
         assert result.returncode == code, (args, result.stderr)

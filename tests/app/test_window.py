@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import struct
 import subprocess
 import sys
@@ -306,8 +307,11 @@ def test_soft_shadows_change_the_image_and_show_their_trace_time(traced_soft):
     assert soft["ms"]["soft_trace"] > 0 and soft["ms"]["composite"] > 0
     assert soft["ms"]["total"] >= soft["ms"]["soft_trace"]
     assert "soft_trace" not in hard["ms"]
-    # Traced at a reduced resolution: a quarter of the window per side, scaled up.
-    assert soft["render_size"] == [320, 180] and hard["render_size"] == [1280, 720]
+    # The frame at the window's resolution, traced at a quarter of it per side and upsampled.
+    assert soft["render_size"] == [1280, 720] == hard["render_size"]
+    assert soft["trace_size"] == [320, 180] and hard["trace_size"] is None
+    # The HUD says at what resolution the trace ran, and how long it took.
+    assert re.search(r"\+ soft 320x180 \d+\.\d ms", soft["hud"][-1]), soft["hud"]
     a, b = np.load(out / "soft.npy").astype(int), np.load(out / "clumped.npy").astype(int)
     outside = _outside_panel(hard, a.shape)
     assert (np.abs(a - b).max(axis=2)[outside] > 8).mean() > 0.05

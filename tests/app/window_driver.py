@@ -109,9 +109,12 @@ def traced_and_soft(scene_path: str, out: str) -> None:
         app.key("f12", False)
         app.step(0.0)
         np.save(Path(out) / f"{name}.npy", app.screenshot)
+        trace = app.last_figures.soft
         seen[name] = {"method": app.renderer.settings.method, "soft": app.soft,
                       "render_size": list(app.renderer.size), "ms": app.last_figures.ms,
-                      "overlay_rect": list(app.overlay.rect)}
+                      "overlay_rect": list(app.overlay.rect),
+                      "trace_size": list(trace.size) if trace is not None else None,
+                      "hud": list(app.overlay.hud_lines)}
 
     try:
         app.paused = True

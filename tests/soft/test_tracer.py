@@ -10,19 +10,31 @@ from game.reference import hard as reference
 from game.reference import soft as sr
 from game.render.renderer import Renderer, View
 from game.scene import geometry, parse_scene
-from game.soft.tracer import RAY_OFFSET_DISTANCE, RAY_OFFSET_SCENE, SoftTracer, TraceSettings
+from game.soft import grid as trace_grid
+from game.soft import tracer as soft_tracer
+from game.soft.grid import STRUCTURES
+from game.soft.tracer import (
+    BYTE_COUNTERS,
+    RAY_OFFSET_DISTANCE,
+    RAY_OFFSET_SCENE,
+    TRIANGLE_BYTES,
+    SoftTracer,
+    TraceSettings,
+)
+from tests.conftest import ASSETS
 
 SIZE = (96, 54)
 ACCELERATED = ("grid", "tri-cache", "voxel-cache")
 ALL = ("brute", *ACCELERATED)
 
 
-def gbuffer_trace(ctx, scene, methods, samples, size=SIZE, t=0.0):
+def gbuffer_trace(ctx, scene, methods, samples, size=SIZE, t=0.0, **settings):
     """Render the G-buffer once and trace it with each method; returns (frame, results)."""
     r = Renderer(ctx, scene, size, gbuffer=True)
     try:
         frame = r.render(t, View.from_camera(scene.camera, size))
-        results = {m: r.trace(t, TraceSettings(method=m, samples=samples)) for m in methods}
+        results = {m: r.trace(t, TraceSettings(method=m, samples=samples, **settings))
+                   for m in methods}
         diagonal = r.soft_tracer.grid.spec.diagonal
     finally:
         r.release()
@@ -49,13 +61,16 @@ def rmse(a, b):
 
 
 # -- accelerated methods are exact ---------------------------------------------------------------
+@pytest.mark.parametrize("structure", list(STRUCTURES))
 @pytest.mark.parametrize("name, samples, size",
                          [("tiny", 8, SIZE), ("courtyard", 32, (64, 36))])
-def test_accelerated_methods_equal_brute_with_the_same_samples(ctx, name, samples, size, request):
-    # 32 samples of the default scene take brute force past llvmpipe's loop budget in one
-    # dispatch (6,016 triangles): the tracer must split the samples and lose none.
+def test_accelerated_methods_equal_brute_with_the_same_samples(ctx, name, samples, size, structure,
+                                                                request):
+    # 32 samples of the courtyard take brute force past llvmpipe's loop budget in one dispatch
+    # (6,016 triangles): the tracer must split every point's work and lose none of it.
     scene = request.getfixturevalue(name)
-    _, results, _ = gbuffer_trace(ctx, scene, ALL, samples=samples, size=size)
+    _, results, _ = gbuffer_trace(ctx, scene, ALL, samples=samples, size=size,
+                                  structure=structure)
     brute = results["brute"].visibility
     assert np.isfinite(brute).sum() > 1000
     assert np.nanmin(brute) < 0.5 < np.nanmax(brute)  # shadows and light in view
@@ -140,18 +155,23 @@ def scene_text(boxes, a, b, floor=True, scale=1.0):
 class Points:
     """A tracer over a scene for chosen points (no G-buffer render)."""
 
-    def __init__(self, ctx, text):
+    def __init__(self, ctx, text, structure=trace_grid.DEFAULT_STRUCTURE,
+                 cells_per_triangle=trace_grid.CELLS_PER_TRIANGLE):
         self.scene = parse_scene(text)
         self.geom = geometry.pack(self.scene)
-        self.tracer = SoftTracer(ctx, self.geom, self.scene)
+        self.structure = structure
+        self.tracer = SoftTracer(ctx, self.geom, self.scene, cells_per_triangle,
+                                 structure=structure)
 
     def __call__(self, method, points, normals, samples=16, light=None):
         seg = self.scene.linear_light
         light = light or (TRACE_LIGHT_SEGMENT, seg.a, seg.b)
         points = np.asarray(points, np.float32)
         normals = np.broadcast_to(np.asarray(normals, np.float32), points.shape)
-        return self.tracer.trace_points(points, normals, np.zeros((0, 4, 4)),
-                                        TraceSettings(method=method, samples=samples), light)
+        result = self.tracer.trace_points(
+            points, normals, np.zeros((0, 4, 4)),
+            TraceSettings(method=method, samples=samples, structure=self.structure), light)
+        return result
 
     def release(self):
         self.tracer.release()
@@ -161,8 +181,8 @@ class Points:
 def points_tracer(ctx):
     made = []
 
-    def make(text):
-        made.append(Points(ctx, text))
+    def make(text, **kwargs):
+        made.append(Points(ctx, text, **kwargs))
         return made[-1]
 
     yield make
@@ -261,10 +281,15 @@ def test_scaled_scenes_see_the_same_visibility(points_tracer, method):
             assert np.mean(diff > 0) <= 0.01 and diff.max() <= 1 / 16 + 1e-6
 
 
-def test_rays_along_voxel_edges_and_corners(points_tracer):
+@pytest.mark.parametrize("structure", list(STRUCTURES))
+def test_rays_along_voxel_edges_and_corners(points_tracer, structure, monkeypatch):
+    # Every top cell with a triangle gets a sub-grid: rays cross sub-cell edges and corners too.
+    monkeypatch.setattr(trace_grid, "SUBDIVIDE_ABOVE", 0)
     tracer = points_tracer(scene_text(
         [([1.0, 1.0, 1.0], [0.0, 2.0, 0.0]), ([0.5, 3.0, 0.5], [2.25, 1.5, -1.75])],
-        [-3.0, 5.0, 0.0], [3.0, 5.0, 0.0]))
+        [-3.0, 5.0, 0.0], [3.0, 5.0, 0.0]), structure=structure)
+    if structure == "two-level":
+        assert tracer.tracer.grid.structure.n_subgrids > 0
     spec = tracer.tracer.grid.spec
     # Grid vertices on the floor's top (y = 0 is a cell boundary only by chance; x, z are).
     xs = spec.origin[0] + spec.cell[0] * np.arange(spec.dims[0] + 1)
@@ -346,18 +371,139 @@ def test_frames_do_not_grow_gl_objects_and_characters_move(ctx, tiny):
     assert r.soft_tracer is None
 
 
-def test_the_loop_budget_probe_catches_a_cut_short_trace(ctx, courtyard):
-    # One dispatch of all 64 samples of brute force runs past llvmpipe's loop budget; the
-    # tracer must notice (the probe) and split the samples until nothing is cut short.
+def test_the_loop_budget_probe_catches_a_cut_short_trace(ctx, courtyard, monkeypatch):
+    # A step budget past llvmpipe's loop limit lets brute force run out of loops: the probe
+    # must catch it, and the tracer halve the budget until nothing is cut short.
     r = Renderer(ctx, courtyard, (32, 18), gbuffer=True)
     try:
         r.render(0.0, View.from_camera(courtyard.camera, (32, 18)))
-        tracer = r.trace(0.0, TraceSettings(method="grid", samples=1)) and r.soft_tracer
-        tracer._first_chunk = lambda settings: settings.samples  # no split in advance
-        brute = r.trace(0.0, TraceSettings(method="brute", samples=64))
         grid = r.trace(0.0, TraceSettings(method="grid", samples=64))
+        monkeypatch.setattr(soft_tracer, "STEP_BUDGET", 1 << 17)
+        brute = r.trace(0.0, TraceSettings(method="brute", samples=64))
     finally:
         r.release()
-    assert brute.truncated == 0 and brute.samples_per_dispatch < 64
+    assert brute.truncated == 0 and brute.step_budget < 1 << 17
     assert brute.ms["trace_discarded"] > 0
     np.testing.assert_array_equal(brute.visibility, grid.visibility)
+
+
+@pytest.mark.parametrize("structure", list(STRUCTURES))
+def test_points_resumed_across_dispatches_give_the_same_visibility(ctx, courtyard, structure,
+                                                                   monkeypatch):
+    # A tiny step budget stops every point many times, mid-ray, mid-leaf and mid-enumeration;
+    # each resumes at its cursor. Sampled methods must give exactly the unbroken results;
+    # analytic the same up to float rounding.
+    size = (32, 18)
+    methods = (*ALL, "analytic")
+    view = View.from_camera(courtyard.camera, size)
+    whole, split = {}, {}
+    r = Renderer(ctx, courtyard, size, gbuffer=True)
+    try:
+        r.render(0.0, view)
+        for m in methods:
+            whole[m] = r.trace(0.0, TraceSettings(method=m, samples=8, structure=structure))
+    finally:
+        r.release()
+    for m in methods:  # a new tracer per budget: a tracer keeps the budget that worked
+        monkeypatch.setattr(soft_tracer, "STEP_BUDGET", 1500 if m == "analytic" else 40)
+        r = Renderer(ctx, courtyard, size, gbuffer=True)
+        try:
+            r.render(0.0, view)
+            split[m] = r.trace(0.0, TraceSettings(method=m, samples=8, structure=structure))
+        finally:
+            r.release()
+    for m in methods:
+        assert split[m].truncated == 0 and whole[m].truncated == 0, m
+        assert split[m].rounds > 3 and split[m].means()["dispatches"] > 2, m
+        if m == "analytic":
+            np.testing.assert_allclose(split[m].visibility, whole[m].visibility, atol=1e-5)
+        else:
+            np.testing.assert_array_equal(split[m].visibility, whole[m].visibility, err_msg=m)
+
+
+def sphere_field_text(rows: int, spacing: float, radius: float, height: float) -> str:
+    """A floor under a rows x rows field of spheres (320 triangles each) and a linear light."""
+    text = scene_text([], [-4.0, 7.0, -1.0], [4.0, 7.0, 1.0])
+    half = (rows - 1) * spacing / 2
+    for i in range(rows):
+        for j in range(rows):
+            x, z = i * spacing - half, j * spacing - half
+            text += (f'\n[[static]]\nshape = "sphere"\nradius = {radius}\n'
+                     f"position = [{x}, {height}, {z}]\n")
+    return text
+
+
+def test_analytic_splits_work_past_the_old_loop_budget(points_tracer):
+    # 400 spheres (128,000 triangles) in a uniform grid of 0.001 cells per triangle: each cell
+    # lists thousands of triangles, and the light triangle of a point on the floor touches
+    # several cells. Run as one invocation per point, with no split (as analytic ran before),
+    # every one of these 40 points ran out of llvmpipe's loop budget. Split by the step
+    # budget, none does, and the result matches Embree's dense reference; brute force on the
+    # same scene agrees with Embree on its own rays.
+    tracer = points_tracer(sphere_field_text(20, 0.55, 0.22, 2.5), structure="uniform",
+                           cells_per_triangle=0.001)
+    rng = np.random.default_rng(7)
+    pts = np.stack([rng.uniform(-4.5, 4.5, 40), np.zeros(40), rng.uniform(-4.5, 4.5, 40)],
+                   axis=1)
+    up = np.array([0.0, 1.0, 0.0])
+    exact = tracer("analytic", pts, up)
+    assert exact.truncated == 0
+    # Each entry of a leaf's list is at least one loop trip: far past one dispatch's budget.
+    assert exact.counters["triangle_triangle_tests"].min() > 2 * soft_tracer.STEP_BUDGET
+    assert exact.counters["dispatches"].min() > 1
+    light = tracer.scene.linear_light
+    occ = sr.EmbreeOccluder(dumps.frame_geometry(tracer.scene, 0.0).to_geometry())
+    normals = np.tile(up, (len(pts), 1))
+    origins = sr.ray_origins(pts, normals, RAY_OFFSET_SCENE * tracer.tracer.grid.spec.diagonal,
+                             RAY_OFFSET_DISTANCE)
+    ref = sr.stratified_reference(occ, origins, normals, light.a, light.b, 1024)
+    assert 0.05 < ref.mean() < 0.95  # penumbrae, not all lit or all dark
+    assert rmse(exact.visibility, ref) <= 0.005
+    assert np.abs(exact.visibility - ref).max() <= 0.03
+    brute = tracer("brute", pts, up, samples=16)
+    assert brute.truncated == 0
+    t = sr.tracer_samples(np.arange(len(pts)), 16)
+    same_rays = sr.segment_visibility(occ, origins, normals, light.a, light.b, t)
+    assert np.mean(brute.visibility != same_rays) <= 0.05
+
+
+@pytest.mark.parametrize("structure", list(STRUCTURES))
+def test_byte_counters_follow_the_reads(ctx, courtyard, structure):
+    _, results, _ = gbuffer_trace(ctx, courtyard, ("grid", "tri-cache", "voxel-cache"), 8,
+                                  size=(48, 27), structure=structure)
+    for m, res in results.items():
+        c, covered = res.counters, res.covered
+        # Every ray-triangle test and every test against the light triangle reads one triangle.
+        expected = TRIANGLE_BYTES * (c["ray_triangle_tests"].astype(np.uint64)
+                                     + c["triangle_triangle_tests"])
+        np.testing.assert_array_equal(c["bytes_triangles"][covered], expected[covered], m)
+        # A leaf visit reads its four offsets at least.
+        assert (c["bytes_cells"][covered] >= 16 * c["voxels_visited"][covered]).all(), m
+        means = res.means()
+        assert means["bytes_total"] == pytest.approx(sum(means[k] for k in BYTE_COUNTERS))
+    assert results["grid"].means()["bytes_candidates"] == 0
+    # tri-cache reads a word per list entry; voxel-cache reads its candidate lists instead.
+    for m in ("tri-cache", "voxel-cache"):
+        assert results[m].means()["bytes_candidates"] > 0
+    assert (results["voxel-cache"].means()["bytes_triangles"]
+            < results["tri-cache"].means()["bytes_triangles"]
+            < results["grid"].means()["bytes_triangles"])
+
+
+@pytest.mark.skipif(not (ASSETS / "real" / "monastery.toml").exists(),
+                    reason="the real level is fetched by assets/fetch_real.py")
+def test_analytic_on_the_real_level_is_within_0005_of_1024_embree_samples(ctx):
+    from game.scene import load_scene
+
+    with pytest.warns(UserWarning):  # the level's file has zero-area triangles, removed
+        scene = load_scene(ASSETS / "real" / "monastery.toml")
+    frame, results, diagonal = gbuffer_trace(ctx, scene, ("analytic",), samples=1,
+                                             size=(48, 27))
+    exact = results["analytic"]
+    assert exact.truncated == 0
+    covered, origins, normals = origins_of(frame, diagonal)
+    light = scene.linear_light
+    ref = sr.stratified_reference(embree_of(scene), origins, normals, light.a, light.b, 1024)
+    shadowed = ref < 0.999
+    assert shadowed.sum() > 30
+    assert rmse(exact.visibility[covered], ref) <= 0.005

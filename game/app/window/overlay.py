@@ -9,8 +9,9 @@ milliseconds of each pass now and as a rolling graph, the clock that timed them,
 and cached, triangles drawn into maps, maps read per shaded pixel and the frame rate; and it
 edits the hard-shadow settings (the method among them, ``traced`` included), the sun, the debug
 view, the lights (each switched on or off, one moved: game/app/window/light_editor.py) and, in
-a window, whether soft shadows are traced. The HUD says how many lights there are when there
-are several.
+a window, whether soft shadows are traced, and how (one pixel in how many, how many samples).
+The HUD says how many lights there are when there are several, and with soft shadows on at what
+resolution they were traced and in how many milliseconds.
 
 The same overlay draws into a window (``window`` given: the GLFW backend feeds it input) or into
 any framebuffer with no window at all (``capture --overlay``: display size and frame time are set
@@ -75,7 +76,7 @@ MIN_ITEM_FRACTION = 0.4            # of the panel's row: a control's least width
 # prefixed ``traced_`` (the traced method) or ``soft_`` (soft shadows); ``composite`` lights the
 # frame again through the traced visibility (game/render/traced_lighting.py).
 PASS_ORDER = ("shadow_static", "shadow_dynamic", "cull", "shade", "traced_build", "traced_trace",
-              "soft_build", "soft_trace", "composite")
+              "soft_build", "soft_trace", "soft_upsample", "composite")
 HIDDEN_PASSES = ("readback", "gbuffer")
 # The tracer's sub-totals and parts: counted in the passes above and in "total".
 HIDDEN_SUFFIXES = ("_total", "_build_static", "_build_dynamic", "_trace_discarded")
@@ -84,7 +85,11 @@ WINDOW_PASSES = ("present", "overlay")      # CPU copy for files, not part of dr
 MIN_RENDER_SCALE = 0.25
 TABS = ("view", "shadows", "lights", "maps")  # the tabs of controls under the figures
 # The labels beside the controls of the view and maps tabs (their widths set the controls').
-VIEW_LABELS = ("debug view", "sun azimuth", "sun elevation", "render scale")
+VIEW_LABELS = ("debug view", "sun azimuth", "sun elevation", "render scale", "trace divisor",
+               "samples")
+# The soft trace's controls: one traced pixel per N x N (1: every pixel), samples per point.
+SOFT_DIVISOR_RANGE = (1, 8)
+SOFT_SAMPLES_RANGE = (1, 32)
 MAPS_LABELS = ("map",)
 LAYER_VIEW_PIXELS = 200            # on-screen side of the layer viewer, at font scale 1
 MAP_LIST_HEIGHT = 110              # pixels at font scale 1
@@ -110,6 +115,17 @@ PANEL_FLAGS = (imgui.WindowFlags_.no_resize.value | imgui.WindowFlags_.no_move.v
 
 
 @dataclass
+class SoftFigures:
+    """The window's soft trace this frame: what the HUD and the panel say about it."""
+
+    size: tuple[int, int]     # pixels traced, columns x rows
+    divisor: int              # one traced pixel per divisor x divisor of the frame
+    samples: int              # per traced pixel
+    ms: float                 # the trace: its build and its dispatches
+    state: str = ""           # accumulation, e.g. "still: 5/16 of round 1 of 2"
+
+
+@dataclass
 class Figures:
     """What the overlay reports about one frame."""
 
@@ -123,6 +139,7 @@ class Figures:
     fps_from_total: bool = False      # headless: 1000 / total ms, not frames over wall time
     texels_to_maps: int = 0
     characters: dict[str, int] | None = None  # the character maps (ShadowPlan.characters)
+    soft: SoftFigures | None = None   # the window's soft trace, when soft shadows are on
     maps_waiting: int = 0             # view-sized clump maps whose new side waits
 
     @staticmethod
@@ -150,6 +167,8 @@ class Changes:
     paused: bool | None = None
     render_scale: float | None = None
     soft: bool | None = None   # the window applies this one (it asks the renderer for it)
+    soft_divisor: int | None = None   # the window's soft trace: one pixel in N x N ...
+    soft_samples: int | None = None   # ... with this many samples
     selected_light: int | None = None   # the window keeps which light its keys move
 
     def apply(self, renderer: Renderer) -> None:
@@ -372,6 +391,9 @@ class Overlay:
         fps = f"{figures.fps:.1f}" if figures.fps else "-"
         first = f"FPS {fps}  frame {total:.1f} ms" if total is not None else f"FPS {fps}"
         method = renderer.settings.method + (" + soft" if soft else "")
+        if soft and figures.soft is not None:
+            trace = figures.soft
+            method += f" {trace.size[0]}x{trace.size[1]} {trace.ms:.1f} ms"
         lights = hud_lights(renderer.lights_on)
         if lights:
             method += f"  {lights}"
@@ -446,10 +468,13 @@ class Overlay:
         sideways = imgui.WindowFlags_.horizontal_scrollbar.value if w < PANEL_MIN_WIDTH else 0
         imgui.begin(f"{title}###shadows", None, PANEL_FLAGS | sideways)
         self._draw_figures(figures)
+        if soft and figures.soft is not None:
+            self._draw_soft(figures.soft)
         if self.message:
             imgui.text_colored(RENDERED_COLOUR, self.message)
         legend = self._draw_graph()
-        self._draw_controls(renderer, paused, render_scale, soft, selected_light, changes)
+        self._draw_controls(renderer, paused, render_scale, soft, selected_light, changes,
+                            figures.soft)
         self._keep_rect()
         window = imgui.internal.get_current_window()
         inner = window.inner_rect
@@ -488,6 +513,16 @@ class Overlay:
                                f"{c['characters_grouped']}, shrunk "
                                f"{c['character_maps_shrunk']}")
         imgui.text_wrapped(f"maps per fragment {mpf}")
+
+    @staticmethod
+    def _draw_soft(trace: SoftFigures) -> None:
+        """The soft trace: its resolution, its share of the pixels, its samples and time."""
+        share = "every pixel" if trace.divisor == 1 else \
+            f"1 in {trace.divisor}x{trace.divisor} pixels"
+        imgui.text_wrapped(f"soft trace {trace.size[0]}x{trace.size[1]} ({share}), "
+                           f"{trace.samples} samples: {trace.ms:.1f} ms")
+        if trace.state:
+            imgui.text_wrapped(trace.state)
 
     def _graph_height(self, entries: int) -> float:
         """The plot's height: its legend of ``entries`` lines above a plot area of
@@ -536,12 +571,13 @@ class Overlay:
 
     # -- controls -----------------------------------------------------------------------------
     def _draw_controls(self, renderer: Renderer, paused: bool, render_scale: float | None,
-                       soft: bool | None, selected_light: int, changes: Changes) -> None:
+                       soft: bool | None, selected_light: int, changes: Changes,
+                       trace: SoftFigures | None = None) -> None:
         if not imgui.begin_tab_bar("controls"):
             return
         if self._tab("view"):
             self._push_item_width(VIEW_LABELS)
-            self._draw_view(renderer, paused, render_scale, soft, changes)
+            self._draw_view(renderer, paused, render_scale, soft, changes, trace)
             imgui.pop_item_width()
             imgui.end_tab_item()
         if self._tab("shadows"):
@@ -576,7 +612,7 @@ class Overlay:
                               else MIN_ITEM_FRACTION * avail)
 
     def _draw_view(self, renderer: Renderer, paused: bool, render_scale: float | None,
-                   soft: bool | None, changes: Changes) -> None:
+                   soft: bool | None, changes: Changes, trace: SoftFigures | None) -> None:
         changed, value = imgui.checkbox("pause characters (P)", paused)
         if changed:
             changes.paused = value
@@ -590,6 +626,15 @@ class Overlay:
             changed, value = imgui.checkbox("soft shadows (linear light)", soft)
             if changed:
                 changes.soft = value
+            if soft and trace is not None:
+                changed, divisor = imgui.slider_int("trace divisor", trace.divisor,
+                                                    *SOFT_DIVISOR_RANGE, "1 in %d per side")
+                if changed:
+                    changes.soft_divisor = divisor
+                changed, samples = imgui.slider_int("samples", trace.samples,
+                                                    *SOFT_SAMPLES_RANGE)
+                if changed:
+                    changes.soft_samples = samples
         self._draw_sun(renderer, changes)
         if render_scale is not None:
             changed, scale = imgui.slider_float("render scale", render_scale, MIN_RENDER_SCALE,

@@ -5,10 +5,12 @@ into the renderer's own target (with the ``traced`` method or soft shadows on, t
 traces over the frame's G-buffer and lights it again through the traced visibility) -> draw the
 overlay over it -> blit to the window -> swap.
 
-Soft shadows (the scene's ``[linear_light]``, overlay checkbox or ``play --soft``) are traced at
-a reduced resolution: the whole frame renders at :data:`SOFT_RENDER_SCALE` of the window per side
-and is scaled up. The renderer keeps a G-buffer only while soft shadows or the traced method need
-it (it costs fill on llvmpipe).
+Soft shadows (the scene's ``[linear_light]``, overlay checkbox or ``play --soft``): the frame
+and its G-buffer render at the window's resolution (times the render scale), and the linear
+light is traced at one pixel in :data:`SOFT_DIVISOR` x :data:`SOFT_DIVISOR`, upsampled by a
+depth- and normal-aware filter and composited at full resolution (game/soft/upsample.py); while
+nothing moves, frames trace the other pixels and add samples. The renderer keeps a G-buffer only
+while soft shadows or the traced method need it (it costs fill on llvmpipe).
 
 The scene clock runs in real time (or in fixed steps, for scripts) and stops while the
 characters are paused. The light keys select, switch and nudge one light of the scene, the one
@@ -41,7 +43,7 @@ from game.app import interrupts, outputs
 from game.app.window import light_editor
 from game.app.window.camera_control import FAST_FACTOR, LIGHT_KEYS, REPEATING_KEYS
 from game.app.window.glfw_setup import KEY_NAMES, open_window
-from game.app.window.overlay import Figures, Overlay
+from game.app.window.overlay import Figures, Overlay, SoftFigures
 from game.app.window.present import Presenter
 from game.errors import GameError
 from game.gpu import context
@@ -50,16 +52,21 @@ from game.scene import Scene
 from game.shadows import registry
 from game.shadows.plan import ShadowSettings
 from game.soft.tracer import TraceSettings
+from game.soft.upsample import Upsampling
 
 DEFAULT_SIZE = (960, 540)
 MPF_EVERY_FRAMES = 30        # read the frame back to count maps per fragment this often
 FPS_WINDOW_FRAMES = 60       # frames in the rolling frame-rate average
 MINIMISED_WAIT_S = 0.1
 SCREENSHOT_DIR = Path("screenshots")
-# Soft shadows in the window: a quarter of the window's size per side, and the fastest sampled
-# method on llvmpipe (grid; docs/results.md) at 8 samples per point: interactive, not converged.
-SOFT_RENDER_SCALE = 0.25
-SOFT_SETTINGS = TraceSettings(method="grid", samples=8)
+# Soft shadows in the window: the fastest sampled method on llvmpipe (grid; docs/results.md) at
+# SOFT_SAMPLES per point, one traced pixel per SOFT_DIVISOR x SOFT_DIVISOR of the frame,
+# upsampled; interactive, not converged (the upsampling averages neighbouring points' samples,
+# and a still view accumulates SOFT_ROUNDS rounds of every pixel). The panel changes both.
+SOFT_METHOD = "grid"
+SOFT_SAMPLES = 8
+SOFT_DIVISOR = 4
+SOFT_ROUNDS = 2
 
 @dataclass
 class PlayOptions:
@@ -93,6 +100,8 @@ class Walkaround:
         self.scene = scene
         self.opts = opts
         self.soft = opts.soft
+        self.soft_settings = TraceSettings(method=SOFT_METHOD, samples=SOFT_SAMPLES)
+        self.upsampling = Upsampling(divisor=SOFT_DIVISOR, rounds=SOFT_ROUNDS)
         self.window = open_window(opts.size, opts.platform)
         glfw.make_context_current(self.window)
         # Scripted runs are measured: never wait for the display's refresh.
@@ -215,7 +224,7 @@ class Walkaround:
     def _soft_settings(self) -> TraceSettings | None:
         """Soft shadows light the frame by the linear light, replacing the hard method's
         shading."""
-        return SOFT_SETTINGS if self.soft else None
+        return self.soft_settings if self.soft else None
 
     def gl_objects(self) -> int:
         """Live GL objects of the renderer, its tracer included (toggling must not grow them)."""
@@ -231,7 +240,7 @@ class Walkaround:
 
     def render_size(self, size: tuple[int, int]) -> tuple[int, int]:
         """The scene's render size for a window framebuffer of ``size``."""
-        scale = min(self.render_scale, SOFT_RENDER_SCALE) if self.soft else self.render_scale
+        scale = self.render_scale
         return (max(1, round(size[0] * scale)), max(1, round(size[1] * scale)))
 
     def view(self, size: tuple[int, int]) -> View:
@@ -250,9 +259,13 @@ class Walkaround:
             self.scene_time += dt
         self.renderer.set_gbuffer(self.soft)
         self.renderer.resize(self.render_size(size))
+        view = self.view(size)
+        # The reduced soft trace accumulates while this view (and the characters) stay.
+        self.renderer.traced.reduce_soft(self.upsampling if self.soft else None,
+                                         view.view.tobytes() + view.proj.tobytes())
         read = self.frames % MPF_EVERY_FRAMES == 0
         try:
-            frame = self.renderer.render(self.scene_time, self.view(size), read=read,
+            frame = self.renderer.render(self.scene_time, view, read=read,
                                          soft=self._soft_settings())
         except GameError as exc:  # settings the GL cannot take (too many texels): undo them
             if self._good_settings is None or self.overlay is None:
@@ -260,7 +273,7 @@ class Walkaround:
             self.renderer.set_settings(self._good_settings)
             self.overlay.message = str(exc)
             self.renderer.set_gbuffer(self.soft)
-            frame = self.renderer.render(self.scene_time, self.view(size), read=read,
+            frame = self.renderer.render(self.scene_time, view, read=read,
                                          soft=self._soft_settings())
         self._good_settings = self.renderer.settings
         if frame.maps_per_fragment is not None:
@@ -268,6 +281,7 @@ class Walkaround:
         fps = (len(self._frame_times) / sum(self._frame_times)
                if self._frame_times and sum(self._frame_times) > 0 else None)
         figures = Figures.of(frame, self.renderer.timer.clock, fps, self._mpf)
+        figures.soft = self._soft_figures(frame)
         figures.ms.update(self._window_ms)  # the panel shows the last frame's window passes
         timer = self.renderer.timer
         # Scene, then overlay, into a canvas that is shown in the window, by the route that
@@ -302,6 +316,12 @@ class Walkaround:
                 self.render_scale = changes.render_scale
             if changes.soft is not None:
                 self.set_soft(changes.soft)
+            if changes.soft_divisor is not None:
+                self.upsampling = dataclasses.replace(self.upsampling,
+                                                      divisor=changes.soft_divisor)
+            if changes.soft_samples is not None:
+                self.soft_settings = dataclasses.replace(self.soft_settings,
+                                                         samples=changes.soft_samples)
             if changes.selected_light is not None:
                 self.selected_light = changes.selected_light
             try:
@@ -324,6 +344,22 @@ class Walkaround:
         glfw.swap_buffers(self.window)
         return True
 
+    def _soft_figures(self, frame) -> SoftFigures | None:
+        """What the overlay says about this frame's soft trace (None: soft shadows off)."""
+        state = self.renderer.traced.reduced_state
+        if frame.soft is None or state is None:
+            return None
+        if state.converged:
+            note = f"still: converged, {state.rounds} rounds of every pixel; nothing traced"
+        elif state.round or state.phase > 1:
+            note = (f"still: {state.phase}/{state.phases} of round {state.round + 1} of "
+                    f"{state.rounds}" + (", every pixel its own" if state.full else ""))
+        else:
+            note = "moving: upsampled from this frame's trace"
+        return SoftFigures(size=state.size, divisor=state.divisor,
+                           samples=self.soft_settings.samples,
+                           ms=frame.ms.get("soft_total", 0.0), state=note)
+
     def _stats_entry(self, frame, figures: Figures) -> dict:
         ms = {name: round(value, 4) for name, value in figures.ms.items()}
         mpf = frame.maps_per_fragment
@@ -331,7 +367,15 @@ class Walkaround:
                 "maps_rendered": frame.maps_rendered, "maps_cached": frame.maps_cached,
                 "maps_total": frame.maps_total, "triangles_to_maps": frame.triangles_to_maps,
                 "maps_per_fragment": None if mpf is None else round(mpf, 5),
-                "method": self.renderer.settings.method, "soft": self.soft}
+                "method": self.renderer.settings.method, "soft": self.soft,
+                **self._soft_stats(figures.soft)}
+
+    @staticmethod
+    def _soft_stats(trace: SoftFigures | None) -> dict:
+        """The stats file's word on the soft trace: its size (columns, rows) and samples."""
+        if trace is None:
+            return {}
+        return {"soft_trace_size": list(trace.size), "soft_samples": trace.samples}
 
     def read_screen(self, size: tuple[int, int]) -> np.ndarray:
         """What the window shows now, (H, W, 3) uint8 with row 0 at the top."""
@@ -435,7 +479,8 @@ def summary(stats: dict) -> str:
     """One line: the frame rate and median ms per pass over the frames after the first."""
     frames = stats["frames"][1:] or stats["frames"]
     names = [n for n in ("shadow_static", "shadow_dynamic", "cull", "shade", "traced_trace",
-                         "soft_build", "soft_trace", "composite", "total", "present", "overlay")
+                         "soft_build", "soft_trace", "soft_upsample", "composite", "total",
+                         "present", "overlay")
              if any(n in f["ms"] for f in frames)]
     med = {n: float(np.median([f["ms"].get(n, 0.0) for f in frames])) for n in names}
     fps = f"{stats['fps']:.1f} fps" if stats["fps"] else "fps -"

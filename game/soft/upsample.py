@@ -1,0 +1,346 @@
+"""Soft shadows traced at a reduced resolution and upsampled to the frame's (the window's).
+
+The frame and its G-buffer stay at full resolution. :class:`ReducedTrace` picks one G-buffer
+pixel per block of ``divisor`` x ``divisor`` (shaders/subsample.frag), has the tracer trace only
+those, and spreads their visibility back over every pixel with a joint bilateral filter guided
+by the full-resolution G-buffer (shaders/upsample.frag): a pixel averages the traced samples near
+it that lie on its own surface, so a shadow's edge along the geometry stays as sharp as the
+frame. The soft composite then lights the frame at full resolution through the result.
+
+While nothing moves (the same view, characters, size and settings), successive frames trace the
+other pixels of each block, then further rounds with other sample jitters; once every pixel has
+been traced, each shows its own mean (with its 3 x 3 neighbours' by the same weights), and after
+:attr:`Upsampling.rounds` rounds nothing is traced until something moves.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import moderngl
+import numpy as np
+
+from game.gpu import blocks, glsl, resources
+from game.soft.tracer import TraceResult
+
+# The joint bilateral filter's weights (shaders/upsample.frag): a sample counts fully on the
+# pixel's own plane, and falls to 1/e at PLANE_SIGMA, the sine of the angle between the step to
+# it and that plane (0.1: about 6 degrees); normals agree by their cosine to this power; the
+# screen distance is a Gaussian of SPATIAL_SIGMA_CELLS blocks. Below MIN_WEIGHT in all, the pixel
+# takes the sample that continues its surface best.
+PLANE_SIGMA = 0.1
+NORMAL_POWER = 8.0
+SPATIAL_SIGMA_CELLS = 0.6
+MIN_WEIGHT = 1e-4
+GATHER = 3                 # blocks per side whose samples a pixel weighs, around its nearest
+NO_SAMPLE = -1.0           # visibility texel where nothing was traced (no geometry)
+UNITS = {"u_position": blocks.TEXTURE_UNITS["trace_position"],
+         "u_normal": blocks.TEXTURE_UNITS["trace_normal"],
+         "u_colour": blocks.TEXTURE_UNITS["trace_colour"],
+         "u_samples": blocks.TEXTURE_UNITS["upsample_samples"],
+         "u_sample_normals": blocks.TEXTURE_UNITS["upsample_sample_normals"],
+         "u_agreed": blocks.TEXTURE_UNITS["upsample_agreed"],
+         "u_accumulated": blocks.TEXTURE_UNITS["upsample_accumulated"]}
+
+
+@dataclass(frozen=True)
+class Upsampling:
+    """How a reduced soft trace runs: one traced pixel per ``divisor`` x ``divisor``; while
+    nothing moves (``accumulate``), ``rounds`` rounds of every pixel, then none."""
+
+    divisor: int = 4
+    accumulate: bool = True
+    rounds: int = 4
+
+    def __post_init__(self) -> None:
+        if self.divisor < 1:
+            raise ValueError(f"divisor must be at least 1, got {self.divisor}")
+        if self.rounds < 1:
+            raise ValueError(f"rounds must be at least 1, got {self.rounds}")
+
+
+def trace_size(size: tuple[int, int], divisor: int) -> tuple[int, int]:
+    """The reduced trace's size for a frame of ``size``: one pixel per (started) block."""
+    return (-(-size[0] // divisor), -(-size[1] // divisor))
+
+
+def phases(divisor: int) -> list[tuple[int, int]]:
+    """The pixels of a block in the order the frames trace them, from the block's bottom-left
+    corner: the middle one first (the one a moving view always traces), then the rest."""
+    middle = (divisor // 2, divisor // 2)
+    rest = [(x, y) for y in range(divisor) for x in range(divisor) if (x, y) != middle]
+    return [middle, *rest]
+
+
+def agreed_values(visibility: np.ndarray, shift: int) -> np.ndarray:
+    """For each texel of the reduced trace, (H, W) float32 in GL rows: the one value that every
+    sample the filter weighs has where that texel's block is the first of the filter's
+    (``first_cell`` in shaders/upsample.frag), or :data:`NO_SAMPLE` where they differ (1 where
+    there is none, as the filter itself gives).
+
+    ``visibility`` is the trace, row 0 at the top, NaN where no geometry; texel x of a row holds
+    block ``(x + shift) mod W`` (shaders/subsample.frag)."""
+    by_block = np.roll(visibility[::-1], shift, axis=1)
+    h, w = by_block.shape
+    # The window starts at the block itself: GATHER - 1 more after it.
+    pad = ((0, GATHER - 1),) * 2
+    low = np.pad(np.where(np.isnan(by_block), np.inf, by_block), pad, constant_values=np.inf)
+    high = np.pad(np.where(np.isnan(by_block), -np.inf, by_block), pad,
+                  constant_values=-np.inf)
+    least = np.full((h, w), np.inf, np.float32)
+    most = np.full((h, w), -np.inf, np.float32)
+    for dy in range(GATHER):
+        for dx in range(GATHER):
+            least = np.minimum(least, low[dy:dy + h, dx:dx + w])
+            most = np.maximum(most, high[dy:dy + h, dx:dx + w])
+    same = np.where(least == most, least, NO_SAMPLE)
+    same = np.where(np.isinf(least), 1.0, same)     # no sample at all
+    return np.ascontiguousarray(np.roll(same, -shift, axis=1), np.float32)
+
+
+@dataclass
+class ReducedState:
+    """Where the reduced trace stands after a frame, for the overlay."""
+
+    size: tuple[int, int]         # the trace's pixels
+    divisor: int
+    traced: bool                  # whether this frame traced (False: converged, nothing moved)
+    round: int                    # completed rounds of every pixel while still
+    rounds: int
+    phase: int                    # pixels of each block traced so far in this round
+    phases: int
+    full: bool                    # every pixel shows its own traced mean
+
+    @property
+    def converged(self) -> bool:
+        return self.round >= self.rounds
+
+
+# ``trace(textures, size)``: the tracer run over a G-buffer of (position, normal, colour).
+TraceFn = Callable[[tuple, tuple[int, int]], TraceResult]
+
+
+class ReducedTrace:
+    """Owns the subsample and upsample programs, the reduced G-buffer (with the samples' normals
+    and where they agree) and its framebuffer, the accumulated means and the upsampled
+    visibility's target (:attr:`visibility`), all released by :meth:`release`. The targets are
+    made on the first frame and again when the frame's size or the divisor changes (as many
+    objects again)."""
+
+    def __init__(self, ctx, upsampling: Upsampling | None = None):
+        self.ctx = ctx
+        self.upsampling = upsampling or Upsampling()
+        self.size: tuple[int, int] | None = None     # the frame's
+        self.cells: tuple[int, int] | None = None    # the trace's
+        self._objects: list = []
+        self._subsample = self._subsample_vao = None
+        # The upsample's programs by (FULL, PART): shaders/upsample.frag. All made here, so that
+        # a still view that starts accumulating makes no GL objects.
+        self._upsample: dict[tuple[bool, int], object] = {}
+        self._upsample_vao: dict[tuple[bool, int], object] = {}
+        try:  # a program that fails to build leaves none behind
+            self._subsample = ctx.program(vertex_shader=glsl.build("fullscreen.vert"),
+                                          fragment_shader=glsl.build("subsample.frag"))
+            self._subsample_vao = ctx.vertex_array(self._subsample, [])
+            for full, part in ((False, 0), (False, 1), (True, 1)):
+                self._program(full, part)
+        except BaseException:
+            self.release()
+            raise
+        self.state: ReducedState | None = None
+        self._key: bytes | None = None
+        self._step = 0           # frames traced since something moved
+        self._sum = self._count = None
+        self._last: TraceResult | None = None
+
+    # -- what it holds ----------------------------------------------------------------------------
+    def _program(self, full: bool, part: int):
+        key = (full, part)
+        if key not in self._upsample:
+            defines = {"FULL": full, "PART": part, "PLANE_SIGMA": PLANE_SIGMA,
+                       "NORMAL_POWER": NORMAL_POWER, "SPATIAL_SIGMA_CELLS": SPATIAL_SIGMA_CELLS,
+                       "MIN_WEIGHT": MIN_WEIGHT, "GATHER": GATHER, "NO_SAMPLE": NO_SAMPLE}
+            prog = self.ctx.program(vertex_shader=glsl.build("fullscreen.vert"),
+                                    fragment_shader=glsl.build("upsample.frag", defines))
+            self._upsample[key] = prog
+            self._upsample_vao[key] = self.ctx.vertex_array(prog, [])
+        return self._upsample[key], self._upsample_vao[key]
+
+    def _resize(self, size: tuple[int, int]) -> None:
+        cells = trace_size(size, self.upsampling.divisor)
+        if (size, cells) == (self.size, self.cells):
+            return
+        self._release_targets()
+        ctx = self.ctx
+        self.size, self.cells = size, cells
+        # The reduced G-buffer the tracer reads (samples: position, its w replaced by the
+        # traced visibility once known), and the samples' normals for the filter, in 8 bits:
+        # llvmpipe's fetches cost by the byte, and the filter reads many.
+        self.samples = ctx.texture(cells, 4, dtype="f4")
+        self.normal = ctx.texture(cells, 4, dtype="f4")
+        self.colour = ctx.texture(cells, 4)
+        self.sample_normals = ctx.texture(cells, 4)
+        self.gbuffer = ctx.framebuffer([self.samples, self.normal, self.colour,
+                                        self.sample_normals])
+        self.agreed = ctx.texture(cells, 1, dtype="f4")
+        self.accumulated = ctx.texture(size, 1, dtype="f4")
+        self.visibility = ctx.texture(size, 1, dtype="f2")
+        self.framebuffer = ctx.framebuffer([self.visibility])
+        textures = [self.samples, self.normal, self.colour, self.sample_normals, self.agreed,
+                    self.accumulated, self.visibility]
+        for tex in textures:
+            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self._objects = [self.gbuffer, self.framebuffer, *textures]
+        self._key = None
+
+    def gl_objects(self) -> int:
+        programs = [self._subsample, *self._upsample.values()]
+        return (len(programs) + resources.attached_shaders(programs) + 1
+                + len(self._upsample_vao) + len(self._objects))
+
+    def _release_targets(self) -> None:
+        if self._objects:
+            self.ctx.detect_framebuffer(0).use()
+        for obj in self._objects:
+            obj.release()
+        self._objects = []
+        self.size = self.cells = None
+
+    def release(self) -> None:
+        self._release_targets()
+        for obj in (*self._upsample_vao.values(), *self._upsample.values(),
+                    self._subsample_vao, self._subsample):
+            if obj is not None:
+                obj.release()
+        self._upsample, self._upsample_vao = {}, {}
+        self._subsample = self._subsample_vao = None
+
+    # -- a frame ----------------------------------------------------------------------------------
+    def set_upsampling(self, upsampling: Upsampling) -> None:
+        """Change the divisor or the accumulation; a new divisor re-makes the targets."""
+        if upsampling != self.upsampling:
+            self.upsampling = upsampling
+            self._key = None
+
+    def restart(self) -> None:
+        """Accumulate anew from the next frame (the scene's geometry changed)."""
+        self._key = None
+        self._last = None
+
+    def run(self, textures, size: tuple[int, int], key: bytes, trace: TraceFn,
+            timer) -> TraceResult:
+        """Trace this frame's share of the pixels and upsample into :attr:`visibility`.
+
+        ``textures`` are the frame's (position, normal, colour); ``key`` says what the
+        visibility depends on (view, characters, settings): while it stays the same, frames
+        accumulate. ``trace`` runs the tracer over a G-buffer; the subsample and the upsample are
+        timed as ``soft_upsample`` by ``timer``. Returns the trace (the last one, with no
+        times, when nothing was left to trace)."""
+        up = self.upsampling
+        self._resize(size)
+        d = up.divisor
+        order = phases(d)
+        if key != self._key or not up.accumulate:
+            self._key, self._step = key, 0
+        else:
+            self._step += 1
+        rounds_done, phase = divmod(self._step, len(order))
+        traced = rounds_done < up.rounds or self._last is None
+        if traced:
+            ox, oy = order[phase]
+            shift = rounds_done % self.cells[0]
+            with timer.measure("soft_upsample"):
+                self._draw_subsample(textures, d, (ox, oy), shift)
+            result = trace((self.samples, self.normal, self.colour), self.cells)
+            self._last = result
+            self._write_samples(result.visibility, shift)
+            if up.accumulate:
+                self._accumulate(result.visibility, (ox, oy), shift)
+        else:
+            self._step -= 1   # stay at the end: nothing more to add
+            rounds_done, phase = up.rounds, 0
+            result = dataclasses.replace(self._last, ms={k: 0.0 for k in self._last.ms})
+        full = up.accumulate and (rounds_done >= 1)
+        if full and traced:
+            mean = np.where(self._count > 0, self._sum / np.maximum(self._count, 1), NO_SAMPLE)
+            self.accumulated.write(np.ascontiguousarray(mean, np.float32).tobytes())
+        if traced:   # otherwise the same G-buffer and samples: the last frame's result holds
+            with timer.measure("soft_upsample"):
+                self._draw_upsample(textures, full, d, order[0] if full else order[phase],
+                                    0 if full else rounds_done % self.cells[0])
+        self.state = ReducedState(size=self.cells, divisor=d, traced=traced,
+                                  round=min(rounds_done, up.rounds), rounds=up.rounds,
+                                  phase=phase + 1 if traced else len(order), phases=len(order),
+                                  full=full)
+        return result
+
+    def _write_samples(self, visibility: np.ndarray, shift: int) -> None:
+        """Put the trace's visibility (row 0 at the top) beside each sample's position, and
+        where the samples agree."""
+        w, h = self.cells
+        samples = np.frombuffer(self.samples.read(), np.float32).reshape(h, w, 4).copy()
+        samples[..., 3] = np.nan_to_num(visibility[::-1], nan=NO_SAMPLE)
+        self.samples.write(samples.tobytes())
+        self.agreed.write(agreed_values(visibility, shift).tobytes())
+
+    def _accumulate(self, visibility: np.ndarray, phase: tuple[int, int], shift: int) -> None:
+        """Add the reduced trace (row 0 at the top) to the per-pixel sums (GL rows)."""
+        w, h = self.size
+        if self._step == 0 or self._sum is None or self._sum.shape != (h, w):
+            self._sum = np.zeros((h, w), np.float32)
+            self._count = np.zeros((h, w), np.float32)
+        cells = np.roll(visibility[::-1], shift, axis=1)   # by block, GL rows
+        d, (ox, oy) = self.upsampling.divisor, phase
+        target = self._sum[oy::d, ox::d]
+        part = cells[:target.shape[0], :target.shape[1]]
+        seen = np.isfinite(part)
+        target += np.where(seen, part, 0.0)
+        self._count[oy::d, ox::d] += seen
+
+    def _bind(self, prog, textures) -> None:
+        for tex, name in zip(textures, ("u_position", "u_normal", "u_colour"), strict=True):
+            if name in prog:   # the compiler drops what a program does not read
+                tex.use(UNITS[name])
+                prog[name].value = UNITS[name]
+
+    def _draw_subsample(self, textures, divisor: int, phase: tuple[int, int],
+                        shift: int) -> None:
+        prog = self._subsample
+        self._bind(prog, textures)
+        prog["u_divisor"].value = divisor
+        prog["u_phase"].value = phase
+        prog["u_shift"].value = shift
+        prog["u_cells"].value = self.cells
+        self._draw(self.gbuffer, self.cells, self._subsample_vao)
+
+    def _draw_upsample(self, textures, full: bool, divisor: int, phase: tuple[int, int],
+                       shift: int) -> None:
+        """The upsampled visibility into :attr:`visibility`: from the accumulated means
+        (``full``), or from the last trace in two draws, where its samples agree and the filter
+        elsewhere (shaders/upsample.frag, PART)."""
+        for part in (1,) if full else (0, 1):
+            prog, vao = self._program(full, part)
+            self._bind(prog, textures)
+            if full:
+                self.accumulated.use(UNITS["u_accumulated"])
+                prog["u_accumulated"].value = UNITS["u_accumulated"]
+            else:
+                for name, tex in (("u_samples", self.samples),
+                                  ("u_sample_normals", self.sample_normals),
+                                  ("u_agreed", self.agreed)):
+                    if name in prog:   # the first part reads no samples
+                        tex.use(UNITS[name])
+                        prog[name].value = UNITS[name]
+                prog["u_divisor"].value = divisor
+                prog["u_phase"].value = phase
+                prog["u_shift"].value = shift
+                prog["u_cells"].value = self.cells
+            self._draw(self.framebuffer, self.size, vao)
+
+    def _draw(self, framebuffer, size: tuple[int, int], vao) -> None:
+        framebuffer.use()
+        framebuffer.viewport = (0, 0, *size)
+        self.ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE | moderngl.BLEND)
+        vao.render(moderngl.TRIANGLES, vertices=3)
