@@ -477,6 +477,7 @@ int sampled_walk(vec3 o, vec3 nrm, uint point, inout int at, inout uint visible)
         vec3 target = light_point(o, sample_t(point, at, n));
         vec3 d = target - o;
         if (dot(d, nrm) <= 0.0) {
+            g_progress = true;
             continue;  // below the receiver's horizon: the receiver hides it
         }
         int walked = walk_ray(o, d);
@@ -734,73 +735,165 @@ int analytic_leaf(int s0, int d0, int ns, int n, int k) {
     return WALK_CLEAR;
 }
 
-// Every leaf that the light triangle may touch: the top cells of its bounding box, and in a
-// subdivided one the sub-cells of the box's part inside it, each kept if the light triangle may
-// touch it. One loop walks both levels, with one call of analytic_leaf (see walk_ray).
-// WALK_STOP saves the enumeration indices (top, sub) and the list entry.
+// ---- The leaves the light triangle may touch ------------------------------------------------
+// A box of cells of one grid (the top grid, or one top cell's sub-grid), walked column by column
+// along the light triangle's dominant axis k: in each column only the cells that the triangle's
+// plane can reach there, so a large slanted light triangle costs about the cells it crosses, not
+// its bounding box's volume.
+struct Cells {
+    vec3 origin;   // the grid's lower corner
+    vec3 size;     // its cell size
+    ivec3 dims;    // its cells per axis
+    int first;     // leaf id of its cell 0
+    ivec3 c0;      // the box: cells c0 .. c0 + span - 1
+    ivec3 span;
+    int col;       // the column (over axes i, j)
+    int k;         // the cell along k in it, and the column's last
+    int kb;
+};
+
+ivec3 g_axes;     // (i, j, k): k is the light triangle's dominant normal axis
+vec3 g_plane;     // the plane x_k = z + x * x_i + y * x_j
+bool g_flat;      // no usable plane (a degenerate light triangle): whole columns
+float g_margin;   // float tolerance of the plane's bounds, metres
+vec3 g_tri_lo;    // the light triangle's bounding box
+vec3 g_tri_hi;
+
+void light_plane() {
+    vec3 n = cross(g_la - g_apex, g_lb - g_apex);
+    vec3 an = abs(n);
+    int k = an.x > an.y ? (an.x > an.z ? 0 : 2) : (an.y > an.z ? 1 : 2);
+    g_axes = ivec3((k + 1) % 3, (k + 2) % 3, k);
+    g_tri_lo = min(min(g_apex, g_la), g_lb);
+    g_tri_hi = max(max(g_apex, g_la), g_lb);
+    g_flat = g_collinear || !(an[k] > 0.0);
+    float nk = g_flat ? 1.0 : n[k];
+    g_plane = vec3(-n[g_axes.x] / nk, -n[g_axes.y] / nk, dot(n, g_apex) / nk);
+    vec3 far_corner = max(abs(g_tri_lo), abs(g_tri_hi));
+    g_margin = 1e-4 * (abs(g_plane.z) + abs(g_plane.x) * far_corner[g_axes.x]
+                       + abs(g_plane.y) * far_corner[g_axes.y]);
+}
+
+int cells_columns(Cells e) {
+    return e.span[g_axes.x] * e.span[g_axes.y];
+}
+
+// The cells of column e.col that the light triangle's plane can reach: e.k .. e.kb.
+void cells_column(inout Cells e) {
+    int ai = g_axes.x, aj = g_axes.y, ak = g_axes.z;
+    e.k = e.c0[ak];
+    e.kb = e.c0[ak] + e.span[ak] - 1;
+    if (g_flat) {
+        return;
+    }
+    vec3 pad = e.size * BIN_PAD_CELLS;
+    int ci = e.c0[ai] + e.col % e.span[ai], cj = e.c0[aj] + e.col / e.span[ai];
+    float i0 = max(e.origin[ai] + float(ci) * e.size[ai] - pad[ai], g_tri_lo[ai]);
+    float i1 = min(e.origin[ai] + float(ci + 1) * e.size[ai] + pad[ai], g_tri_hi[ai]);
+    float j0 = max(e.origin[aj] + float(cj) * e.size[aj] - pad[aj], g_tri_lo[aj]);
+    float j1 = min(e.origin[aj] + float(cj + 1) * e.size[aj] + pad[aj], g_tri_hi[aj]);
+    float m = pad[ak] + g_margin;
+    float k0 = g_plane.z + min(g_plane.x * i0, g_plane.x * i1)
+               + min(g_plane.y * j0, g_plane.y * j1) - m;
+    float k1 = g_plane.z + max(g_plane.x * i0, g_plane.x * i1)
+               + max(g_plane.y * j0, g_plane.y * j1) + m;
+    k0 = max(k0, g_tri_lo[ak] - pad[ak]);
+    k1 = min(k1, g_tri_hi[ak] + pad[ak]);
+    if (!(k1 >= k0)) {
+        e.kb = e.k - 1;  // empty
+        return;
+    }
+    e.k = max(e.k, int(floor((k0 - e.origin[ak]) / e.size[ak])));
+    e.kb = min(e.kb, int(floor((k1 - e.origin[ak]) / e.size[ak])));
+}
+
+// Cells of the box of light-triangle-bounding cells in grid (origin, size, dims), from the
+// cursor `at` (a position col * span_k + k - c0_k; 0: the start).
+Cells cells_start(vec3 origin, vec3 size, ivec3 dims, int first, int at) {
+    vec3 pad = size * BIN_PAD_CELLS;
+    ivec3 c0 = clamp(ivec3(floor((g_tri_lo - pad - origin) / size)), ivec3(0), dims - 1);
+    ivec3 c1 = clamp(ivec3(floor((g_tri_hi + pad - origin) / size)), ivec3(0), dims - 1);
+    Cells e = Cells(origin, size, dims, first, c0, c1 - c0 + 1, 0, 0, 0);
+    int sk = e.span[g_axes.z];
+    e.col = at / sk;
+    cells_column(e);
+    e.k = max(e.k, c0[g_axes.z] + at % sk);
+    return e;
+}
+
+int cells_cursor(Cells e) {
+    return e.col * e.span[g_axes.z] + e.k - e.c0[g_axes.z];
+}
+
+ivec3 cells_cell(Cells e) {
+    ivec3 c;
+    c[g_axes.x] = e.c0[g_axes.x] + e.col % e.span[g_axes.x];
+    c[g_axes.y] = e.c0[g_axes.y] + e.col / e.span[g_axes.x];
+    c[g_axes.z] = e.k;
+    return c;
+}
+
+// Every leaf that the light triangle may touch, each kept if the light triangle may touch its
+// (padded) cell; in a subdivided top cell, its sub-cells. One loop walks both levels, with one
+// call of analytic_leaf (see walk_ray). WALK_STOP saves the cursors (top, sub) and the entry.
 int analytic_walk() {
-    vec3 lo = min(min(g_apex, g_la), g_lb), hi = max(max(g_apex, g_la), g_lb);
-    vec3 cell = u_trace.grid_cell;
-    vec3 pad = cell * BIN_PAD_CELLS;
-    ivec3 c0 = clamp(ivec3(floor((lo - pad - u_trace.grid_origin) / cell)), ivec3(0),
-                     u_trace.grid_dims - 1);
-    ivec3 c1 = clamp(ivec3(floor((hi + pad - u_trace.grid_origin) / cell)), ivec3(0),
-                     u_trace.grid_dims - 1);
-    ivec3 span = c1 - c0 + 1;
-    int count = span.x * span.y * span.z;
-    int i = max(g_at_top, 0), k = g_at_ref;
+    light_plane();
+    Cells cur = cells_start(u_trace.grid_origin, u_trace.grid_cell, u_trace.grid_dims, 0,
+                            max(g_at_top, 0));
+    int k = g_at_ref;
 #if TWO_LEVEL
-    int at_sub = g_at_sub, j = 0;
-    bool inside = false;  // enumerating the sub-cells of top cell i
-    ivec3 dims = ivec3(1), d0 = ivec3(0), sspan = ivec3(1);
-    vec3 box = vec3(0.0), size = vec3(1.0);
-    int first = 0, scount = 0;
+    Cells top = cur;
+    bool inside = false;
+    int at_sub = g_at_sub;
 #endif
-    while (i < count) {
+    while (cur.col < cells_columns(cur)) {
 #if TWO_LEVEL
-        int sub = inside ? j : -1;
+        int top_at = inside ? cells_cursor(top) : cells_cursor(cur);
+        int sub = inside ? cells_cursor(cur) : -1;
 #else
-        int sub = -1;
+        int top_at = cells_cursor(cur), sub = -1;
 #endif
         if (must_stop(1)) {
-            g_stop_top = i;
+            g_stop_top = top_at;
             g_stop_sub = sub;
             g_stop_ref = 0;
             return WALK_STOP;
         }
         g_steps += 1;
-        ivec3 c = c0 + unflatten(i, span);
-        vec3 centre = cell_centre(c), half_size = cell * (0.5 + BIN_PAD_CELLS);
-        int leaf = cell_index(c);
+        if (cur.k > cur.kb) {
+            // The column is done: the next one, or at the sub-grid's end, back to the top.
+            g_progress = true;
+            cur.col += 1;
+            if (cur.col < cells_columns(cur)) {
+                cells_column(cur);
+            }
 #if TWO_LEVEL
-        if (inside) {
-            ivec3 sc = d0 + unflatten(j, sspan);
-            leaf = first + flatten(sc, dims);
-            centre = box + (vec3(sc) + 0.5) * size;
-            half_size = size * (0.5 + BIN_PAD_CELLS);
-        }
+            else if (inside) {
+                inside = false;
+                cur = top;
+                cur.k += 1;
+            }
 #endif
-        // The box test first: it reads nothing, and most cells of the box fail it.
+            continue;
+        }
+        ivec3 c = cells_cell(cur);
+        int leaf = cur.first + flatten(c, cur.dims);
+        // The box test first: it reads nothing.
         int s0 = 0, e0 = 0, ns = 0, n = 0;
-        bool walk = triangle_may_touch_box(g_apex, g_la, g_lb, centre, half_size);
+        bool walk = triangle_may_touch_box(g_apex, g_la, g_lb, cur.origin + (vec3(c) + 0.5)
+                                           * cur.size, cur.size * (0.5 + BIN_PAD_CELLS));
         if (walk) {
             n = leaf_size(leaf, s0, e0, ns);
             walk = n != 0;
         }
 #if TWO_LEVEL
         if (walk && n < 0) {
-            // A subdivided top cell the light triangle may touch: its sub-cells in the box.
+            // A subdivided top cell the light triangle may touch: on into its sub-cells.
+            top = cur;
             inside = true;
-            first = s0;
-            dims = sub_dims(n);
-            box = u_trace.grid_origin + vec3(c) * cell;
-            size = cell / vec3(dims);
-            vec3 spad = size * BIN_PAD_CELLS;
-            d0 = clamp(ivec3(floor((lo - spad - box) / size)), ivec3(0), dims - 1);
-            ivec3 d1 = clamp(ivec3(floor((hi + spad - box) / size)), ivec3(0), dims - 1);
-            sspan = d1 - d0 + 1;
-            scount = sspan.x * sspan.y * sspan.z;
-            j = max(at_sub, 0);
+            ivec3 dims = sub_dims(n);
+            cur = cells_start(cur.origin + vec3(c) * cur.size, cur.size / vec3(dims), dims, s0,
+                              max(at_sub, 0));
             at_sub = -1;
             continue;
         }
@@ -808,23 +901,14 @@ int analytic_walk() {
         if (walk) {
             int walked = analytic_leaf(s0, e0, ns, n, k);
             if (walked == WALK_STOP) {
-                g_stop_top = i;
+                g_stop_top = top_at;
                 g_stop_sub = sub;
                 return walked;
             }
         }
         k = 0;
         g_progress = true;
-#if TWO_LEVEL
-        if (inside) {
-            j += 1;
-            if (j < scount) {
-                continue;
-            }
-            inside = false;
-        }
-#endif
-        i += 1;
+        cur.k += 1;
     }
     return WALK_CLEAR;
 }

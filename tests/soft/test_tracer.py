@@ -405,7 +405,7 @@ def test_points_resumed_across_dispatches_give_the_same_visibility(ctx, courtyar
     finally:
         r.release()
     for m in methods:  # a new tracer per budget: a tracer keeps the budget that worked
-        monkeypatch.setattr(soft_tracer, "STEP_BUDGET", 1500 if m == "analytic" else 40)
+        monkeypatch.setattr(soft_tracer, "STEP_BUDGET", 1150 if m == "analytic" else 40)
         r = Renderer(ctx, courtyard, size, gbuffer=True)
         try:
             r.render(0.0, view)
