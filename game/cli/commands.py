@@ -71,8 +71,8 @@ def cmd_trace(args) -> int:
         ctx.release()
     cut = sum(f["truncated_points"] for f in stats["frames"])
     if cut:
-        say(f"warning: {cut} point(s) ran out of the GL driver's loop budget even at one "
-            "sample per dispatch; their visibility is incomplete", err=True)
+        say(f"warning: {cut} point(s) ran out of the GL driver's loop budget even at the "
+            "smallest step budget per dispatch; their visibility is incomplete", err=True)
     say(f"wrote {args.frames} frame(s) to {out}/: {trace_run.summary(stats)}")
     return 0
 

@@ -137,8 +137,14 @@ class TracedLighting:
                 values[top:bottom] = part.counters[name][top:bottom]
             for key, value in part.ms.items():
                 ms[key] = ms.get(key, 0.0) + value
-        return dataclasses.replace(first, visibility=vis, counters=counters, ms=ms,
-                                   truncated=sum(part.truncated for *_, part in parts))
+        # The bands' dispatches add up; the budget and the samples per dispatch are the
+        # smallest any band needed.
+        return dataclasses.replace(
+            first, visibility=vis, counters=counters, ms=ms,
+            truncated=sum(part.truncated for *_, part in parts),
+            rounds=sum(part.rounds for *_, part in parts),
+            step_budget=min(part.step_budget for *_, part in parts),
+            samples_per_dispatch=min(part.samples_per_dispatch for *_, part in parts))
 
     def light_frame(self, frame: Frame, target: FrameTarget, geom: PackedGeometry,
                     models: np.ndarray, soft: TraceSettings | None, read: bool) -> TraceResult:

@@ -40,10 +40,10 @@ PAIRS_PER_BATCH = 4_000_000
 # triangle); a top cell holding more than SUBDIVIDE_ABOVE static triangles gets a sub-grid of
 # about ``cells_per_triangle`` cells per triangle it holds, at most MAX_SUB_CELLS_PER_AXIS per
 # axis, and MAX_SUB_LEAVES sub-cells in all (denser grids are made coarser to fit). The
-# characters are binned into whatever leaves are where they stand. Measured on the courtyard and
-# the monastery (docs/design/soft-tracer.md): a coarser top grid, subdividing for the characters'
-# paths, or sparser sub-grids did not pay on llvmpipe, where a DDA step costs about what a
-# ray-triangle test costs.
+# characters are binned into whatever leaves are where they stand: on the courtyard and the
+# monastery a coarser top grid, subdividing for the characters' paths, or sparser sub-grids did
+# not pay on llvmpipe, where a DDA step costs about what a ray-triangle test costs
+# (docs/design/soft-tracer.md).
 TOP_SHARE = 1.0
 SUBDIVIDE_ABOVE = 16
 MAX_SUB_CELLS_PER_AXIS = 32
