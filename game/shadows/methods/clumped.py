@@ -361,6 +361,7 @@ class ClumpedShadows(ShadowMethod):
         self._drop_empty_clumps()
         self.clumps, self.static_maps, self._map_of_clump = [], [], {}
         self._clump_geometry: dict[int, tuple[np.ndarray, np.ndarray | None]] = {}
+        self._clump_spheres: dict[int, tuple[np.ndarray, float]] = {}  # for the view's need
         self.static_pieces = []
         piece_of: dict[int, int] = {}
         member_rects = []
@@ -406,6 +407,7 @@ class ClumpedShadows(ShadowMethod):
             depth = np.concatenate([points[u] for u in extra]) if extra else None
             core_points = np.concatenate([points[u] for u in members])
             self._clump_geometry[k] = (core_points, depth)
+            self._clump_spheres[k] = bounding_sphere(core_points)
             fits = self._clump_fits(k, core_points, depth)
             self._map_of_clump[k] = []
             for fit, layer in zip(fits, self._clump_layers[k], strict=False):
@@ -572,8 +574,7 @@ class ClumpedShadows(ShadowMethod):
         records in ``maps`` are replaced; returns the clumps whose maps are drawn."""
         s, light = self.settings, self.light
         eye = None if light.kind == "directional" else np.asarray(light.position, float)
-        spheres = [bounding_sphere(self._clump_geometry[k][0])
-                   for k in range(len(self._clump_keys))]
+        spheres = [self._clump_spheres[k] for k in range(len(self._clump_keys))]
         centres = np.array([c for c, _ in spheres]).reshape(-1, 3)
         radii = np.array([r for _, r in spheres], float)
         volumes, bounded = crowd.shadow_volumes(centres, radii, light.kind, light.direction,
