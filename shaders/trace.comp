@@ -101,8 +101,8 @@ int leaf_size(int leaf, out int s0, out int d0, out int ns) {
     g_bytes_cells += 16u;
     s0 = u_static_cells[2 * leaf];
     ns = u_static_cells[2 * leaf + 1];
-    d0 = u_dynamic_cells[leaf];
-    return ns < 0 ? ns : ns + u_dynamic_cells[leaf + 1] - d0;
+    d0 = u_dynamic_cells[2 * leaf];
+    return ns < 0 ? ns : ns + u_dynamic_cells[2 * leaf + 1];
 }
 
 // The cells per axis of the sub-grid that a negative leaf_size stands for.

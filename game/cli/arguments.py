@@ -18,6 +18,7 @@ from game.gpu.timing import CLOCKS
 from game.shadows import clumping, registry
 from game.shadows.plan import ShadowSettings
 from game.soft import methods as trace_methods
+from game.soft.grid import STRUCTURES
 from game.soft.methods import TraceSettings
 
 MAX_SIZE = 16384
@@ -326,6 +327,8 @@ def _add_trace_parser(sub) -> None:
     _add_frame_options(trace, dump_help="write npz (with soft) + glb")
     trace.add_argument("--clock", choices=CLOCKS, default="auto")
     g = trace.add_argument_group("tracer parameters")
+    g.add_argument("--structure", choices=list(STRUCTURES), default=d.structure,
+                   help="; ".join(f"{name}: {text}" for name, text in STRUCTURES.items()))
     g.add_argument("--cells-per-triangle", type=at_most(most["cells_per_triangle"], positive),
                    default=d.cells_per_triangle,
                    help="grid resolution: cells per triangle of the scene (at most "
@@ -344,6 +347,7 @@ def trace_settings(args) -> TraceSettings:
     if args.vc_slots & (args.vc_slots - 1):
         raise ArgumentError(f"--vc-slots {args.vc_slots}: must be a power of two")
     return TraceSettings(method=args.method, samples=args.samples,
+                         structure=args.structure,
                          cells_per_triangle=args.cells_per_triangle, vc_slots=args.vc_slots,
                          vc_pool=args.vc_pool, mailbox=args.mailbox)
 

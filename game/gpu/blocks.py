@@ -315,12 +315,12 @@ GROUPS: dict[str, list[Struct | Block]] = {
         Block("uniform", "TraceParams", TRACE_DTYPE, instance="u_trace"),
         # Three vec4 per triangle (xyz used), world space: statics, then the posed characters.
         Block("buffer", "Triangles", array=("vec4", "u_tri", ""), access="readonly"),
-        # Cell lists in CSR form (game/soft/grid.py CellLists.gpu_array): entries 0..cells are
-        # offsets into the same array; the triangle ids of cell c are [cells[c], cells[c + 1]).
-        # The statics' (Structure.gpu_array): a (start, count) pair per leaf, then the ids.
+        # The leaves' triangle lists (game/soft/grid.py): a (start, count) pair per leaf, then
+        # the ids; a start is a position in the same array. The statics' from
+        # Structure.gpu_array; the characters' are written each frame (game/soft/tracer.py),
+        # their pairs by shaders/scatter.comp from entries after the ids.
         Block("buffer", "StaticCells", array=("int", "u_static_cells", ""), access="readonly"),
-        Block("buffer", "DynamicCells", array=("int", "u_dynamic_cells", ""),
-              access="readonly"),
+        Block("buffer", "DynamicCells", array=("int", "u_dynamic_cells", "")),
         # tri-cache: per triangle (ray id << 1) | flag, flag 1 = cannot occlude for that point.
         Block("buffer", "TriState", array=("uint", "u_tri_state", ""), access="coherent"),
         Struct("PointResult", TRACE_RESULT_DTYPE, "std430"),

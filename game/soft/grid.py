@@ -14,8 +14,10 @@ cells there and large ones elsewhere.
 The structure covers the floors, the statics and every place a character can walk to, so it is
 fixed for a scene: the statics' lists are built once and cached, the characters' lists are
 rebuilt every frame from their posed triangles into the same leaves. The GPU reads two lists per
-leaf (static, dynamic): the static ones as (start, count) pairs (:meth:`Structure.gpu_array`),
-the characters' in the CSR layout of :class:`CellLists`.
+leaf (static, dynamic), each as a (start, count) pair: the statics' from
+:meth:`Structure.gpu_array`, the characters' from :class:`SparseLists`, which names only the
+few leaves the characters touch, so that a frame's work follows the characters' triangles and
+not the millions of leaves of a large level.
 """
 
 from __future__ import annotations
@@ -87,13 +89,22 @@ class CellLists:
     offsets: np.ndarray  # (n_cells + 1,) int64
     ids: np.ndarray      # (pairs,) int32, triangle indices
 
-    def gpu_array(self) -> np.ndarray:
-        """One int32 array: the offsets (already shifted past themselves), then the ids."""
-        n = len(self.offsets)
-        return np.concatenate([self.offsets + n, self.ids]).astype(np.int32)
-
     def counts(self) -> np.ndarray:
         return np.diff(self.offsets)
+
+
+@dataclass
+class SparseLists:
+    """Triangle lists of only the leaves that hold any: leaf ``leaves[i]`` lists
+    ``ids[starts[i]:starts[i] + counts[i]]``."""
+
+    leaves: np.ndarray  # (L,) int64, ascending
+    counts: np.ndarray  # (L,) int64
+    ids: np.ndarray     # (pairs,) int32, leaf by leaf
+
+    @property
+    def starts(self) -> np.ndarray:
+        return np.cumsum(self.counts) - self.counts
 
 
 def grid_spec(lower: np.ndarray, upper: np.ndarray, n_triangles: int,
@@ -169,13 +180,16 @@ def _overlaps(v: np.ndarray, half: np.ndarray) -> np.ndarray:
 
 
 def _cell_range(tris: np.ndarray, origin: np.ndarray, cell: np.ndarray,
-                dims: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The padded cell range [lo, hi] of each triangle's bounding box, clipped to the grid.
-    ``origin``, ``cell`` and ``dims`` are (3,) or one row per triangle."""
+                dims: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The padded cell range [lo, hi] of each triangle's bounding box, clipped to the grid, and
+    whether that box lies inside one cell of the grid (the triangle then touches that padded
+    cell: no overlap test needed). ``origin``, ``cell`` and ``dims`` are (3,) or one row per
+    triangle."""
     pad = cell * BIN_PAD_CELLS
     lo = np.floor((tris.min(axis=1) - pad - origin) / cell).astype(np.int64)
     hi = np.floor((tris.max(axis=1) + pad - origin) / cell).astype(np.int64)
-    return np.clip(lo, 0, dims - 1), np.clip(hi, 0, dims - 1)
+    one = ((lo == hi) & (lo >= 0) & (lo < dims)).all(axis=1)
+    return np.clip(lo, 0, dims - 1), np.clip(hi, 0, dims - 1), one
 
 
 def _linear(coords: np.ndarray, dims: np.ndarray) -> np.ndarray:
@@ -188,10 +202,12 @@ def _cell_pairs(spec: GridSpec, tris: np.ndarray) -> tuple[np.ndarray, np.ndarra
     """Every (cell, triangle) pair of a uniform grid whose padded cell the triangle touches."""
     if len(tris) == 0:
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
-    lo, hi = _cell_range(tris, spec.origin, spec.cell, spec.dims)
+    lo, hi, one = _cell_range(tris, spec.origin, spec.cell, spec.dims)
+    cells, ids = [_linear(lo[one], spec.dims)], [np.nonzero(one)[0]]
+    many = np.nonzero(~one)[0]
     half = spec.cell * (0.5 + BIN_PAD_CELLS)
-    cells, ids = [], []
-    for index, coords in _expand(lo, hi):
+    for index, coords in _expand(lo[many], hi[many]):
+        index = many[index]
         centre = spec.origin + (coords + 0.5) * spec.cell
         keep = _overlaps(tris[index] - centre[:, None, :], half)
         cells.append(_linear(coords[keep], spec.dims))
@@ -199,8 +215,15 @@ def _cell_pairs(spec: GridSpec, tris: np.ndarray) -> tuple[np.ndarray, np.ndarra
     return np.concatenate(cells), np.concatenate(ids)
 
 
+def _by_leaf(keys: np.ndarray, ids: np.ndarray) -> np.ndarray:
+    """The order that sorts pairs by key, and by triangle within a key (lists ascend whatever
+    order the binning found them in)."""
+    span = int(ids.max()) + 1 if len(ids) else 1
+    return np.argsort(keys * span + ids)
+
+
 def _csr(keys: np.ndarray, ids: np.ndarray, n: int, first_id: int = 0) -> CellLists:
-    order = np.argsort(keys, kind="stable")
+    order = _by_leaf(keys, ids)
     offsets = np.zeros(n + 1, np.int64)
     offsets[1:] = np.cumsum(np.bincount(keys, minlength=n))
     return CellLists(offsets, (ids[order] + first_id).astype(np.int32))
@@ -252,8 +275,12 @@ class Structure:
             dims = self.sub_dims[g]
             cell = spec.cell / dims
             t = tris[tri]
-            lo, hi = _cell_range(t, box_lo, cell, dims)
-            for index, coords in _expand(lo, hi):
+            lo, hi, one = _cell_range(t, box_lo, cell, dims)
+            leaves.append(self.sub_first[g[one]] + _linear(lo[one], dims[one]))
+            out_ids.append(tri[one])
+            many = np.nonzero(~one)[0]
+            for index, coords in _expand(lo[many], hi[many]):
+                index = many[index]
                 centre = box_lo[index] + (coords + 0.5) * cell[index]
                 keep = _overlaps(t[index] - centre[:, None, :],
                                  cell[index] * (0.5 + BIN_PAD_CELLS))
@@ -267,6 +294,13 @@ class Structure:
         """The leaf lists of triangles (F, 3, 3); ids start at ``first_id``."""
         leaves, ids = self.leaf_pairs(np.asarray(tris, np.float64), top_pairs)
         return _csr(leaves, ids, self.n_leaves, first_id)
+
+    def sparse_lists(self, tris: np.ndarray, first_id: int = 0) -> SparseLists:
+        """The lists of the leaves that triangles (F, 3, 3) touch; ids start at ``first_id``."""
+        leaves, ids = self.leaf_pairs(np.asarray(tris, np.float64))
+        order = _by_leaf(leaves, ids)
+        touched, counts = np.unique(leaves[order], return_counts=True)
+        return SparseLists(touched, counts, (ids[order] + first_id).astype(np.int32))
 
     def gpu_array(self, lists: CellLists) -> np.ndarray:
         """The static int32 array the shader reads: a (start, count) pair per leaf, then the
@@ -395,11 +429,11 @@ class SceneGrid:
     def n_static(self) -> int:
         return len(self.static_tris)
 
-    def characters(self, models: np.ndarray) -> tuple[np.ndarray, CellLists, float]:
+    def characters(self, models: np.ndarray) -> tuple[np.ndarray, SparseLists, float]:
         """Posed character triangles, their leaf lists (ids after the statics') and build ms."""
         start = time.perf_counter()
         tris = character_triangles(self.geom, models)
-        lists = self.structure.lists(tris, first_id=self.n_static)
+        lists = self.structure.sparse_lists(tris, first_id=self.n_static)
         return tris, lists, (time.perf_counter() - start) * 1e3
 
     def describe(self) -> dict:

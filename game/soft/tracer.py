@@ -39,6 +39,7 @@ COUNTERS = ("ray_triangle_tests", "triangle_triangle_tests", "voxels_visited", "
 BYTE_COUNTERS = ("bytes_triangles", "bytes_cells", "bytes_candidates")
 TRIANGLE_BYTES = 48       # three vec4 per triangle in the Triangles buffer
 LOCAL_SIZE = 8            # invocations per side of a workgroup; keep in sync with trace.comp
+SCATTER_GROUP = 64        # invocations per workgroup of scatter.comp; keep in sync with it
 RAY_ID_LIMIT = 1 << 31    # tri-cache ids use 31 bits of the state word
 POINTS_PER_ROW = 1024      # trace_points: G-buffer width
 # Mesa llvmpipe stops all loops of a shader invocation after 65535 iterations in all (measured
@@ -116,7 +117,10 @@ class SoftTracer:
         self._tris = tris
         self.tri_ssbo = ctx.buffer(tris.tobytes())
         self.static_ssbo = ctx.buffer(self._static[structure].tobytes())
-        self.dynamic_ssbo = ctx.buffer(reserve=4 * (self.grid.structure.n_leaves + 2))
+        self.dynamic_ssbo = ctx.buffer(reserve=4)
+        self._dynamic_leaves = np.zeros(0, np.int64)  # leaves whose pairs are set
+        self._reset_dynamic(0)
+        self.scatter_prog = ctx.compute_shader(glsl.build("scatter.comp"))
         self.state_ssbo = ctx.buffer(reserve=4 * max(1, self.n_triangles))
         self.state_ssbo.clear()
         self.params_ubo = ctx.buffer(reserve=TRACE_DTYPE.itemsize)
@@ -147,6 +151,7 @@ class SoftTracer:
         if self.static_ssbo.size != array.nbytes:
             self.static_ssbo.orphan(array.nbytes)
         self.static_ssbo.write(array.tobytes())
+        self._reset_dynamic(0)
         self._pending_static_ms += (time.perf_counter() - start) * 1e3
 
     # -- ownership -------------------------------------------------------------------------------
@@ -154,14 +159,18 @@ class SoftTracer:
         return [self.tri_ssbo, self.static_ssbo, self.dynamic_ssbo, self.state_ssbo,
                 self.params_ubo, self.results_ssbo]
 
+    def _all_programs(self) -> list:
+        return [*self._programs.values(), self.scatter_prog]
+
     def gl_objects(self) -> int:
         """GL objects this tracer holds now: buffers, programs, their shader objects (moderngl
         keeps them attached until the program is released) and timer queries."""
-        return (len(self._buffers()) + len(self._programs)
-                + resources.attached_shaders(self._programs.values()) + self.timer.gl_objects())
+        programs = self._all_programs()
+        return (len(self._buffers()) + len(programs)
+                + resources.attached_shaders(programs) + self.timer.gl_objects())
 
     def release(self) -> None:
-        for obj in [*self._programs.values(), *self._buffers()]:
+        for obj in [*self._all_programs(), *self._buffers()]:
             obj.release()
         self._programs = {}
         self.timer.release()
@@ -223,6 +232,15 @@ class SoftTracer:
         return result
 
     # -- the pass --------------------------------------------------------------------------------
+    def _reset_dynamic(self, ints: int) -> None:
+        """Room for the structure's leaf pairs and ``ints`` more (ids and scatter entries), every
+        pair cleared."""
+        need = 4 * (2 * self.grid.structure.n_leaves + max(ints, 1))
+        if self.dynamic_ssbo.size < need:
+            self.dynamic_ssbo.orphan(max(need, self.dynamic_ssbo.size * 3 // 2))
+        self.dynamic_ssbo.clear()
+        self._dynamic_leaves = np.zeros(0, np.int64)
+
     def _upload_characters(self, models: np.ndarray) -> float:
         """Pose the characters, bin them into the structure's leaves and upload; returns the
         build ms (CPU)."""
@@ -232,10 +250,25 @@ class SoftTracer:
         if len(tris):
             self._tris[n_static:n_static + len(tris), :, :3] = tris
             self.tri_ssbo.write(self._tris[n_static:].tobytes(), offset=n_static * 48)
-        data = lists.gpu_array()
-        if self.dynamic_ssbo.size < data.nbytes:
-            self.dynamic_ssbo.orphan(data.nbytes)
-        self.dynamic_ssbo.write(data.tobytes())
+        # The ids after the leaf pairs, then the scatter entries: the pairs of this frame's
+        # leaves, and empty pairs for the leaves the characters left.
+        base = 2 * self.grid.structure.n_leaves
+        left = np.setdiff1d(self._dynamic_leaves, lists.leaves, assume_unique=True)
+        entries = np.zeros((len(lists.leaves) + len(left), 3), np.int64)
+        entries[:len(lists.leaves)] = np.stack(
+            [lists.leaves, base + lists.starts, lists.counts], axis=1)
+        entries[len(lists.leaves):, 0] = left
+        tail = np.concatenate([lists.ids, entries.ravel()]).astype(np.int32)
+        if self.dynamic_ssbo.size < 4 * (base + len(tail)):
+            self._reset_dynamic(2 * len(tail))
+        self.dynamic_ssbo.write(tail.tobytes(), offset=4 * base)
+        if len(entries):
+            self.dynamic_ssbo.bind_to_storage_buffer(blocks.BINDINGS["DynamicCells"])
+            self.scatter_prog["u_first"].value = base + len(lists.ids)
+            self.scatter_prog["u_count"].value = len(entries)
+            self.scatter_prog.run((len(entries) + SCATTER_GROUP - 1) // SCATTER_GROUP)
+            self.ctx.memory_barrier()
+        self._dynamic_leaves = lists.leaves
         return (time.perf_counter() - start) * 1e3
 
     def _params(self, size: tuple[int, int], mode: int, a, b, samples: int,

@@ -56,10 +56,6 @@ def rmse(a, b):
     return float(np.sqrt(np.mean((np.asarray(a, float) - np.asarray(b, float)) ** 2)))
 
 
-
-
-
-
 # -- accelerated methods are exact ---------------------------------------------------------------
 @pytest.mark.parametrize("structure", list(STRUCTURES))
 @pytest.mark.parametrize("name, samples, size",
@@ -369,6 +365,31 @@ def test_frames_do_not_grow_gl_objects_and_characters_move(ctx, tiny):
     finally:
         r.release()
     assert r.soft_tracer is None
+
+
+@pytest.mark.parametrize("structure", list(STRUCTURES))
+def test_leaves_the_characters_left_hold_nothing_of_them(ctx, tiny, structure):
+    # Each frame rewrites only the leaves the characters touch now or touched before: a frame
+    # after the characters walked on must trace as a tracer that never saw them elsewhere.
+    settings = TraceSettings(method="grid", samples=4, structure=structure)
+    t0, t1 = 0.0, 6.0
+
+    def traced(times):
+        r = Renderer(ctx, tiny, SIZE, gbuffer=True)
+        view = View.from_camera(tiny.camera, SIZE)
+        try:
+            for t in times:
+                r.render(t, view)
+                result = r.trace(t, settings)
+            return result
+        finally:
+            r.release()
+
+    walked, fresh = traced([t0, t1]), traced([t1])
+    assert not np.array_equal(traced([t0]).visibility, fresh.visibility, equal_nan=True)
+    np.testing.assert_array_equal(walked.visibility, fresh.visibility)
+    np.testing.assert_array_equal(walked.counters["ray_triangle_tests"],
+                                  fresh.counters["ray_triangle_tests"])
 
 
 def test_the_loop_budget_probe_catches_a_cut_short_trace(ctx, courtyard, monkeypatch):
