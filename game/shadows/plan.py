@@ -28,7 +28,7 @@ CHARACTER_TEXELS_PER_PIXEL = 8.0  # a character map's texels per screen pixel wh
 #                                  can be nearest the camera (0: always the most, every frame)
 SINGLE_RESOLUTION = 4096       # the baseline's one map
 LAMP_RESOLUTION = 1024         # the baselines' maps (or cube faces) of a light with a range
-NORMAL_BIAS_TEXELS = 1.0       # offset along the normal, times sin(angle to the light)
+NORMAL_BIAS_TEXELS = 0.25      # offset along the normal, times sin(angle to the light)
 DEPTH_BIAS_TEXELS = 1.0        # offset towards the light
 SLOPE_BIAS_TEXELS = 1.0        # offset towards the light, times tan(angle to the light)
 MAX_SLOPE = 8.0                # cap on that tan, for grazing light
