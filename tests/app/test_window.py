@@ -139,7 +139,11 @@ def test_the_window_shows_what_its_screenshots_hold(tmp_path):
     seen = json.loads(result.stdout.strip().splitlines()[-1])
     for scale in ("1.0", "0.5"):
         assert seen[scale]["screenshot_vs_window"] == 0
-        assert seen[scale]["direct_vs_canvas"] == 0
+        # The same FXAA draw into the window's surface and into the canvas texture: llvmpipe
+        # compiles the shader anew for each target format, and where FXAA's test of the blur
+        # against the neighbourhood's luma range sits on a knife edge, the two may choose
+        # different blurs: at most a level of 255 apart, on a few pixels.
+        assert seen[scale]["direct_vs_canvas"] <= 1
         assert 20 < seen[scale]["mean"] < 235   # the scene, not a blank window
     assert len(list(tmp_path.glob("screenshot_*.png"))) == 2
 
