@@ -40,6 +40,9 @@ BYTE_COUNTERS = ("bytes_triangles", "bytes_cells", "bytes_candidates")
 TRIANGLE_BYTES = 48       # three vec4 per triangle in the Triangles buffer
 LOCAL_SIZE = 8            # invocations per side of a workgroup; keep in sync with trace.comp
 SCATTER_GROUP = 64        # invocations per workgroup of scatter.comp; keep in sync with it
+# Room for the characters' ids and scatter entries, per character triangle, before a frame needs
+# more (a small triangle touches one or two leaves: an id, and an entry of three ints per leaf).
+DYNAMIC_INTS_PER_TRIANGLE = 8
 RAY_ID_LIMIT = 1 << 31    # tri-cache ids use 31 bits of the state word
 POINTS_PER_ROW = 1024      # trace_points: G-buffer width
 # Mesa llvmpipe stops all loops of a shader invocation after 65535 iterations in all (measured
@@ -119,7 +122,7 @@ class SoftTracer:
         self.static_ssbo = ctx.buffer(self._static[structure].tobytes())
         self.dynamic_ssbo = ctx.buffer(reserve=4)
         self._dynamic_leaves = np.zeros(0, np.int64)  # leaves whose pairs are set
-        self._reset_dynamic(0)
+        self._reset_dynamic(DYNAMIC_INTS_PER_TRIANGLE * self.grid.n_character_tris)
         self.scatter_prog = ctx.compute_shader(glsl.build("scatter.comp"))
         self.state_ssbo = ctx.buffer(reserve=4 * max(1, self.n_triangles))
         self.state_ssbo.clear()
@@ -151,7 +154,7 @@ class SoftTracer:
         if self.static_ssbo.size != array.nbytes:
             self.static_ssbo.orphan(array.nbytes)
         self.static_ssbo.write(array.tobytes())
-        self._reset_dynamic(0)
+        self._reset_dynamic(DYNAMIC_INTS_PER_TRIANGLE * self.grid.n_character_tris)
         self._pending_static_ms += (time.perf_counter() - start) * 1e3
 
     # -- ownership -------------------------------------------------------------------------------
@@ -237,7 +240,7 @@ class SoftTracer:
         pair cleared."""
         need = 4 * (2 * self.grid.structure.n_leaves + max(ints, 1))
         if self.dynamic_ssbo.size < need:
-            self.dynamic_ssbo.orphan(max(need, self.dynamic_ssbo.size * 3 // 2))
+            self.dynamic_ssbo.orphan(need)
         self.dynamic_ssbo.clear()
         self._dynamic_leaves = np.zeros(0, np.int64)
 
