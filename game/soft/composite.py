@@ -10,7 +10,8 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from game.gpu import blocks, glsl, resources
+from game.gpu import blocks, resources
+from game.gpu.fullscreen import fullscreen_pass
 from game.soft.tracer import TEXTURE_UNITS
 
 # The G-buffer on the tracer's units, the surface the frame is lit again with, and the traced
@@ -36,10 +37,8 @@ class SoftComposite:
         key = (light_kind, hard)
         if key not in self._programs:
             defines = {**self.defines, "LIGHT_KIND": light_kind, "HARD": hard}
-            prog = self.ctx.program(vertex_shader=glsl.build("fullscreen.vert"),
-                                    fragment_shader=glsl.build("composite.frag", defines))
-            self._programs[key] = prog
-            self._vao[key] = self.ctx.vertex_array(prog, [])
+            self._programs[key], self._vao[key] = fullscreen_pass(self.ctx, "composite.frag",
+                                                                  defines)
         return self._programs[key], self._vao[key]
 
     def _resize(self, size: tuple[int, int]) -> None:

@@ -22,7 +22,8 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
-from game.gpu import blocks, glsl, resources
+from game.gpu import blocks, resources
+from game.gpu.fullscreen import fullscreen_pass
 from game.soft.tracer import TraceResult
 
 # The joint bilateral filter's weights (shaders/upsample.frag): a sample counts fully on the
@@ -141,9 +142,7 @@ class ReducedTrace:
         self._upsample: dict[tuple[bool, int], object] = {}
         self._upsample_vao: dict[tuple[bool, int], object] = {}
         try:  # a program that fails to build leaves none behind
-            self._subsample = ctx.program(vertex_shader=glsl.build("fullscreen.vert"),
-                                          fragment_shader=glsl.build("subsample.frag"))
-            self._subsample_vao = ctx.vertex_array(self._subsample, [])
+            self._subsample, self._subsample_vao = fullscreen_pass(ctx, "subsample.frag")
             for full, part in ((False, 0), (False, 1), (True, 1)):
                 self._program(full, part)
         except BaseException:
@@ -162,10 +161,8 @@ class ReducedTrace:
             defines = {"FULL": full, "PART": part, "PLANE_SIGMA": PLANE_SIGMA,
                        "NORMAL_POWER": NORMAL_POWER, "SPATIAL_SIGMA_CELLS": SPATIAL_SIGMA_CELLS,
                        "MIN_WEIGHT": MIN_WEIGHT, "GATHER": GATHER, "NO_SAMPLE": NO_SAMPLE}
-            prog = self.ctx.program(vertex_shader=glsl.build("fullscreen.vert"),
-                                    fragment_shader=glsl.build("upsample.frag", defines))
-            self._upsample[key] = prog
-            self._upsample_vao[key] = self.ctx.vertex_array(prog, [])
+            self._upsample[key], self._upsample_vao[key] = fullscreen_pass(
+                self.ctx, "upsample.frag", defines)
         return self._upsample[key], self._upsample_vao[key]
 
     def _resize(self, size: tuple[int, int]) -> None:

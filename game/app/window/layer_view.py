@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import moderngl
 
-from game.gpu import blocks, context, glsl
+from game.gpu import blocks, context
+from game.gpu.fullscreen import fullscreen_pass
 
 VIEW_SIZE = 256          # texels per side of the viewer's image
 MAPS_UNIT = blocks.TEXTURE_UNITS["layer_view"]
@@ -18,9 +19,7 @@ MAPS_UNIT = blocks.TEXTURE_UNITS["layer_view"]
 class LayerViewer:
     def __init__(self, ctx):
         self.ctx = ctx
-        self.program = ctx.program(vertex_shader=glsl.build("fullscreen.vert"),
-                                   fragment_shader=glsl.build("layer_view.frag"))
-        self.vao = ctx.vertex_array(self.program, [])
+        self.program, self.vao = fullscreen_pass(ctx, "layer_view.frag")
         self.sampler = ctx.sampler(filter=(moderngl.NEAREST, moderngl.NEAREST),
                                    compare_func="", repeat_x=False, repeat_y=False)
         self.texture = ctx.texture((VIEW_SIZE, VIEW_SIZE), 4)

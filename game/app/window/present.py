@@ -18,7 +18,8 @@ from __future__ import annotations
 
 import moderngl
 
-from game.gpu import blocks, context, glsl
+from game.gpu import blocks, context
+from game.gpu.fullscreen import fullscreen_pass
 
 FRAME_UNIT = blocks.TEXTURE_UNITS["present_frame"]
 
@@ -29,10 +30,7 @@ class Presenter:
     def __init__(self, ctx, antialias: bool = True):
         self.ctx = ctx
         self.antialias = antialias
-        self.program = ctx.program(vertex_shader=glsl.build("fullscreen.vert"),
-                                   fragment_shader=glsl.build("present.frag",
-                                                              {"FXAA": antialias}))
-        self.vao = ctx.vertex_array(self.program, [])
+        self.program, self.vao = fullscreen_pass(ctx, "present.frag", {"FXAA": antialias})
         self.size: tuple[int, int] | None = None
         self.texture = None
         self.target = None
