@@ -240,8 +240,8 @@ class Walkaround:
 
     def render_size(self, size: tuple[int, int]) -> tuple[int, int]:
         """The scene's render size for a window framebuffer of ``size``."""
-        scale = self.render_scale
-        return (max(1, round(size[0] * scale)), max(1, round(size[1] * scale)))
+        return (max(1, round(size[0] * self.render_scale)),
+                max(1, round(size[1] * self.render_scale)))
 
     def view(self, size: tuple[int, int]) -> View:
         return View(self.controller.view_matrix(), self.controller.camera.proj_matrix(size))
