@@ -68,6 +68,20 @@ def ortho(left: float, right: float, bottom: float, top: float, near: float, far
         left, right, bottom, top, near, far, dtype=np.float64).T
 
 
+def ortho_many(left: np.ndarray, right: np.ndarray, bottom: np.ndarray, top: np.ndarray,
+               near: np.ndarray, far: np.ndarray) -> np.ndarray:
+    """(n, 4, 4) orthographic projections, as :func:`ortho` gives one."""
+    m = np.zeros((len(left), 4, 4))
+    m[:, 0, 0] = 2.0 / (right - left)
+    m[:, 1, 1] = 2.0 / (top - bottom)
+    m[:, 2, 2] = -2.0 / (far - near)
+    m[:, 0, 3] = -(right + left) / (right - left)
+    m[:, 1, 3] = -(top + bottom) / (top - bottom)
+    m[:, 2, 3] = -(far + near) / (far - near)
+    m[:, 3, 3] = 1.0
+    return m
+
+
 def translation(t: np.ndarray) -> np.ndarray:
     """4x4 translation."""
     m = np.eye(4)

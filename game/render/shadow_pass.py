@@ -16,6 +16,29 @@ CLEAR_EXTENSION = "GL_ARB_clear_texture"  # DepthArray.clear
 CLIP_PLANES = tuple(0x3000 + k for k in range(4))  # GL_CLIP_DISTANCE0..3: depth_layered.vert
 
 
+def merged_squares(squares: set[tuple[int, int, int, int]]) -> set[tuple[int, int, int, int]]:
+    """The same texels as these (layer, x, y, side) squares, in fewer squares: four squares of
+    one side that tile the aligned square twice as large become that square, again and again.
+
+    Character maps are packed as power-of-two squares in Z order (game/shadows/crowd.py), so a
+    layer's maps merge into a few squares, and the clears cost a few calls instead of one per map.
+    """
+    squares = set(squares)
+    while True:
+        quads: dict[tuple[int, int, int, int], int] = {}
+        for layer, x, y, side in squares:
+            if side & (side - 1) == 0 and x % side == 0 and y % side == 0:
+                parent = (layer, x - x % (2 * side), y - y % (2 * side), 2 * side)
+                quads[parent] = quads.get(parent, 0) + 1
+        full = [q for q, n in quads.items() if n == 4]
+        if not full:
+            return squares
+        for layer, x, y, side in full:
+            half = side // 2
+            squares -= {(layer, x + dx, y + dy, half) for dx in (0, half) for dy in (0, half)}
+            squares.add((layer, x, y, side))
+
+
 class ShadowMapPass:
     """Draws a plan's maps. Owns the depth programs, their vertex arrays and the depth array.
 
@@ -81,8 +104,10 @@ class ShadowMapPass:
             return 0
         self._depth_state()
         array = self.array
-        for i in indices:
-            array.clear(plan.maps[i].layer, plan.maps[i].viewport, plan.maps[i].origin)
+        squares = {(plan.maps[i].layer, *plan.maps[i].origin, plan.maps[i].viewport)
+                   for i in indices}
+        for layer, x, y, side in merged_squares(squares):
+            array.clear(layer, side, (x, y))
         fbo = array.layered
         fbo.use()
         fbo.viewport = (0, 0, array.resolution, array.resolution)

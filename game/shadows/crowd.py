@@ -167,11 +167,10 @@ def group(sizes: list[int], rects: np.ndarray | None, max_resolution: int,
         _merge_nearest(groups, max_resolution)
     out = []
     for g in groups.values():
-        centre = 0.5 * (g.box[:2] + g.box[2:])
-        side = 0.5 * float((g.box[2:] - g.box[:2]).max())
-        single = len(g.members) == 1
-        out.append(CrowdMap(sorted(g.members), g.size, (float(centre[0]), float(centre[1]), side),
-                            None if single else g.texel))
+        x0, y0, x1, y1 = g.box.tolist()
+        square = (0.5 * (x0 + x1), 0.5 * (y0 + y1), 0.5 * max(x1 - x0, y1 - y0))
+        out.append(CrowdMap(sorted(g.members), g.size, square,
+                            None if len(g.members) == 1 else g.texel))
     return out
 
 
@@ -211,22 +210,26 @@ def _merge_by_cost(groups: dict[int, _Group], rects: np.ndarray, max_resolution:
             k = owner[k]
         return k
 
+    # The walk below runs once per candidate pair: plain floats, not small arrays.
+    boxes = {k: g.box.tolist() for k, g in groups.items()}
     order = np.argsort(gap[i, j], kind="stable")
-    for a, b in zip(i[order], j[order], strict=True):
-        ra, rb = root(int(a)), root(int(b))
+    for a, b in zip(i[order].tolist(), j[order].tolist(), strict=True):
+        ra, rb = root(a), root(b)
         if ra == rb:
             continue
         ga, gb = groups[ra], groups[rb]
-        box = _union(ga, gb)
+        ba, bb = boxes[ra], boxes[rb]
+        box = [min(ba[0], bb[0]), min(ba[1], bb[1]), max(ba[2], bb[2]), max(ba[3], bb[3])]
         t = min(ga.texel, gb.texel)
-        need = float((box[2:] - box[:2]).max()) / t + SPARE_TEXELS
+        need = max(box[2] - box[0], box[3] - box[1]) / t + SPARE_TEXELS
         if need > max_resolution:
             continue
         size = pow2_at_least(need, 1, max_resolution)
-        if size ** 2 >= ga.size ** 2 + gb.size ** 2 + MAP_COST_TEXELS:
+        if size * size >= ga.size * ga.size + gb.size * gb.size + MAP_COST_TEXELS:
             continue
         owner[rb] = ra
-        groups[ra] = _Group(ga.members + gb.members, box, t, size)
+        boxes[ra] = box
+        groups[ra] = _Group(ga.members + gb.members, np.array(box), t, size)
         del groups[rb]
 
 
@@ -264,21 +267,21 @@ def pack(maps: list[CrowdMap], layers: int, layer_resolution: int) -> int:
     """
     square = layer_square(layer_resolution)
     capacity = layers * square ** 2
-
-    def slot(m: CrowdMap) -> int:
-        return pow2_at_least(m.resolution)
-
+    slots = [pow2_at_least(m.resolution) for m in maps]
+    used = sum(side * side for side in slots)
     shrunk = set()
-    while maps and sum(slot(m) ** 2 for m in maps) > capacity:
+    while maps and used > capacity:
         big = max(range(len(maps)), key=lambda k: maps[k].resolution)
         if maps[big].resolution <= 1:
             raise ValueError(f"{len(maps)} character maps cannot fit {layers} layers")
-        maps[big].resolution = slot(maps[big]) // 2
+        maps[big].resolution = slots[big] // 2
         maps[big].texel = None  # a shrunk group is fitted to its members at the new size
+        used -= slots[big] ** 2 - (slots[big] // 2) ** 2
+        slots[big] //= 2
         shrunk.add(big)
     layer, used = 0, 0
-    for m in sorted(maps, key=lambda m: -slot(m)):
-        side = slot(m)
+    for k in sorted(range(len(maps)), key=lambda k: -slots[k]):
+        m, side = maps[k], slots[k]
         if used + side * side > square ** 2:
             layer, used = layer + 1, 0
         x, y = _z_order(used // (side * side))  # the slot's index at its size

@@ -35,14 +35,6 @@ class MapFit:
     far: float
 
 
-def _snap_rect(cx: float, cy: float, half: float, texel: float, resolution: int):
-    """A square of ``resolution`` texels on the world-fixed texel grid holding the footprint."""
-    x0 = (math.floor((cx - half) / texel) - MARGIN_TEXELS) * texel
-    y0 = (math.floor((cy - half) / texel) - MARGIN_TEXELS) * texel
-    size = resolution * texel
-    return x0, y0, x0 + size, y0 + size
-
-
 def fit_directional(points: np.ndarray, light_rot: np.ndarray, resolution: int,
                     radius: float | None = None,
                     depth_points: np.ndarray | None = None,
@@ -78,7 +70,6 @@ def fit_directional(points: np.ndarray, light_rot: np.ndarray, resolution: int,
     if depth_points is not None and len(depth_points):
         z = np.asarray(depth_points, float) @ light_rot[2]
         lo[2], hi[2] = min(lo[2], float(z.min())), max(hi[2], float(z.max()))
-    usable = resolution - 2 * MARGIN_TEXELS - 1
     if radius is not None:
         centre = (lo + hi) / 2 if centre is None else np.asarray(centre, float)
         half = radius
@@ -86,21 +77,43 @@ def fit_directional(points: np.ndarray, light_rot: np.ndarray, resolution: int,
         centre = (lo + hi) / 2
         half = max(hi[0] - lo[0], hi[1] - lo[1]) / 2
     half = max(half, 1e-6 * max(1.0, float(np.abs(q).max())))
-    if texel is None:
-        texel = 2 * half / usable
-    elif 2 * half > usable * texel * (1 + 1e-9):
-        raise ValueError(f"a caster {2 * half:.4g} wide does not fit {usable} texels of "
-                         f"{texel:.4g}")
-    x0, y0, x1, y1 = _snap_rect(centre[0], centre[1], half, texel, resolution)
-    depth = hi[2] - lo[2]
-    margin = DEPTH_MARGIN * depth + 2 * texel
+    return fit_squares(light_rot, np.array([centre[:2]], float), np.array([half], float),
+                       np.array([lo[2]]), np.array([hi[2]]), np.array([resolution]),
+                       np.array([np.nan if texel is None else texel]))[0]
+
+
+def fit_squares(light_rot: np.ndarray, centres: np.ndarray, halves: np.ndarray,
+                z_lo: np.ndarray, z_hi: np.ndarray, resolutions: np.ndarray,
+                texels: np.ndarray) -> list[MapFit]:
+    """Orthographic maps of many casters at once, each given by its light-space square
+    (``centres`` (n, 2), ``halves``) and depth range (``z_lo``, ``z_hi``), at its resolution;
+    a finite ``texels[k]`` is the texel size to keep (see :func:`fit_directional`), NaN fits
+    the texels to the square.
+
+    The square is snapped to the world-fixed texel grid with ``MARGIN_TEXELS`` of margin.
+    """
+    res = np.asarray(resolutions, float)
+    usable = res - 2 * MARGIN_TEXELS - 1
+    given = np.isfinite(texels)
+    texel = np.where(given, texels, 2 * halves / usable)
+    too_wide = given & (2 * halves > usable * texel * (1 + 1e-9))
+    if too_wide.any():
+        k = int(np.flatnonzero(too_wide)[0])
+        raise ValueError(f"a caster {2 * halves[k]:.4g} wide does not fit {int(usable[k])} "
+                         f"texels of {texel[k]:.4g}")
+    x0 = (np.floor((centres[:, 0] - halves) / texel) - MARGIN_TEXELS) * texel
+    y0 = (np.floor((centres[:, 1] - halves) / texel) - MARGIN_TEXELS) * texel
+    x1, y1 = x0 + res * texel, y0 + res * texel
+    margin = DEPTH_MARGIN * (z_hi - z_lo) + 2 * texel
     # View space looks down -z: a point at light-space z lies at distance -z.
-    near, far = -hi[2] - margin, -lo[2] + margin
+    near, far = -z_hi - margin, -z_lo + margin
     view = np.eye(4)
     view[:3, :3] = light_rot
-    proj = transforms.ortho(x0, x1, y0, y1, near, far)
-    return MapFit(view_proj=proj @ view, texel=texel, perspective=False, eye=np.zeros(3),
-                  rect=np.array([x0, y0, x1, y1]), near=near, far=far)
+    view_proj = transforms.ortho_many(x0, x1, y0, y1, near, far) @ view
+    rects = np.stack([x0, y0, x1, y1], axis=1)
+    return [MapFit(view_proj=view_proj[k], texel=float(texel[k]), perspective=False,
+                   eye=np.zeros(3), rect=rects[k], near=float(near[k]), far=float(far[k]))
+            for k in range(len(res))]
 
 
 def fit_perspective(points: np.ndarray, eye: np.ndarray, resolution: int,

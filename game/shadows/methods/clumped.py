@@ -21,6 +21,7 @@ from game.shadows.fit import (
     fit_cube_faces,
     fit_directional,
     fit_perspective,
+    fit_squares,
     holds_in_one_frustum,
     light_rotation_of,
     outside_cone,
@@ -655,21 +656,17 @@ class ClumpedShadows(ShadowMethod):
         planned = crowd.group(sizes, rects, self._character_resolution, room,
                               merge=s.character_texels_per_pixel > 0)
         shrunk = crowd.pack(planned, len(self._char_layers), s.clump_resolution)
-        covers = None
+        covers = fits = None
         if light.kind == "directional":
             xy = placed @ self._light_rot[:2].T
             covers = np.concatenate([xy.min(axis=1), xy.max(axis=1)], axis=1)
+            fits = self._group_fits(planned, shown, placed)
         drawn = 0
-        for m in planned:
-            members = [int(shown[k]) for k in m.members]
-            points = placed[members].reshape(-1, 3)
-            if light.kind == "directional" and m.square is not None:
-                # The members lie within their bounding spheres: the square holds them all;
-                # the box corners bound the depth.
-                fit = fit_directional(points, self._light_rot, m.resolution, m.square[2],
-                                      texel=m.texel, centre=m.square[:2])
-            else:
-                fit = self._fit(points, m.resolution)
+        for k, m in enumerate(planned):
+            members = [int(shown[j]) for j in m.members]
+            fit = fits[k] if fits is not None else None
+            if fit is None:
+                fit = self._fit(placed[members].reshape(-1, 3), m.resolution)
             if fit is None:
                 continue
             render_dynamic.append(len(maps))
@@ -686,6 +683,31 @@ class ClumpedShadows(ShadowMethod):
         return {"character_maps": drawn, "characters_skipped": int(n - len(shown)),
                 "characters_grouped": sum(len(m.members) for m in planned if len(m.members) > 1),
                 "character_maps_shrunk": shrunk}
+
+    def _group_fits(self, planned: list[crowd.CrowdMap], shown: np.ndarray,
+                    placed: np.ndarray) -> list[MapFit | None]:
+        """Directional light: the fits of the planned maps that carry a square, all at once
+        (the members lie within their bounding spheres, so the square holds them all; their
+        posed box corners bound the depth); None for the others."""
+        with_square = [k for k, m in enumerate(planned) if m.square is not None]
+        out: list[MapFit | None] = [None] * len(planned)
+        if not with_square:
+            return out
+        z = placed @ self._light_rot[2]                      # (n, 8)
+        z_lo, z_hi = z.min(axis=1), z.max(axis=1)
+        members = [planned[k].members for k in with_square]
+        order = shown[np.concatenate(members)]
+        starts = np.cumsum([0] + [len(m) for m in members[:-1]])
+        squares = np.array([planned[k].square for k in with_square], float)
+        texels = np.array([np.nan if planned[k].texel is None else planned[k].texel
+                           for k in with_square])
+        fits = fit_squares(self._light_rot, squares[:, :2], squares[:, 2],
+                           np.minimum.reduceat(z_lo[order], starts),
+                           np.maximum.reduceat(z_hi[order], starts),
+                           np.array([planned[k].resolution for k in with_square]), texels)
+        for k, fit in zip(with_square, fits, strict=True):
+            out[k] = fit
+        return out
 
     def mark_rendered_lost(self) -> None:
         """The array was re-created (resized): every cached layer must be drawn again."""
