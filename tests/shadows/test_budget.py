@@ -139,6 +139,22 @@ def test_characters_beyond_the_layer_limit_get_coarser_maps(ctx):
         renderer.release()
 
 
+def test_character_maps_take_at_most_half_the_budget(ctx):
+    """Six characters whose largest maps each fill a layer, in a budget of eight layers: they
+    get four, and the clumps keep the other four (not the two the worst case would leave)."""
+    settings = ShadowSettings(clump_resolution=256, character_resolution=256,
+                              budget_mib=8 * 256 * 256 * 4 / 2**20)
+    renderer = Renderer(ctx, crowd_scene(), SIZE, settings, gbuffer=True)
+    try:
+        method = renderer.method
+        assert method.layer_limit == 8
+        assert len(method._char_layers) == 4 and method.max_clumps == 4
+        assert any("half the budget" in note for note in method.notes)
+        check(renderer, 0.5)
+    finally:
+        renderer.release()
+
+
 def test_more_maps_than_the_uniform_block_holds(ctx):
     scene = crowd_scene()
     limits = GLLimits.of(ctx).tightened(max_maps=4)

@@ -183,11 +183,20 @@ class ClumpedShadows(ShadowMethod):
     def _assign_characters(self) -> None:
         """Hold enough layers for every character's map at the largest size (the maps are
         packed into them anew each frame, game/shadows/crowd.py), as far as the clumps leave
-        room; fewer layers make the frame's largest maps coarser, never drop one."""
+        room and at most half the layers; fewer layers make the frame's largest maps coarser,
+        never drop one. The half keeps the cached clump maps, where the method's accuracy
+        comes from, from being starved by a worst case that maps sized by need rarely reach."""
         n = self.geom.n_characters
         square = crowd.layer_square(self.settings.clump_resolution)
         per_layer = max(1, (square // crowd.pow2_at_least(self._character_resolution)) ** 2)
         want = -(-n // per_layer)
+        if want > self.layer_limit // 2:
+            note = (f"{n} characters' maps at {self._character_resolution}^2 need {want} "
+                    f"shadow-map layers; they get {max(1, self.layer_limit // 2)}, half the "
+                    "budget's: the largest maps of a frame are made coarser when they do not fit")
+            if note not in self.notes:
+                self.notes.append(note)
+            want = max(1, self.layer_limit // 2)
         if self.light.range is not None:
             # A lamp reaches few characters at once: one shared layer, the maps made smaller
             # when more come (crowd.pack), leaves the rest to its clumps' maps.
