@@ -188,40 +188,77 @@ def _score(ctx, scene: Scene, spec: RunSpec, opts: BenchOptions, tmp: Path) -> d
 FAILURES = (GameError, RuntimeError, ValueError)
 
 
+class Timing:
+    """The timing frames of one run, frame by frame, so that several runs can take turns (see
+    :func:`interleaved_timings`). Owns its renderer until :meth:`result` or :meth:`release`."""
+
+    def __init__(self, ctx, scene: Scene, spec: RunSpec, opts: BenchOptions):
+        self.scene, self.spec, self.opts = scene, spec, opts
+        self.renderer = Renderer(ctx, scene, opts.size, spec.settings())
+        self.timed: list = []
+        self.view = None
+        self.k = 0
+
+    @property
+    def frames(self) -> int:
+        return self.opts.warmup + self.opts.frames
+
+    def frame(self) -> None:
+        """Render the next frame; the ones after the warm-up are kept."""
+        k, renderer = self.k, self.renderer
+        if self.spec.rerender:
+            renderer.shadows.mark_rendered_lost()
+        self.view = orbit_view(self.scene, self.opts.size, ORBIT_DEG * k)
+        frame = renderer.render(k / FPS, self.view)
+        if k >= self.opts.warmup:
+            self.timed.append(frame)
+        self.k += 1
+
+    def result(self) -> dict:
+        """Per-pass median, p95 and least-disturbed frame; counters; footprints. Releases the
+        renderer."""
+        out: dict = {}
+        try:
+            renderer, timed = self.renderer, self.timed
+            out["clock"] = renderer.timer.clock
+            g = renderer.geom
+            out["static_triangles"] = g.triangle_count(range(g.first_static, g.first_character))
+            out["characters"] = g.n_characters
+            out["lights"] = len(self.scene.lights)
+            k = self.k - 1
+            plan = renderer.method.plan(renderer.models(k / FPS), self.view)
+            statics = set(range(g.first_static, g.first_character))
+            out.update(footprints([m for m in plan.maps if statics.intersection(m.objects)]))
+            for p in PASSES:
+                ms = [f.ms.get(p, 0.0) for f in timed]
+                out[f"{p}_ms_median"], out[f"{p}_ms_p95"] = _stats(ms)
+                # The least-disturbed frame: on a shared machine other jobs only ever add time.
+                out[f"{p}_ms_min"] = min(ms) if ms else float("nan")
+            for name in ("maps_total", "maps_rendered", "triangles_to_maps", "texels_to_maps",
+                         "camera_triangles", "maps_per_fragment"):
+                out[name] = float(np.mean([getattr(f, name) for f in timed]))
+            out["shadow_memory_mib"] = renderer.shadow_memory_bytes / 2**20
+            out["notes"] = "; ".join(renderer.notes + floors.floor_warnings(self.scene))
+        finally:
+            self.release()
+        return out
+
+    def release(self) -> None:
+        if self.renderer is not None:
+            self.renderer.release()
+            self.renderer = None
+
+
 def measure_timing(ctx, scene: Scene, spec: RunSpec, opts: BenchOptions) -> dict:
-    """The timing frames of one run: per-pass median and p95, counters, footprints."""
-    out: dict = {}
-    renderer = Renderer(ctx, scene, opts.size, spec.settings())
+    """The timing frames of one run, one after another (see :class:`Timing`)."""
+    timing = Timing(ctx, scene, spec, opts)
     try:
-        out["clock"] = renderer.timer.clock
-        g = renderer.geom
-        out["static_triangles"] = g.triangle_count(range(g.first_static, g.first_character))
-        out["characters"] = g.n_characters
-        out["lights"] = len(scene.lights)
-        timed = []
-        for k in range(opts.warmup + opts.frames):
-            if spec.rerender:
-                renderer.shadows.mark_rendered_lost()
-            view = orbit_view(scene, opts.size, ORBIT_DEG * k)
-            frame = renderer.render(k / FPS, view)
-            if k >= opts.warmup:
-                timed.append(frame)
-        plan = renderer.method.plan(renderer.models(k / FPS), view)
-        statics = set(range(g.first_static, g.first_character))
-        out.update(footprints([m for m in plan.maps if statics.intersection(m.objects)]))
-        for p in PASSES:
-            ms = [f.ms.get(p, 0.0) for f in timed]
-            out[f"{p}_ms_median"], out[f"{p}_ms_p95"] = _stats(ms)
-            # The least-disturbed frame: on a shared machine other jobs only ever add time.
-            out[f"{p}_ms_min"] = min(ms) if ms else float("nan")
-        for name in ("maps_total", "maps_rendered", "triangles_to_maps", "texels_to_maps",
-                     "camera_triangles", "maps_per_fragment"):
-            out[name] = float(np.mean([getattr(f, name) for f in timed]))
-        out["shadow_memory_mib"] = renderer.shadow_memory_bytes / 2**20
-        out["notes"] = "; ".join(renderer.notes + floors.floor_warnings(scene))
-    finally:
-        renderer.release()
-    return out
+        for _ in range(timing.frames):
+            timing.frame()
+    except BaseException:
+        timing.release()
+        raise
+    return timing.result()
 
 
 def combine(reps: list[dict]) -> dict:
@@ -273,17 +310,35 @@ def run_one(ctx, bscene: BenchScene, scene: Scene, spec: RunSpec, opts: BenchOpt
 
 def interleaved_timings(ctx, scene: Scene, specs: list[RunSpec], opts: BenchOptions
                         ) -> dict[RunSpec, list]:
-    """``opts.repeat`` timings of each run, round-robin over the scene's runs, so that a
-    change in the machine's load over the sweep falls on every method alike."""
+    """``opts.repeat`` timings of each run. Within a repetition the runs take turns frame by
+    frame (each renders frame k, then each renders frame k + 1), so that a change in the
+    machine's speed, which lasts seconds, falls on every method alike and the ratios between
+    them hold even where the milliseconds move."""
     timings: dict[RunSpec, list] = {spec: [] for spec in specs}
     for _ in range(opts.repeat):
-        for spec in specs:
-            if timings[spec] and isinstance(timings[spec][-1], BaseException):
-                continue
-            try:
-                timings[spec].append(measure_timing(ctx, scene, spec, opts))
-            except FAILURES as exc:
-                timings[spec].append(exc)
+        running: dict[RunSpec, Timing] = {}
+        try:
+            for spec in specs:
+                if timings[spec] and isinstance(timings[spec][-1], BaseException):
+                    continue
+                try:
+                    running[spec] = Timing(ctx, scene, spec, opts)
+                except FAILURES as exc:
+                    timings[spec].append(exc)
+            for _ in range(opts.warmup + opts.frames):
+                for spec, timing in list(running.items()):
+                    try:
+                        timing.frame()
+                    except FAILURES as exc:
+                        timing.release()
+                        del running[spec]
+                        timings[spec].append(exc)
+            for spec, timing in running.items():
+                timings[spec].append(timing.result())
+        finally:
+            for timing in running.values():
+                timing.release()
     return timings
+
 
 

@@ -6,6 +6,7 @@ characters keep a local mesh and are placed every frame by :meth:`Character.mode
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import math
 import re
@@ -109,18 +110,12 @@ class Character:
         the segment being walked, so local +Z faces the direction of travel. A one-point path
         stands still with yaw 0.
         """
-        points = np.asarray(self.path, dtype=np.float64)
-        if len(points) == 1:
-            return points[0].copy(), 0.0
-        deltas = np.roll(points, -1, axis=0) - points
-        lengths = np.linalg.norm(deltas, axis=1)
-        loop = float(lengths.sum())
-        if loop <= 0.0:
+        points, deltas, lengths, starts, loop = self._segments
+        if len(points) == 1 or loop <= 0.0:
             return points[0].copy(), 0.0
         s = (self.speed * (t + self.phase)) % loop
         if s >= loop:  # float modulo of a tiny negative number can return the divisor itself
             s = 0.0
-        starts = np.concatenate(([0.0], np.cumsum(lengths)[:-1]))
         # The last segment starting at or before s; zero-length segments share their start with
         # the next one, so side="right" skips them and the yaw never comes from a zero vector.
         i = int(np.searchsorted(starts, s, side="right")) - 1
@@ -128,6 +123,17 @@ class Character:
         position = points[i] + f * deltas[i]
         yaw = math.atan2(float(deltas[i, 0]), float(deltas[i, 2]))
         return position, yaw
+
+    @functools.cached_property
+    def _segments(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float]:
+        """The closed path's points, segment vectors, lengths and start arc lengths, and the
+        loop's length: the same every frame, so worked out once (a crowd poses every walker
+        every frame)."""
+        points = np.asarray(self.path, dtype=np.float64)
+        deltas = np.roll(points, -1, axis=0) - points
+        lengths = np.linalg.norm(deltas, axis=1)
+        starts = np.concatenate(([0.0], np.cumsum(lengths)[:-1]))
+        return points, deltas, lengths, starts, float(lengths.sum())
 
     def model_matrix(self, t: float) -> np.ndarray:
         """The (4, 4) local-to-world matrix at time ``t``: ``T(position) @ Ry(yaw)``."""

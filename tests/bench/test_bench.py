@@ -159,22 +159,41 @@ def test_cli_lists_runs_and_rejects_a_bad_method(tmp_path):
     assert "Traceback" not in bad.stderr
 
 
-def test_repeated_timings_are_interleaved_and_combined(ctx, tmp_path, monkeypatch):
+def test_repeated_timings_take_turns_frame_by_frame_and_are_combined(ctx, tmp_path, monkeypatch):
     opts = tiny_options(tmp_path, reference=False, repeat=2)
     order = []
-    original = measure.measure_timing
+    original = measure.Timing.frame
 
-    def spy(ctx_, scene, spec, opts_):
-        order.append(spec.method)
-        return original(ctx_, scene, spec, opts_)
+    def spy(self):
+        order.append((self.spec.method, self.k))
+        return original(self)
 
-    monkeypatch.setattr(measure, "measure_timing", spy)
+    monkeypatch.setattr(measure.Timing, "frame", spy)
     bench.run(opts, ctx)
-    assert order == ["clumped", "single", "clumped", "single"]  # round-robin, not back to back
+    frames = opts.warmup + opts.frames
+    # Each repetition: frame k of every run, then frame k + 1 of every run.
+    turn = [(m, k) for k in range(frames) for m in ("clumped", "single")]
+    assert order == turn + turn
     rows = read_rows(opts.out / "bench.csv")
     for r in rows:
         assert r["status"] == "ok" and r["repeats"] == "2"
         assert float(r["total_ms_spread"]) >= 0.0
+
+
+def test_a_run_that_fails_mid_way_leaves_the_others_timed(ctx, tmp_path, monkeypatch):
+    opts = tiny_options(tmp_path, reference=False, repeat=2)
+    original = measure.Timing.frame
+
+    def failing(self):
+        if self.spec.method == "single" and self.k == 1:
+            raise RuntimeError("out of memory")
+        return original(self)
+
+    monkeypatch.setattr(measure.Timing, "frame", failing)
+    bench.run(opts, ctx)
+    rows = {r["method"]: r for r in read_rows(opts.out / "bench.csv")}
+    assert rows["clumped"]["status"] == "ok" and rows["clumped"]["repeats"] == "2"
+    assert rows["single"]["status"].startswith("failed: RuntimeError: out of memory")
 
 
 def test_combine_takes_the_median_of_repetitions():
