@@ -33,6 +33,16 @@ def test_ortho_maps_box_corners_to_ndc_corners():
     assert np.allclose(proj @ [-2, -1, -5, 1], [-1, -1, 1, 1])
 
 
+def test_ortho_many_equals_ortho_one_by_one():
+    rng = np.random.default_rng(5)
+    lo = rng.uniform(-50, 50, (20, 3))
+    hi = lo + rng.uniform(0.1, 30, (20, 3))
+    many = tf.ortho_many(lo[:, 0], hi[:, 0], lo[:, 1], hi[:, 1], lo[:, 2], hi[:, 2])
+    for k in range(20):
+        one = tf.ortho(lo[k, 0], hi[k, 0], lo[k, 1], hi[k, 1], lo[k, 2], hi[k, 2])
+        assert np.allclose(many[k], one, rtol=1e-12, atol=1e-12)
+
+
 def test_light_rotation_z_points_to_the_light_even_when_vertical():
     for direction in ([-0.4, -1.0, -0.3], [0.0, -1.0, 0.0], [0.0, 1.0, 0.0], [1.0, 0, 0]):
         d = np.array(direction) / np.linalg.norm(direction)

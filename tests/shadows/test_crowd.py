@@ -11,6 +11,7 @@ from game import transforms
 from game.render.renderer import Renderer, View
 from game.scene import parse_scene
 from game.shadows import crowd
+from game.shadows.fit import fit_directional, fit_squares
 from game.shadows.plan import KIND_CHARACTER, ShadowSettings
 from tests.conftest import ACCURACY_SIZE as SIZE
 from tests.conftest import MAX_ERROR, TINY
@@ -139,6 +140,30 @@ def test_more_characters_than_map_records_are_merged_never_dropped():
     # Without footprints (spot and point lights) too.
     maps = crowd.group([128] * 20, None, 512, max_maps=5)
     assert len(maps) == 5 and sorted(k for m in maps for k in m.members) == list(range(20))
+
+
+def test_a_frames_fits_at_once_equal_the_fits_one_by_one():
+    """fit_squares (a frame's character maps in one go) gives each map the fit that
+    fit_directional gives it alone: same snapped square, texel, depth range."""
+    rng = np.random.default_rng(11)
+    rot = transforms.light_rotation(np.array([-0.4, -1.0, -0.3]))
+    n = 12
+    points = [rng.uniform(-20, 20, 3) + rng.uniform(-0.5, 0.5, (8, 3)) for _ in range(n)]
+    q = [p @ rot.T for p in points]
+    centres = np.array([(x.min(axis=0) + x.max(axis=0))[:2] / 2 for x in q])
+    halves = np.array([0.75 * (x.max(axis=0) - x.min(axis=0))[:2].max() for x in q])
+    sizes = rng.choice([32, 64, 128, 512], n)
+    texels = np.where(np.arange(n) % 2 == 0, np.nan, 2.5 * halves / (sizes - 3))
+    together = fit_squares(rot, centres, halves, np.array([x[:, 2].min() for x in q]),
+                           np.array([x[:, 2].max() for x in q]), sizes, texels)
+    for k in range(n):
+        alone = fit_directional(points[k], rot, int(sizes[k]), float(halves[k]),
+                                texel=None if np.isnan(texels[k]) else float(texels[k]),
+                                centre=centres[k])
+        assert np.allclose(together[k].view_proj, alone.view_proj, rtol=1e-12, atol=1e-12)
+        assert np.allclose(together[k].rect, alone.rect)
+        assert together[k].texel == pytest.approx(alone.texel)
+        assert (together[k].near, together[k].far) == pytest.approx((alone.near, alone.far))
 
 
 # -- frames ----------------------------------------------------------------------------------------
