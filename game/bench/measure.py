@@ -339,6 +339,3 @@ def interleaved_timings(ctx, scene: Scene, specs: list[RunSpec], opts: BenchOpti
             for timing in running.values():
                 timing.release()
     return timings
-
-
-
