@@ -61,16 +61,11 @@ def frustum(left: float, right: float, bottom: float, top: float, near: float, f
         left, right, bottom, top, near, far, dtype=np.float64).T
 
 
-def ortho(left: float, right: float, bottom: float, top: float, near: float, far: float
-          ) -> np.ndarray:
-    """OpenGL orthographic projection; near and far are distances along -Z and may be negative."""
-    return matrix44.create_orthogonal_projection(
-        left, right, bottom, top, near, far, dtype=np.float64).T
-
-
 def ortho_many(left: np.ndarray, right: np.ndarray, bottom: np.ndarray, top: np.ndarray,
                near: np.ndarray, far: np.ndarray) -> np.ndarray:
-    """(n, 4, 4) orthographic projections, as :func:`ortho` gives one."""
+    """(n, 4, 4) OpenGL orthographic projections, one per element of the bounds; near and far
+    are distances along -Z and may be negative. Built with numpy, not pyrr, since a frame fits
+    a hundred character maps at once (the same arithmetic as pyrr's, to the bit)."""
     m = np.zeros((len(left), 4, 4))
     m[:, 0, 0] = 2.0 / (right - left)
     m[:, 1, 1] = 2.0 / (top - bottom)

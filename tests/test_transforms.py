@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from pyrr import matrix44
 
 from game import transforms as tf
 
@@ -28,18 +29,19 @@ def test_frustum_equals_symmetric_perspective():
 
 
 def test_ortho_maps_box_corners_to_ndc_corners():
-    proj = tf.ortho(-2, 4, -1, 3, -5, 5)
+    proj = tf.ortho_many(*(np.array([v], float) for v in (-2, 4, -1, 3, -5, 5)))[0]
     assert np.allclose(proj @ [4, 3, 5, 1], [1, 1, -1, 1])   # z=+5 is distance -5: near
     assert np.allclose(proj @ [-2, -1, -5, 1], [-1, -1, 1, 1])
 
 
-def test_ortho_many_equals_ortho_one_by_one():
+def test_ortho_many_equals_pyrr_one_by_one():
     rng = np.random.default_rng(5)
     lo = rng.uniform(-50, 50, (20, 3))
     hi = lo + rng.uniform(0.1, 30, (20, 3))
     many = tf.ortho_many(lo[:, 0], hi[:, 0], lo[:, 1], hi[:, 1], lo[:, 2], hi[:, 2])
     for k in range(20):
-        one = tf.ortho(lo[k, 0], hi[k, 0], lo[k, 1], hi[k, 1], lo[k, 2], hi[k, 2])
+        one = matrix44.create_orthogonal_projection(lo[k, 0], hi[k, 0], lo[k, 1], hi[k, 1],
+                                                    lo[k, 2], hi[k, 2], dtype=np.float64).T
         assert np.allclose(many[k], one, rtol=1e-12, atol=1e-12)
 
 

@@ -57,6 +57,11 @@ class ShadowMethod(ABC):
         self.max_maps = max_layers if max_maps is None else max_maps
         self.notes: list[str] = []   # one line each: how the method degraded, and why
 
+    def note(self, text: str) -> None:
+        """Say once how the method degraded (a method planned again says it again)."""
+        if text not in self.notes:
+            self.notes.append(text)
+
     @classmethod
     def min_layers(cls, settings: ShadowSettings, n_characters: int) -> int:
         """The fewest array layers the method can work with (for the memory budget)."""

@@ -18,10 +18,9 @@ from game import transforms
 from game.scene.geometry import PackedGeometry
 from game.scene.model import Light
 from game.shadows.fit import (
-    DEPTH_MARGIN,
-    MARGIN_TEXELS,
     MapFit,
     deciding_points,
+    fit_squares,
     fits_for_light,
     layers_for_light,
 )
@@ -79,18 +78,9 @@ def fit_cascade(centre_l: np.ndarray, radius: float, z_lo: float, z_hi: float,
     ``centre_l`` is the sphere's centre in light space; ``z_lo``..``z_hi`` the light-space depth
     range the map holds.
     """
-    usable = resolution - 2 * MARGIN_TEXELS - 1
-    texel = 2 * radius / usable
-    x0 = (math.floor((centre_l[0] - radius) / texel) - MARGIN_TEXELS) * texel
-    y0 = (math.floor((centre_l[1] - radius) / texel) - MARGIN_TEXELS) * texel
-    size = resolution * texel
-    margin = DEPTH_MARGIN * (z_hi - z_lo) + 2 * texel
-    near, far = -z_hi - margin, -z_lo + margin
-    view = np.eye(4)
-    view[:3, :3] = light_rot
-    proj = transforms.ortho(x0, x0 + size, y0, y0 + size, near, far)
-    return MapFit(view_proj=proj @ view, texel=texel, perspective=False, eye=np.zeros(3),
-                  rect=np.array([x0, y0, x0 + size, y0 + size]), near=near, far=far)
+    return fit_squares(light_rot, np.array([centre_l[:2]], float), np.array([radius], float),
+                       np.array([z_lo]), np.array([z_hi]), np.array([resolution]),
+                       np.array([np.nan]))[0]
 
 
 class CascadedShadows(ShadowMethod):
@@ -140,8 +130,7 @@ class CascadedShadows(ShadowMethod):
                     "draws the maps of single at cascade_resolution "
                     + ("(one over the cone)" if light.kind == "spot"
                        else "(one frustum, or a cube's faces around the light)"))
-            if note not in self.notes:
-                self.notes.append(note)
+            self.note(note)
             self._light_rot = None
             self._statics = self.reached_statics()
             points = [g.static_points[i] for i in self._statics]

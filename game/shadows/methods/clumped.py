@@ -194,8 +194,7 @@ class ClumpedShadows(ShadowMethod):
             note = (f"{n} characters' maps at {self._character_resolution}^2 need {want} "
                     f"shadow-map layers; they get {max(1, self.layer_limit // 2)}, half the "
                     "budget's: the largest maps of a frame are made coarser when they do not fit")
-            if note not in self.notes:
-                self.notes.append(note)
+            self.note(note)
             want = max(1, self.layer_limit // 2)
         if self.light.range is not None:
             # A lamp reaches few characters at once: one shared layer, the maps made smaller
@@ -211,8 +210,7 @@ class ClumpedShadows(ShadowMethod):
             note = (f"{n} characters' maps at {self._character_resolution}^2 need {want} "
                     f"shadow-map layers, {count} are free (GL or memory limit): the largest "
                     "maps of a frame are made coarser when they do not fit")
-            if note not in self.notes:
-                self.notes.append(note)
+            self.note(note)
 
     # -- statics ----------------------------------------------------------------------------
     def set_light(self, light: Light) -> None:
@@ -667,9 +665,10 @@ class ClumpedShadows(ShadowMethod):
         shrunk = crowd.pack(planned, len(self._char_layers), s.clump_resolution)
         covers = fits = None
         if light.kind == "directional":
-            xy = placed @ self._light_rot[:2].T
+            xy = placed @ self._light_rot[:2].T              # (n, 8, 2) across the light
+            z = placed @ self._light_rot[2]                  # (n, 8) along it
             covers = np.concatenate([xy.min(axis=1), xy.max(axis=1)], axis=1)
-            fits = self._group_fits(planned, shown, placed)
+            fits = self._group_fits(planned, shown, z.min(axis=1), z.max(axis=1))
         drawn = 0
         for k, m in enumerate(planned):
             members = [int(shown[j]) for j in m.members]
@@ -694,16 +693,15 @@ class ClumpedShadows(ShadowMethod):
                 "character_maps_shrunk": shrunk}
 
     def _group_fits(self, planned: list[crowd.CrowdMap], shown: np.ndarray,
-                    placed: np.ndarray) -> list[MapFit | None]:
+                    z_lo: np.ndarray, z_hi: np.ndarray) -> list[MapFit | None]:
         """Directional light: the fits of the planned maps that carry a square, all at once
         (the members lie within their bounding spheres, so the square holds them all; their
-        posed box corners bound the depth); None for the others."""
+        posed boxes' light-space depths ``z_lo``..``z_hi`` bound the depth); None for the
+        others."""
         with_square = [k for k, m in enumerate(planned) if m.square is not None]
         out: list[MapFit | None] = [None] * len(planned)
         if not with_square:
             return out
-        z = placed @ self._light_rot[2]                      # (n, 8)
-        z_lo, z_hi = z.min(axis=1), z.max(axis=1)
         members = [planned[k].members for k in with_square]
         order = shown[np.concatenate(members)]
         starts = np.cumsum([0] + [len(m) for m in members[:-1]])
