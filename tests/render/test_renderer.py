@@ -228,7 +228,7 @@ def test_first_frame_equals_later_frames_with_a_large_map_grid(ctx):
     # Regression: the grid buffer grew on the first frame after it was bound, and the first
     # frame then read a stale grid (shadows missing on frame 0 only).
     scene = parse_scene(TOWN)
-    settings = ShadowSettings(clump_count=60, grid="on")
+    settings = ShadowSettings(clump_count=60, clump_resolution=1024, grid="on")
     r = Renderer(ctx, scene, SIZE, settings, gbuffer=True)
     view = View.from_camera(scene.camera, SIZE)
     try:

@@ -123,7 +123,8 @@ def test_characters_beyond_the_layer_limit_get_coarser_maps(ctx):
     four). The largest are halved until all fit; every character still casts, correctly."""
     scene = crowd_scene()
     limits = GLLimits.of(ctx).tightened(max_array_layers=2)
-    renderer = Renderer(ctx, scene, SIZE, gbuffer=True, limits=limits)
+    renderer = Renderer(ctx, scene, SIZE, ShadowSettings(clump_resolution=1024), gbuffer=True,
+                        limits=limits)
     try:
         method = renderer.method
         assert method.layers <= 2

@@ -12,7 +12,7 @@ from game.render.renderer import Renderer, View
 from game.scene import parse_scene
 from game.shadows import crowd
 from game.shadows.fit import fit_directional, fit_squares
-from game.shadows.plan import KIND_CHARACTER, ShadowSettings
+from game.shadows.plan import CHARACTER_DENSITY_FLOOR, KIND_CHARACTER, ShadowSettings
 from tests.conftest import ACCURACY_SIZE as SIZE
 from tests.conftest import MAX_ERROR, TINY
 from tests.shadow_check import render_and_check
@@ -181,9 +181,11 @@ def test_walkers_that_meet_and_part_cast_their_shadows_in_and_out_of_a_group(ctx
     step each shadow is where Embree puts it: no stale map, no missing member."""
     scene = scene_with([("[[-3.5, 0.9, 1.5], [3.5, 0.9, 1.5]]", 1.0, 0.0),
                         ("[[3.5, 0.9, 1.9], [-3.5, 0.9, 1.9]]", 1.0, 0.0)])
-    # At 1 texel per pixel the walkers' maps are small enough to share one when they meet.
-    renderer = Renderer(ctx, scene, SIZE, ShadowSettings(character_texels_per_pixel=1.0),
-                        gbuffer=True)
+    # At 1 texel per pixel, and a density floor under that (a low density target, which sets
+    # the floor; the one clump's map is much finer than the target anyway), the walkers' maps
+    # are small enough to share one when they meet.
+    settings = ShadowSettings(character_texels_per_pixel=1.0, texels_per_metre=16.0)
+    renderer = Renderer(ctx, scene, SIZE, settings, gbuffer=True)
     try:
         grouped = []
         for t in np.linspace(0.0, 7.0, 15):
@@ -216,10 +218,11 @@ def test_a_character_whose_shadow_cannot_be_seen_gets_no_map_and_changes_no_pixe
 
 
 def test_character_maps_follow_the_view(ctx):
-    """The same walker needs a finer map seen from near than from far; capped by the most."""
+    """The same walker needs a finer map seen from near than from far; capped by the most.
+    (A low density target keeps the density floor out of the way.)"""
     scene = scene_with([])
-    renderer = Renderer(ctx, scene, SIZE, ShadowSettings(character_texels_per_pixel=4.0),
-                        gbuffer=True)
+    settings = ShadowSettings(character_texels_per_pixel=4.0, texels_per_metre=16.0)
+    renderer = Renderer(ctx, scene, SIZE, settings, gbuffer=True)
     try:
         sizes = []
         for distance in (40.0, 10.0, 2.5):
@@ -231,3 +234,26 @@ def test_character_maps_follow_the_view(ctx):
         assert sizes[0] < sizes[1] <= sizes[2] <= 512, sizes
     finally:
         renderer.release()
+
+
+def test_a_distant_character_map_keeps_half_the_clump_maps_density(ctx):
+    """Far from the camera a walker needs few texels per pixel, but its map is never coarser
+    than CHARACTER_DENSITY_FLOOR times the clump maps' texels per metre."""
+    scene = scene_with([])
+    eye = np.array([0.0, 0.6, 1.0]) * 60.0
+    view = View(transforms.look_at(eye, np.zeros(3)), View.from_camera(scene.camera, SIZE).proj)
+    sizes = {}
+    for floor_density in (8.0, 96.0):
+        settings = ShadowSettings(character_texels_per_pixel=1.0,
+                                  texels_per_metre=floor_density / CHARACTER_DENSITY_FLOOR)
+        renderer = Renderer(ctx, scene, SIZE, settings, gbuffer=True)
+        try:
+            renderer.render(0.0, view)
+            maps = [m for m in renderer.last_plan.maps if m.kind == KIND_CHARACTER]
+            radius = renderer.geom.character_radius[0]
+        finally:
+            renderer.release()
+        assert len(maps) == 1
+        sizes[floor_density] = maps[0].viewport
+        assert maps[0].viewport >= 2.0 * radius * floor_density, (floor_density, sizes)
+    assert sizes[8.0] < sizes[96.0], sizes

@@ -29,6 +29,7 @@ from game.shadows.fit import (
 from game.shadows.map_grid import octahedral_encode
 from game.shadows.method import ShadowMethod, bounding_sphere
 from game.shadows.plan import (
+    CHARACTER_DENSITY_FLOOR,
     KIND_CHARACTER,
     KIND_CLUMP,
     KIND_FALLBACK,
@@ -652,6 +653,11 @@ class ClumpedShadows(ShadowMethod):
             visible &= ~(bounded & crowd.outside_view(volumes, view.proj @ view.view))
             needed = crowd.texels_needed(volumes, centres, radii, view.view, view.proj,
                                          view.size[1], s.character_texels_per_pixel, eye)
+            # A distant walker needs few texels per pixel, but a map much coarser than the
+            # clump maps beside it gives its small shadow a blocky outline the statics' do not
+            # have: the floor keeps the two of the same order.
+            needed = np.maximum(needed, 2.0 * radii * s.texels_per_metre
+                                * CHARACTER_DENSITY_FLOOR)
         shown = np.flatnonzero(visible)
         sizes = self.crowd.sizes([names[i] for i in shown], needed[shown])
         rects = None
