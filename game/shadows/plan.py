@@ -22,6 +22,8 @@ KIND_CLUMP, KIND_CHARACTER, KIND_ALL, KIND_CASCADE, KIND_FALLBACK = 0, 1, 2, 3, 
 # tuning.
 TEXELS_PER_METRE = 96.0        # clump maps' texel-density target
 CLUMP_RESOLUTION = 2048        # texels per side of a clump map (and of the array's layers)
+MIN_SHORT_RESOLUTION = 1024    # clump maps short of layers at the density target are halved
+#                                to this side at least
 CHARACTER_RESOLUTION = 512     # most texels per side of a character's map
 MIN_CHARACTER_RESOLUTION = 32  # fewest texels per side of a character's map
 CHARACTER_TEXELS_PER_PIXEL = 4.0  # a character map's texels per screen pixel where its shadow

@@ -196,3 +196,28 @@ def test_capture_clamps_a_resolution_above_the_gl_limit(tmp_path):
     notes = result.stderr.strip().splitlines()
     assert notes and all(n.startswith("note: ") for n in notes)
     assert "GL_MAX_TEXTURE_SIZE" in notes[0]
+
+
+def test_clumps_short_of_layers_get_maps_of_half_the_side(ctx):
+    """A density target the budget cannot meet: the clump maps are halved once, four times as
+    many, the parts are split for the clumps the budget gives (wider than the target's), a note
+    says so, and the frame still matches Embree. A budget that holds the target keeps 2048."""
+    scene = parse_scene(TINY, TINY_PATH, TINY_PATH.parent)
+    layer_mib = 4 * 2048 ** 2 / 2**20
+    short = ShadowSettings(texels_per_metre=4000.0, budget_mib=4 * layer_mib)
+    renderer = Renderer(ctx, scene, SIZE, short, gbuffer=True)
+    try:
+        method = renderer.method
+        assert method.resolution == 1024
+        assert method._extent_scale > 1.0
+        assert any("four times as many" in note for note in method.notes)
+        _, err = render_and_check(renderer, 0.0)
+        assert err["shadowed"] >= 100 and err["error"] <= MAX_ERROR, err["error"]
+    finally:
+        renderer.release()
+    renderer = Renderer(ctx, scene, SIZE, ShadowSettings(budget_mib=64 * layer_mib))
+    try:
+        assert renderer.method.resolution == 2048
+        assert renderer.method._extent_scale == 1.0
+    finally:
+        renderer.release()

@@ -34,6 +34,7 @@ from game.shadows.plan import (
     KIND_CLUMP,
     KIND_FALLBACK,
     MIN_CLUMP_RESOLUTION,
+    MIN_SHORT_RESOLUTION,
     MapRecord,
     ShadowPlan,
     ShadowSettings,
@@ -104,9 +105,23 @@ class ClumpedShadows(ShadowMethod):
     def __init__(self, geom: PackedGeometry, light: Light, settings: ShadowSettings,
                  max_layers: int, max_maps: int | None = None):
         super().__init__(geom, light, settings, max_layers, max_maps)
+        self._start(settings)
+        side = settings.clump_resolution
+        if self._short and settings.clump_count is None and side // 2 >= MIN_SHORT_RESOLUTION:
+            # Short of layers, maps of a quarter of the texels, four times as many, hug the
+            # statics closer and leave less of the budget on empty ground between them.
+            self.notes = []
+            self._start(dataclasses.replace(settings, clump_resolution=side // 2))
+            self.note(f"the clumps at {settings.texels_per_metre:g} texels/m do not fit the "
+                      f"{settings.budget_mib:g} MiB budget in maps of {side}^2: the clump "
+                      f"maps are {side // 2}^2, four times as many")
+
+    def _start(self, settings: ShadowSettings) -> None:
+        """Everything planned from the settings: layers, clumps, character maps."""
+        self.settings = settings
         layer_bytes = 4 * settings.clump_resolution ** 2
         budget_layers = int(settings.budget_mib * 2**20 // layer_bytes)
-        self.layer_limit = max(2, min(budget_layers, max_layers))
+        self.layer_limit = max(2, min(budget_layers, self.max_layers))
         self.static_maps: list[MapRecord] = []
         self.clumps: list[clumping.Clump] = []
         self._clump_keys: list[list[tuple[str, int]]] = []  # member units' keys per clump
@@ -116,12 +131,16 @@ class ClumpedShadows(ShadowMethod):
         self._high = 0                            # layers ever handed out
         self._char_layers: list[int] = []         # the layers the character maps share
         self._char_boxes: np.ndarray | None = None  # (n, 8, 3) local bounding-box corners
+        # Parts are split for maps this many times wider than the density target's (above 1
+        # where the budget cannot meet the target) and whether it cannot (_build_static).
+        self._extent_scale = 1.0
+        self._short = False
         self.crowd = crowd.CrowdPlanner(
             min(settings.min_character_resolution, self._character_resolution),
             self._character_resolution)
         self._assign_characters()
         self.view_budget: ViewBudget | None = None
-        self.set_light(light)
+        self.set_light(self.light)
 
     # -- layers ---------------------------------------------------------------------------
     def _take_layer(self) -> int:
@@ -243,7 +262,8 @@ class ClumpedShadows(ShadowMethod):
 
     def _max_extent(self, per_metre: float) -> float:
         s = self.settings
-        return clumping.max_extent_for_density(s.clump_resolution, s.texels_per_metre) * per_metre
+        return (clumping.max_extent_for_density(s.clump_resolution, s.texels_per_metre)
+                * per_metre * self._extent_scale)
 
     def _make_units(self) -> None:
         """The statics' parts (game/scene/parts.py), a part wider than one map at the density
@@ -299,29 +319,34 @@ class ClumpedShadows(ShadowMethod):
 
     def _build_static(self) -> None:
         s = self.settings
+        self._extent_scale, self._short = 1.0, False
         self._make_units()
-        points = self._unit_points
-        footprint, per_metre = _footprint(self.light, points)
         count = s.clump_count
         if count is not None and count > self.max_clumps:
             self.notes.append(f"{count} clumps asked, {self.max_clumps} fit the layer budget")
             count = self.max_clumps
-        long_keys = [k for k in self._unit_keys if k in self._long]
-        core = [u for u, k in enumerate(self._unit_keys) if k not in self._long]
-        long_clumps = self._long_clumps(long_keys, footprint)
+        clumps, core, long_clumps, footprint = self._clumps_at_target(count)
         room = max(1, self.max_clumps - len(long_clumps))
-        if count is not None:
-            count = max(1, min(count, len(core)) - len(long_clumps)) if core else None
-        clumps = clumping.make_clumps([points[u] for u in core], footprint, s.clumping,
-                                      self._max_extent(per_metre), count) if core else []
         if self._layers_for(clumps, core) > room:
+            needed = self._layers_for(clumps, core) + len(long_clumps)
+            self._short = True
             self.notes.append(
-                f"{len(clumps) + len(long_clumps)} clumps would meet {s.texels_per_metre:g} "
+                f"{needed} clumps would meet {s.texels_per_metre:g} "
                 f"texels/m; {self.max_clumps} layers fit the {s.budget_mib:g} MiB budget and "
                 "the GL's layers, so texels are coarser")
+            if count is None:
+                # The parts were split for the target's maps, which the budget cannot give:
+                # split them for the maps it can (a clump count goes as the inverse square of
+                # the clumps' width). Parts cut finer serve no clump, and more single faces
+                # would count as long ones, drawn into every map they cross.
+                self._extent_scale = math.sqrt(needed / self.max_clumps)
+                self._make_units()
+                clumps, core, long_clumps, footprint = self._clumps_at_target(None)
+                room = max(1, self.max_clumps - len(long_clumps))
             # A clump around a point light takes a cube's six layers: fewer clumps until the
             # maps of all of them fit.
             count = room
+            points = self._unit_points
             while True:
                 clumps = clumping.make_clumps([points[u] for u in core], footprint, s.clumping,
                                               0.0, count)
@@ -338,6 +363,21 @@ class ClumpedShadows(ShadowMethod):
         self._shared_faces: dict[tuple, tuple] = {}  # a clump's own keys -> faces it shares
         self._dirty = set(range(len(self._clump_keys)))
         self._refresh_static()
+
+    def _clumps_at_target(self, count: int | None):
+        """The units' clumps at the density target (or ``count`` of them), the core units
+        they are made of, the long faces' clumps, and the light's footprint function."""
+        s = self.settings
+        points = self._unit_points
+        footprint, per_metre = _footprint(self.light, points)
+        long_keys = [k for k in self._unit_keys if k in self._long]
+        core = [u for u, k in enumerate(self._unit_keys) if k not in self._long]
+        long_clumps = self._long_clumps(long_keys, footprint)
+        if count is not None:
+            count = max(1, min(count, len(core)) - len(long_clumps)) if core else None
+        clumps = clumping.make_clumps([points[u] for u in core], footprint, s.clumping,
+                                      self._max_extent(per_metre), count) if core else []
+        return clumps, core, long_clumps, footprint
 
     def _layers_for(self, clumps: list[clumping.Clump], core: list[int]) -> int:
         """The layers these clumps' maps take: one each, six for a clump around the light."""
