@@ -16,7 +16,7 @@ from game.scene.loader import MAX_LIGHTS
 from game.shadows.lights import budget_shares, min_layers
 from game.shadows.plan import ShadowSettings
 from game.shadows.registry import MAP_METHODS
-from tests.conftest import SCENES
+from tests.conftest import ASSETS, SCENES
 from tests.shadow_check import occluders
 
 LAMPS = SCENES / "lamps.toml"
@@ -100,6 +100,27 @@ def test_moving_one_lamp_re_renders_only_its_maps(ctx):
                            1)
         renderer.render(0.0, view)
         span = renderer.last_spans[1]
+        redrawn = renderer.last_plan.render_static
+        assert redrawn and all(span.first_map <= i < span.first_map + span.map_count
+                               for i in redrawn)
+    finally:
+        renderer.release()
+
+
+def test_moving_a_lamp_of_the_night_town_re_renders_only_its_maps(ctx):
+    """The night town's lamps are short of layers: a lamp moved half a metre keeps its number
+    of layers, so no other light's cached maps move."""
+    scene = load_scene(ASSETS / "night_town.toml")
+    renderer = Renderer(ctx, scene, (64, 36))
+    try:
+        view = View.from_camera(scene.camera, (64, 36))
+        renderer.render(0.0, view)
+        renderer.render(0.0, view)
+        lamp = scene.lights[5]
+        renderer.set_light(dataclasses.replace(lamp, position=lamp.position + [0.5, 0.0, 0.0]),
+                           5)
+        renderer.render(0.0, view)
+        span = renderer.last_spans[5]
         redrawn = renderer.last_plan.render_static
         assert redrawn and all(span.first_map <= i < span.first_map + span.map_count
                                for i in redrawn)

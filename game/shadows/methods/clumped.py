@@ -334,11 +334,14 @@ class ClumpedShadows(ShadowMethod):
                 f"{needed} clumps would meet {s.texels_per_metre:g} "
                 f"texels/m; {self.max_clumps} layers fit the {s.budget_mib:g} MiB budget and "
                 "the GL's layers, so texels are coarser")
-            if count is None:
+            if count is None and self.light.kind == "directional":
                 # The parts were split for the target's maps, which the budget cannot give:
                 # split them for the maps it can (a clump count goes as the inverse square of
                 # the clumps' width). Parts cut finer serve no clump, and more single faces
-                # would count as long ones, drawn into every map they cross.
+                # would count as long ones, drawn into every map they cross. Not around a
+                # spot or point light, where a clump may take one layer or a cube's six: there
+                # the count does not follow the width, and a lamp moved a little would clump
+                # anew into a different number of maps.
                 self._extent_scale = math.sqrt(needed / self.max_clumps)
                 self._make_units()
                 clumps, core, long_clumps, footprint = self._clumps_at_target(None)
