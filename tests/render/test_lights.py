@@ -89,20 +89,26 @@ def test_a_lamp_plans_no_map_for_casters_beyond_its_range(ctx, method):
         renderer.release()
 
 
+def _moving_a_lamp_redraws_only_its_maps(renderer: Renderer, k: int) -> None:
+    """Render twice (every clump map cached by then), move light k by half a metre, render:
+    the clump maps drawn again are all light k's."""
+    view = View.from_camera(renderer.scene.camera, renderer.size)
+    renderer.render(0.0, view)
+    renderer.render(0.0, view)
+    assert not renderer.last_plan.render_static  # every clump map is cached
+    lamp = renderer.scene.lights[k]
+    renderer.set_light(dataclasses.replace(lamp, position=lamp.position + [0.5, 0.0, 0.0]), k)
+    renderer.render(0.0, view)
+    span = renderer.last_spans[k]
+    redrawn = renderer.last_plan.render_static
+    assert redrawn and all(span.first_map <= i < span.first_map + span.map_count
+                           for i in redrawn)
+
+
 def test_moving_one_lamp_re_renders_only_its_maps(ctx):
     renderer, _ = _render(ctx)
     try:
-        view = View.from_camera(renderer.scene.camera, SIZE)
-        renderer.render(0.0, view)
-        assert not renderer.last_plan.render_static  # every clump map is cached
-        lamp = renderer.scene.lights[1]
-        renderer.set_light(dataclasses.replace(lamp, position=lamp.position + [0.5, 0.0, 0.0]),
-                           1)
-        renderer.render(0.0, view)
-        span = renderer.last_spans[1]
-        redrawn = renderer.last_plan.render_static
-        assert redrawn and all(span.first_map <= i < span.first_map + span.map_count
-                               for i in redrawn)
+        _moving_a_lamp_redraws_only_its_maps(renderer, 1)
     finally:
         renderer.release()
 
@@ -110,20 +116,9 @@ def test_moving_one_lamp_re_renders_only_its_maps(ctx):
 def test_moving_a_lamp_of_the_night_town_re_renders_only_its_maps(ctx):
     """The night town's lamps are short of layers: a lamp moved half a metre keeps its number
     of layers, so no other light's cached maps move."""
-    scene = load_scene(ASSETS / "night_town.toml")
-    renderer = Renderer(ctx, scene, (64, 36))
+    renderer = Renderer(ctx, load_scene(ASSETS / "night_town.toml"), (64, 36))
     try:
-        view = View.from_camera(scene.camera, (64, 36))
-        renderer.render(0.0, view)
-        renderer.render(0.0, view)
-        lamp = scene.lights[5]
-        renderer.set_light(dataclasses.replace(lamp, position=lamp.position + [0.5, 0.0, 0.0]),
-                           5)
-        renderer.render(0.0, view)
-        span = renderer.last_spans[5]
-        redrawn = renderer.last_plan.render_static
-        assert redrawn and all(span.first_map <= i < span.first_map + span.map_count
-                               for i in redrawn)
+        _moving_a_lamp_redraws_only_its_maps(renderer, 5)
     finally:
         renderer.release()
 
