@@ -327,8 +327,9 @@ class ClumpedShadows(ShadowMethod):
             count = self.max_clumps
         clumps, core, long_clumps, footprint = self._clumps_at_target(count)
         room = max(1, self.max_clumps - len(long_clumps))
-        if self._layers_for(clumps, core) > room:
-            needed = self._layers_for(clumps, core) + len(long_clumps)
+        layers = self._layers_for(clumps, core)
+        if layers > room:
+            needed = layers + len(long_clumps)
             self._short = True
             self.notes.append(
                 f"{needed} clumps would meet {s.texels_per_metre:g} "
