@@ -20,10 +20,9 @@ from __future__ import annotations
 import dataclasses
 
 from game.gpu.limits import GLLimits
-from game.shadows.plan import ShadowSettings
+from game.shadows.plan import DEPTH_TEXEL_BYTES, ShadowSettings
 from game.shadows.registry import method_class
 
-DEPTH_TEXEL_BYTES = 4          # GL_DEPTH_COMPONENT32F
 MIN_MAP_RESOLUTION = 64        # texels per side below which a map is useless; never halve past it
 
 

@@ -25,9 +25,8 @@ from game.scene.model import Light
 from game.shadows import registry
 from game.shadows.fit import CUBE_FACES
 from game.shadows.method import ShadowMethod
-from game.shadows.plan import ShadowPlan, ShadowSettings
+from game.shadows.plan import DEPTH_TEXEL_BYTES, ShadowPlan, ShadowSettings
 
-DEPTH_TEXEL_BYTES = 4  # GL_DEPTH_COMPONENT32F
 MIN_LAMP_RESOLUTION = 128  # the smallest clump maps a lamp's share may make
 
 
@@ -85,10 +84,12 @@ class LightShadows:
     def __init__(self, geom: PackedGeometry, lights: list[Light], settings: ShadowSettings,
                  max_layers: int, max_maps: int):
         n = len(lights)
+        radius = scene_radius(geom)
         shares, sides = budget_shares(lights, settings.budget_mib, settings.clump_resolution,
-                                      _scene_radius(geom))
-        self.methods: list[ShadowMethod] = []
-        for light, share, side in zip(lights, shares, sides, strict=True):
+                                      radius)
+
+        def create(k: int, share: float) -> ShadowMethod:
+            light, side = lights[k], sides[k]
             own = dataclasses.replace(
                 settings, budget_mib=share, clump_resolution=side,
                 character_resolution=min(settings.character_resolution, side))
@@ -98,8 +99,23 @@ class LightShadows:
                                                settings.lamp_resolution),
                     cascade_resolution=min(settings.cascade_resolution,
                                            settings.lamp_resolution))
-            self.methods.append(registry.create(geom, light, own, max(1, max_layers // n),
-                                                max(1, max_maps // n)))
+            return registry.create(geom, light, own, max(1, max_layers // n),
+                                   max(1, max_maps // n))
+
+        self.methods: list[ShadowMethod] = [create(k, share) for k, share in enumerate(shares)]
+        # A light that leaves part of its share (a lamp whose statics fit one cube of maps, a
+        # sun held to the GL's layers) is held to what it takes, and the rest goes to the
+        # lights short of theirs, by reach. Each light keeps its limit's layers in the array
+        # (reserved_layers), so one that clumps anew, moved, never moves another's maps.
+        short = [k for k, m in enumerate(self.methods) if m.wants_memory] if n > 1 else []
+        givers = [k for k in range(n) if k not in short] if n > 1 else []
+        spare = sum(shares[k] - self.methods[k].memory_mib for k in givers)
+        for k in givers:
+            self.methods[k].limit_memory(self.methods[k].memory_mib)
+        if short and spare > 0:
+            weights = {k: reach_weight(lights[k], radius) for k in short}
+            for k in short:
+                self.methods[k] = create(k, shares[k] + spare * weights[k] / sum(weights.values()))
         self._bases: list[tuple[int, int]] | None = None
         self._end = 0
 
@@ -129,7 +145,7 @@ class LightShadows:
                 layer, used = layer + 1, 0
             places.append((layer, used))
             size = method.resolution
-            squares = used + method.layers
+            squares = used + (method.reserved_layers if len(self.methods) > 1 else method.layers)
             layer, used = layer + squares // per, squares % per
         self._end = layer + (1 if used else 0)
         return places
@@ -181,7 +197,7 @@ class LightShadows:
         return combined, spans
 
 
-def _scene_radius(geom: PackedGeometry) -> float:
+def scene_radius(geom: PackedGeometry) -> float:
     """Half the diagonal of the ground plan (x, z) of the floors and statics."""
     fixed = geom.objects < geom.first_character
     if not fixed.any():

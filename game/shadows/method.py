@@ -8,6 +8,7 @@ what the plan lists. Planning is kept apart from drawing as in Filament, whose
 
 from __future__ import annotations
 
+import dataclasses
 from abc import ABC, abstractmethod
 from typing import ClassVar
 
@@ -15,7 +16,7 @@ import numpy as np
 
 from game.scene.geometry import PackedGeometry
 from game.scene.model import Light
-from game.shadows.plan import ShadowPlan, ShadowSettings
+from game.shadows.plan import DEPTH_TEXEL_BYTES, ShadowPlan, ShadowSettings
 
 # Where the shading pass's visibility of the hard light comes from.
 VISIBILITY_MAPS = "maps"      # the depth maps the method plans
@@ -66,6 +67,25 @@ class ShadowMethod(ABC):
     def min_layers(cls, settings: ShadowSettings, n_characters: int) -> int:
         """The fewest array layers the method can work with (for the memory budget)."""
         return 1
+
+    @property
+    def memory_mib(self) -> float:
+        """The depth memory the method's layers take."""
+        return DEPTH_TEXEL_BYTES * self.layers * self.resolution ** 2 / 2**20
+
+    @property
+    def reserved_layers(self) -> int:
+        """The layers kept for it beside other lights': the most it may take while it runs."""
+        return self.layers
+
+    @property
+    def wants_memory(self) -> bool:
+        """Whether a larger share of the memory budget would give its maps finer texels."""
+        return False
+
+    def limit_memory(self, mib: float) -> None:
+        """Hold any later re-planning to ``mib`` of the budget (what it takes now, or more)."""
+        self.settings = dataclasses.replace(self.settings, budget_mib=mib)
 
     @property
     @abstractmethod

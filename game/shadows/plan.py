@@ -36,6 +36,7 @@ DEPTH_BIAS_TEXELS = 1.0        # offset towards the light
 SLOPE_BIAS_TEXELS = 1.0        # offset towards the light, times tan(angle to the light)
 MAX_SLOPE = 8.0                # cap on that tan, for grazing light
 SHADOW_BUDGET_MIB = 512        # depth-array memory the clumped method may use
+DEPTH_TEXEL_BYTES = 4          # GL_DEPTH_COMPONENT32F
 MAX_CLUMP_RESOLUTION = 4096    # view-sized clump maps: the largest side (the array's layers)
 MIN_CLUMP_RESOLUTION = 128     # view-sized clump maps: the smallest side
 VIEW_TEXELS_PER_PIXEL = 8.0    # view-sized clump maps: texels per pixel where their shadow

@@ -13,8 +13,8 @@ from game.render.renderer import Renderer, View
 from game.scene import load_scene
 from game.scene.generate import generate_town
 from game.scene.loader import MAX_LIGHTS
-from game.shadows.lights import budget_shares, min_layers
-from game.shadows.plan import ShadowSettings
+from game.shadows.lights import budget_shares, min_layers, scene_radius
+from game.shadows.plan import CLUMP_RESOLUTION, SHADOW_BUDGET_MIB, ShadowSettings
 from game.shadows.registry import MAP_METHODS
 from tests.conftest import ASSETS, SCENES
 from tests.shadow_check import occluders
@@ -128,6 +128,24 @@ def test_every_light_shares_one_budget(ctx):
     renderer, _ = _render(ctx, budget_mib=budget)
     try:
         assert renderer.shadow_memory_bytes <= budget * 2**20
+    finally:
+        renderer.release()
+
+
+def test_what_a_light_leaves_of_its_share_goes_to_the_lamps_short_of_theirs(ctx):
+    """On the night town the moon is held to its share of the GL's layers and most lamps fit one
+    cube of maps: the lamps whose clumps are short of layers get what those leave, and all
+    lights together still keep to the budget."""
+    renderer = Renderer(ctx, load_scene(ASSETS / "night_town.toml"), (64, 36))
+    try:
+        lights, methods = renderer.scene.lights, renderer.shadows.methods
+        shares, _ = budget_shares(lights, SHADOW_BUDGET_MIB, CLUMP_RESOLUTION,
+                                  scene_radius(renderer.geom))
+        used = [m.memory_mib for m in methods]
+        assert sum(used) <= SHADOW_BUDGET_MIB
+        grown = [k for k in range(1, len(lights)) if used[k] > shares[k]]
+        assert grown and all(methods[k].settings.budget_mib > shares[k] for k in grown)
+        assert all(used[k] <= methods[k].settings.budget_mib for k in range(len(lights)))
     finally:
         renderer.release()
 

@@ -17,6 +17,7 @@ from game.scene import Light
 from game.scene.geometry import PackedGeometry
 from game.shadows import clumping, crowd
 from game.shadows.fit import (
+    CUBE_FACES,
     MapFit,
     fit_cube_faces,
     fit_directional,
@@ -30,6 +31,7 @@ from game.shadows.map_grid import octahedral_encode
 from game.shadows.method import ShadowMethod, bounding_sphere
 from game.shadows.plan import (
     CHARACTER_DENSITY_FLOOR,
+    DEPTH_TEXEL_BYTES,
     KIND_CHARACTER,
     KIND_CLUMP,
     KIND_FALLBACK,
@@ -119,9 +121,9 @@ class ClumpedShadows(ShadowMethod):
     def _start(self, settings: ShadowSettings) -> None:
         """Everything planned from the settings: layers, clumps, character maps."""
         self.settings = settings
-        layer_bytes = 4 * settings.clump_resolution ** 2
-        budget_layers = int(settings.budget_mib * 2**20 // layer_bytes)
-        self.layer_limit = max(2, min(budget_layers, self.max_layers))
+        layer_bytes = DEPTH_TEXEL_BYTES * settings.clump_resolution ** 2
+        self._budget_layers = int(settings.budget_mib * 2**20 // layer_bytes)
+        self.layer_limit = max(2, min(self._budget_layers, self.max_layers))
         self.static_maps: list[MapRecord] = []
         self.clumps: list[clumping.Clump] = []
         self._clump_keys: list[list[tuple[str, int]]] = []  # member units' keys per clump
@@ -152,6 +154,27 @@ class ClumpedShadows(ShadowMethod):
 
     def _give_layer(self, layer: int) -> None:
         self._free.append(layer)
+
+    @property
+    def reserved_layers(self) -> int:
+        # A light moved or edited may clump anew into more or fewer layers, up to the limit.
+        if self.view_budget is not None:
+            return self.layers
+        return max(self.layers, self.layer_limit)
+
+    @property
+    def wants_memory(self) -> bool:
+        # Short of the budget's layers, not the GL's, and without room for one more clump's
+        # maps: a lamp whose clumps all surround it ends in one cube, whatever it is given.
+        one_more = CUBE_FACES if self.light.kind == "point" else 1
+        return (self._short and self._budget_layers < self.max_layers
+                and self.layers + one_more > self.layer_limit)
+
+    def limit_memory(self, mib: float) -> None:
+        super().limit_memory(mib)
+        layer_bytes = DEPTH_TEXEL_BYTES * self.settings.clump_resolution ** 2
+        self._budget_layers = int(mib * 2**20 // layer_bytes)
+        self.layer_limit = max(2, min(self._budget_layers, self.max_layers, self.layer_limit))
 
     @property
     def max_clumps(self) -> int:
@@ -470,7 +493,17 @@ class ClumpedShadows(ShadowMethod):
                     layer=layer, viewport=s.clump_resolution,
                     objects=[self.geom.static_object(i) for i in statics], cover=cover,
                     pieces=pieces))
+        self._clump_density = self._density_reached()
         self._make_view_budget()
+
+    def _density_reached(self) -> float:
+        """The clump maps' texels per metre: the target, or under a directional light the
+        median of the maps' own where the budget held them coarser."""
+        target = self.settings.texels_per_metre
+        texels = [m.fit.texel for m in self.static_maps if m.kind == KIND_CLUMP]
+        if self.light.kind != "directional" or not texels:
+            return target
+        return min(target, 1.0 / float(np.median(texels)))
 
     def _drop_empty_clumps(self) -> None:
         """Clumps left without members go, and give back their layers."""
@@ -700,7 +733,7 @@ class ClumpedShadows(ShadowMethod):
             # A distant walker needs few texels per pixel, but a map much coarser than the
             # clump maps beside it gives its small shadow a blocky outline the statics' do not
             # have: the floor keeps the two of the same order.
-            needed = np.maximum(needed, 2.0 * radii * s.texels_per_metre
+            needed = np.maximum(needed, 2.0 * radii * self._clump_density
                                 * CHARACTER_DENSITY_FLOOR)
         shown = np.flatnonzero(visible)
         sizes = self.crowd.sizes([names[i] for i in shown], needed[shown])
