@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import os
 
+import numpy as np
+
 GL_KINDS = ("Buffer", "Texture", "Framebuffer", "Renderbuffer", "VertexArray", "Program",
             "Shader", "Query", "Sampler")
 
@@ -31,16 +33,40 @@ def attached_shaders(programs) -> int:
     return sum(int(GL.glGetProgramiv(p.glo, GL.GL_ATTACHED_SHADERS)) for p in programs)
 
 
-def live_gl_names(highest: int = 2048) -> dict[str, int]:
-    """How many names of each GL object kind in 1..``highest`` are alive in the current context.
+def live_gl_names(gap: int = 1024) -> dict[str, int]:
+    """How many names of each GL object kind are alive in the current context.
 
     Asks the driver (glIsBuffer, glIsTexture, ...), so it counts what really exists, whoever
-    made it. Mesa hands out the lowest free names, so a small ``highest`` covers a test's objects.
+    made it. Mesa hands out some kinds' names from the lowest free one and others ever upwards
+    (a long test session's framebuffers reach tens of thousands), so names are probed up to the
+    one the driver would hand out next, and on until ``gap`` names in a row are free.
     """
     from OpenGL import GL
 
     counts = {}
     for kind in GL_KINDS:
         probe = getattr(GL, f"glIs{kind}")
-        counts[kind] = sum(1 for name in range(1, highest + 1) if probe(name))
+        top = _next_name(kind)
+        alive, name, last = 0, 1, 0
+        while name <= top or name <= last + gap:
+            if probe(name):
+                alive, last = alive + 1, name
+            name += 1
+        counts[kind] = alive
     return counts
+
+
+def _next_name(kind: str) -> int:
+    """The name the driver hands out next for ``kind`` (made and deleted at once)."""
+    from OpenGL import GL
+
+    if kind in ("Program", "Shader"):
+        name = GL.glCreateProgram() if kind == "Program" else GL.glCreateShader(
+            GL.GL_VERTEX_SHADER)
+        getattr(GL, f"glDelete{kind}")(name)
+        return int(name)
+    plural = {"Query": "Queries"}.get(kind, f"{kind}s")
+    made = getattr(GL, f"glGen{plural}")(1)
+    name = int(np.ravel(made)[0])  # PyOpenGL gives a scalar or an array of one
+    getattr(GL, f"glDelete{plural}")(1, [name])
+    return name

@@ -160,14 +160,15 @@ def group(sizes: list[int], rects: np.ndarray | None, max_resolution: int,
         return [CrowdMap(list(range(g, n, limit)), max_resolution) for g in range(limit)]
     half = 0.5 * (rects[:, 2:] - rects[:, :2]).max(axis=1)
     texel = 2.0 * half / (np.asarray(sizes, float) - SPARE_TEXELS)  # as fit_directional's
-    groups = {k: _Group([k], rects[k].copy(), float(texel[k]), sizes[k]) for k in range(n)}
+    boxes, texels = rects.tolist(), texel.tolist()
+    groups = {k: _Group([k], boxes[k], texels[k], sizes[k]) for k in range(n)}
     if merge and n > 1:
         _merge_by_cost(groups, rects, max_resolution)
     while len(groups) > limit:
         _merge_nearest(groups, max_resolution)
     out = []
     for g in groups.values():
-        x0, y0, x1, y1 = g.box.tolist()
+        x0, y0, x1, y1 = g.box
         square = (0.5 * (x0 + x1), 0.5 * (y0 + y1), 0.5 * max(x1 - x0, y1 - y0))
         out.append(CrowdMap(sorted(g.members), g.size, square,
                             None if len(g.members) == 1 else g.texel))
@@ -177,13 +178,14 @@ def group(sizes: list[int], rects: np.ndarray | None, max_resolution: int,
 @dataclass
 class _Group:
     members: list[int]
-    box: np.ndarray        # light-space rectangle of the members' spheres
+    box: list[float]       # light-space rectangle (x0, y0, x1, y1) of the members' spheres
     texel: float | None    # the finest member's texel; None once merged past the largest map
     size: int
 
 
-def _union(a: _Group, b: _Group) -> np.ndarray:
-    return np.concatenate([np.minimum(a.box[:2], b.box[:2]), np.maximum(a.box[2:], b.box[2:])])
+def _union(a: _Group, b: _Group) -> list[float]:
+    return [min(a.box[0], b.box[0]), min(a.box[1], b.box[1]),
+            max(a.box[2], b.box[2]), max(a.box[3], b.box[3])]
 
 
 def _merge_by_cost(groups: dict[int, _Group], rects: np.ndarray, max_resolution: int) -> None:
@@ -192,8 +194,7 @@ def _merge_by_cost(groups: dict[int, _Group], rects: np.ndarray, max_resolution:
     reach = 0.5 * (rects[:, 2:] - rects[:, :2]).max(axis=1)
     # Candidate pairs: footprints at most one footprint apart, and worth one map as they are
     # (two single maps): a group's union only grows, so few pairs that fail here would pass.
-    gap = np.linalg.norm(centre[:, None] - centre[None], axis=2) - reach[:, None] - reach[None]
-    i, j = np.nonzero(np.triu(gap < 2.0 * np.maximum(reach[:, None], reach[None]), 1))
+    i, j, gap = _near_pairs(centre, reach)
     n = len(rects)
     texel = np.array([groups[k].texel for k in range(n)])
     size = np.array([groups[k].size for k in range(n)], float)
@@ -211,15 +212,13 @@ def _merge_by_cost(groups: dict[int, _Group], rects: np.ndarray, max_resolution:
         return k
 
     # The walk below runs once per candidate pair: plain floats, not small arrays.
-    boxes = {k: g.box.tolist() for k, g in groups.items()}
-    order = np.argsort(gap[i, j], kind="stable")
+    order = np.lexsort((j, i, gap[keep]))
     for a, b in zip(i[order].tolist(), j[order].tolist(), strict=True):
         ra, rb = root(a), root(b)
         if ra == rb:
             continue
         ga, gb = groups[ra], groups[rb]
-        ba, bb = boxes[ra], boxes[rb]
-        box = [min(ba[0], bb[0]), min(ba[1], bb[1]), max(ba[2], bb[2]), max(ba[3], bb[3])]
+        box = _union(ga, gb)
         t = min(ga.texel, gb.texel)
         need = max(box[2] - box[0], box[3] - box[1]) / t + SPARE_TEXELS
         if need > max_resolution:
@@ -228,9 +227,26 @@ def _merge_by_cost(groups: dict[int, _Group], rects: np.ndarray, max_resolution:
         if size * size >= ga.size * ga.size + gb.size * gb.size + MAP_COST_TEXELS:
             continue
         owner[rb] = ra
-        boxes[ra] = box
-        groups[ra] = _Group(ga.members + gb.members, np.array(box), t, size)
+        groups[ra] = _Group(ga.members + gb.members, box, t, size)
         del groups[rb]
+
+
+def _near_pairs(centre: np.ndarray, reach: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The pairs i < j of footprints (centres, half sides) less than twice the larger one's
+    half side apart, and their gaps. A sweep along x: pairs further apart along x than any pair
+    may be near are never formed, so a crowd spread over a town costs no n-by-n table."""
+    n = len(centre)
+    order = np.argsort(centre[:, 0], kind="stable")
+    x = centre[order, 0]
+    window = 4.0 * float(reach.max()) if n else 0.0  # the most two near footprints lie apart
+    count = np.searchsorted(x, x + window, side="right") - np.arange(n) - 1
+    a = np.repeat(np.arange(n), count)
+    b = a + 1 + np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)
+    p, q = order[a], order[b]
+    gap = np.hypot(*(centre[p] - centre[q]).T) - reach[p] - reach[q]
+    near = gap < 2.0 * np.maximum(reach[p], reach[q])
+    return np.minimum(p, q)[near], np.maximum(p, q)[near], gap[near]
 
 
 def _merge_nearest(groups: dict[int, _Group], max_resolution: int) -> None:
@@ -245,7 +261,7 @@ def _merge_nearest(groups: dict[int, _Group], max_resolution: int) -> None:
     ga, gb = groups[keys[a]], groups[keys[b]]
     box = _union(ga, gb)
     texel = None if ga.texel is None or gb.texel is None else min(ga.texel, gb.texel)
-    need = (float((box[2:] - box[:2]).max()) / texel + SPARE_TEXELS) if texel else math.inf
+    need = (max(box[2] - box[0], box[3] - box[1]) / texel + SPARE_TEXELS) if texel else math.inf
     if need > max_resolution:
         texel = None  # coarser than asked: fitted to the square at the largest size
     size = max_resolution if texel is None else pow2_at_least(need, 1, max_resolution)

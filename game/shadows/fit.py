@@ -111,9 +111,11 @@ def fit_squares(light_rot: np.ndarray, centres: np.ndarray, halves: np.ndarray,
     view[:3, :3] = light_rot
     view_proj = transforms.ortho_many(x0, x1, y0, y1, near, far) @ view
     rects = np.stack([x0, y0, x1, y1], axis=1)
-    return [MapFit(view_proj=view_proj[k], texel=float(texel[k]), perspective=False,
-                   eye=np.zeros(3), rect=rects[k], near=float(near[k]), far=float(far[k]))
-            for k in range(len(res))]
+    eye = np.zeros(3)
+    eye.flags.writeable = False  # one for every fit
+    return [MapFit(view_proj=v, texel=t, perspective=False, eye=eye, rect=r, near=n, far=f)
+            for v, t, r, n, f in zip(view_proj, texel.tolist(), rects, near.tolist(),
+                                     far.tolist(), strict=True)]
 
 
 def fit_perspective(points: np.ndarray, eye: np.ndarray, resolution: int,

@@ -12,7 +12,12 @@ from game.render.renderer import Renderer, View
 from game.scene import parse_scene
 from game.shadows import crowd
 from game.shadows.fit import fit_directional, fit_squares
-from game.shadows.plan import CHARACTER_DENSITY_FLOOR, KIND_CHARACTER, ShadowSettings
+from game.shadows.plan import (
+    CHARACTER_DENSITY_FLOOR,
+    KIND_CHARACTER,
+    KIND_CLUMP,
+    ShadowSettings,
+)
 from tests.conftest import ACCURACY_SIZE as SIZE
 from tests.conftest import MAX_ERROR, TINY
 from tests.shadow_check import render_and_check
@@ -128,6 +133,20 @@ def test_overlapping_footprints_share_a_map_at_the_finer_texels_and_a_lone_one_k
     assert cx - half <= 0.0 and cx + half >= 2.3 and cy - half <= 0.0 and cy + half >= 2.1
     assert 2 * half / pair.texel + crowd.SPARE_TEXELS <= pair.resolution == 128
     assert all(m.texel is None and m.resolution == 64 for m in maps if len(m.members) == 1)
+
+
+def test_the_sweep_finds_every_near_pair_that_comparing_all_pairs_finds():
+    rng = np.random.default_rng(3)
+    for n in (0, 1, 2, 40, 300):
+        centre = rng.uniform(-30, 30, (n, 2))
+        reach = rng.uniform(0.2, 3.0, n)
+        i, j, gap = crowd._near_pairs(centre, reach)
+        apart = np.linalg.norm(centre[:, None] - centre[None], axis=2)
+        every = apart - reach[:, None] - reach[None]
+        want = {(a, b) for a in range(n) for b in range(a + 1, n)
+                if every[a, b] < 2.0 * max(reach[a], reach[b])}
+        assert set(zip(i.tolist(), j.tolist(), strict=True)) == want
+        assert np.allclose(gap, every[i, j])
 
 
 def test_more_characters_than_map_records_are_merged_never_dropped():
@@ -257,3 +276,26 @@ def test_a_distant_character_map_keeps_half_the_clump_maps_density(ctx):
         sizes[floor_density] = maps[0].viewport
         assert maps[0].viewport >= 2.0 * radius * floor_density, (floor_density, sizes)
     assert sizes[8.0] < sizes[96.0], sizes
+
+
+def test_the_density_floor_follows_the_clump_maps_where_the_budget_holds_them_coarser(ctx):
+    """Clump maps that cannot meet the density target set the floor at their own density: a
+    distant walker's map is not made finer than the statics' shadows around it."""
+    scene = scene_with([])
+    eye = np.array([0.0, 0.6, 1.0]) * 60.0
+    view = View(transforms.look_at(eye, np.zeros(3)), View.from_camera(scene.camera, SIZE).proj)
+    settings = ShadowSettings(character_texels_per_pixel=1.0, texels_per_metre=400.0,
+                              clump_resolution=256, budget_mib=0.75)
+    renderer = Renderer(ctx, scene, SIZE, settings)
+    try:
+        renderer.render(0.0, view)
+        plan = renderer.last_plan
+        reached = 1.0 / np.median([m.fit.texel for m in plan.maps if m.kind == KIND_CLUMP])
+        maps = [m for m in plan.maps if m.kind == KIND_CHARACTER]
+        radius = renderer.geom.character_radius[0]
+    finally:
+        renderer.release()
+    assert reached < settings.texels_per_metre / 4
+    assert len(maps) == 1
+    # The target's floor would ask 2 r 200 texels: the largest map, 256^2.
+    assert 2.0 * radius * reached * CHARACTER_DENSITY_FLOOR <= maps[0].viewport < 256

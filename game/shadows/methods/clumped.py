@@ -133,6 +133,7 @@ class ClumpedShadows(ShadowMethod):
         self._high = 0                            # layers ever handed out
         self._char_layers: list[int] = []         # the layers the character maps share
         self._char_boxes: np.ndarray | None = None  # (n, 8, 3) local bounding-box corners
+        self._names: list[str] | None = None        # the characters' names, for the crowd
         # Parts are split for maps this many times wider than the density target's (above 1
         # where the budget cannot meet the target) and whether it cannot (_build_static).
         self._extent_scale = 1.0
@@ -498,9 +499,11 @@ class ClumpedShadows(ShadowMethod):
 
     def _density_reached(self) -> float:
         """The clump maps' texels per metre: the target, or under a directional light the
-        median of the maps' own where the budget held them coarser."""
+        median of the maps' own where the budget held them coarser (of the long faces' maps
+        where there are no others)."""
         target = self.settings.texels_per_metre
-        texels = [m.fit.texel for m in self.static_maps if m.kind == KIND_CLUMP]
+        texels = ([m.fit.texel for m in self.static_maps if m.kind == KIND_CLUMP]
+                  or [m.fit.texel for m in self.static_maps])
         if self.light.kind != "directional" or not texels:
             return target
         return min(target, 1.0 / float(np.median(texels)))
@@ -629,7 +632,7 @@ class ClumpedShadows(ShadowMethod):
     def update_characters(self, geom: PackedGeometry) -> None:
         """Characters were added or removed: free and hand out their layers."""
         self.geom = geom
-        self._char_boxes = None
+        self._char_boxes = self._names = None
         self._assign_characters()
         if self.view_budget is not None:  # the characters' squares change: place all anew
             self.view_budget = None
@@ -712,8 +715,10 @@ class ClumpedShadows(ShadowMethod):
         if not visible.any():  # a lamp whose range holds no character now
             return {"character_maps": 0, "characters_skipped": n, "characters_grouped": 0,
                     "character_maps_shrunk": 0}
-        names = self._character_names()
-        self.crowd.forget(set(names))
+        if self._names is None or len(self._names) != n:
+            self._names = self._character_names()
+            self.crowd.forget(set(self._names))
+        names = self._names
         # Each character's bounding box, posed: its map's fit and cover need no more.
         if self._char_boxes is None or len(self._char_boxes) != n:
             self._char_boxes = np.stack([_box_corners(p) for p in g.character_points])
@@ -736,7 +741,7 @@ class ClumpedShadows(ShadowMethod):
             needed = np.maximum(needed, 2.0 * radii * self._clump_density
                                 * CHARACTER_DENSITY_FLOOR)
         shown = np.flatnonzero(visible)
-        sizes = self.crowd.sizes([names[i] for i in shown], needed[shown])
+        sizes = self.crowd.sizes([names[i] for i in shown.tolist()], needed[shown])
         rects = None
         if light.kind == "directional":
             xy = centres[shown] @ self._light_rot[:2].T
@@ -753,8 +758,10 @@ class ClumpedShadows(ShadowMethod):
             covers = np.concatenate([xy.min(axis=1), xy.max(axis=1)], axis=1)
             fits = self._group_fits(planned, shown, z.min(axis=1), z.max(axis=1))
         drawn = 0
+        first = g.character_object(0)
+        shown_list = shown.tolist()
         for k, m in enumerate(planned):
-            members = [int(shown[j]) for j in m.members]
+            members = [shown_list[j] for j in m.members]
             fit = fits[k] if fits is not None else None
             if fit is None:
                 fit = self._fit(placed[members].reshape(-1, 3), m.resolution)
@@ -767,8 +774,10 @@ class ClumpedShadows(ShadowMethod):
                 layer, origin = square.layer, (square.x + origin[0], square.y + origin[1])
             maps.append(MapRecord(name=f"character_{members[0]}", kind=KIND_CHARACTER, fit=fit,
                                   layer=layer, viewport=m.resolution,
-                                  objects=[g.character_object(i) for i in members],
-                                  cover=None if covers is None else covers[members],
+                                  objects=[first + i for i in members],
+                                  cover=None if covers is None else covers[
+                                      members if len(members) > 1 else slice(*members,
+                                                                             members[0] + 1)],
                                   origin=origin))
             drawn += 1
         return {"character_maps": drawn, "characters_skipped": int(n - len(shown)),
