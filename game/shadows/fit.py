@@ -189,8 +189,9 @@ CUBE_AXES = ((1.0, 0.0, 0.0), (-1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, -1.0, 0.0
              (0.0, 0.0, 1.0), (0.0, 0.0, -1.0))
 
 
-def holds_in_one_frustum(points: np.ndarray, eye: np.ndarray) -> bool:
-    """True when ``fit_perspective`` holds every point (none clipped by the near plane or angle)."""
+def holds_in_one_frustum(points: np.ndarray, eye: np.ndarray, max_tan: float = MAX_TAN) -> bool:
+    """True when ``fit_perspective`` holds every point (none clipped by the near plane or angle)
+    within ``max_tan`` of its axis."""
     p = np.asarray(points, float)
     eye = np.asarray(eye, float)
     axis = (p.min(axis=0) + p.max(axis=0)) / 2 - eye
@@ -201,7 +202,7 @@ def holds_in_one_frustum(points: np.ndarray, eye: np.ndarray) -> bool:
     far_depth = float(depth.max())
     if far_depth <= 0 or np.any(depth <= MIN_NEAR_SHARE * far_depth):
         return False
-    return bool(np.all(np.abs(v[:, :2]) <= MAX_TAN * depth[:, None]))
+    return bool(np.all(np.abs(v[:, :2]) <= max_tan * depth[:, None]))
 
 
 def fit_cube_faces(points: np.ndarray, eye: np.ndarray, resolution: int) -> list[MapFit]:

@@ -112,10 +112,16 @@ class LightShadows:
         spare = sum(shares[k] - self.methods[k].memory_mib for k in givers)
         for k in givers:
             self.methods[k].limit_memory(self.methods[k].memory_mib)
+        self._notes: list[str] = []
         if short and spare > 0:
             weights = {k: reach_weight(lights[k], radius) for k in short}
             for k in short:
                 self.methods[k] = create(k, shares[k] + spare * weights[k] / sum(weights.values()))
+            who = (f"light {short[0]} is short of its share" if len(short) == 1 else
+                   f"lights {', '.join(map(str, short))} are short of their shares")
+            self._notes.append(f"{who} of the {settings.budget_mib:g} MiB budget and get"
+                               f"{'s' if len(short) == 1 else ''} the {spare:.1f} MiB the "
+                               "others leave of theirs")
         self._bases: list[tuple[int, int]] | None = None
         self._end = 0
 
@@ -127,7 +133,8 @@ class LightShadows:
         """Each light's notes; with several lights, each says which light it is about."""
         if len(self.methods) == 1:
             return self.methods[0].notes
-        return [f"light {k}: {note}" for k, m in enumerate(self.methods) for note in m.notes]
+        return self._notes + [f"light {k}: {note}" for k, m in enumerate(self.methods)
+                              for note in m.notes]
 
     @property
     def resolution(self) -> int:

@@ -14,7 +14,7 @@ from game.scene import load_scene
 from game.scene.generate import generate_town
 from game.scene.loader import MAX_LIGHTS
 from game.shadows.lights import budget_shares, min_layers, scene_radius
-from game.shadows.plan import CLUMP_RESOLUTION, SHADOW_BUDGET_MIB, ShadowSettings
+from game.shadows.plan import CLUMP_RESOLUTION, ShadowSettings
 from game.shadows.registry import MAP_METHODS
 from tests.conftest import ASSETS, SCENES
 from tests.shadow_check import occluders
@@ -114,8 +114,8 @@ def test_moving_one_lamp_re_renders_only_its_maps(ctx):
 
 
 def test_moving_a_lamp_of_the_night_town_re_renders_only_its_maps(ctx):
-    """The night town's lamps are short of layers: a lamp moved half a metre keeps its number
-    of layers, so no other light's cached maps move."""
+    """A lamp moved half a metre clumps anew within the layers kept for it, so no other
+    light's cached maps move."""
     renderer = Renderer(ctx, load_scene(ASSETS / "night_town.toml"), (64, 36))
     try:
         _moving_a_lamp_redraws_only_its_maps(renderer, 5)
@@ -132,20 +132,37 @@ def test_every_light_shares_one_budget(ctx):
         renderer.release()
 
 
-def test_what_a_light_leaves_of_its_share_goes_to_the_lamps_short_of_theirs(ctx):
-    """On the night town the moon is held to its share of the GL's layers and most lamps fit one
-    cube of maps: the lamps whose clumps are short of layers get what those leave, and all
-    lights together still keep to the budget."""
-    renderer = Renderer(ctx, load_scene(ASSETS / "night_town.toml"), (64, 36))
+def test_what_a_light_leaves_of_its_share_goes_to_the_lights_short_of_theirs(ctx):
+    """In 64 MiB the sun and the spot lamp of lamps.toml take less than their shares, and the
+    point lamp's clumps are short of layers: it gets what they leave, and all lights together
+    still keep to the budget."""
+    budget = 64.0
+    renderer, _ = _render(ctx, budget_mib=budget)
     try:
         lights, methods = renderer.scene.lights, renderer.shadows.methods
-        shares, _ = budget_shares(lights, SHADOW_BUDGET_MIB, CLUMP_RESOLUTION,
-                                  scene_radius(renderer.geom))
+        shares, _ = budget_shares(lights, budget, CLUMP_RESOLUTION, scene_radius(renderer.geom))
         used = [m.memory_mib for m in methods]
-        assert sum(used) <= SHADOW_BUDGET_MIB
-        grown = [k for k in range(1, len(lights)) if used[k] > shares[k]]
+        assert sum(used) <= budget
+        grown = [k for k in range(len(lights)) if used[k] > shares[k]]
         assert grown and all(methods[k].settings.budget_mib > shares[k] for k in grown)
         assert all(used[k] <= methods[k].settings.budget_mib for k in range(len(lights)))
+        said = [note for note in renderer.notes if "short of" in note]
+        assert len(said) == 1 and all(str(k) in said[0] for k in grown), said
+    finally:
+        renderer.release()
+
+
+def test_no_clump_map_of_a_point_lamp_is_wider_than_a_cube_face(ctx):
+    """A wider frustum would spread its texels thinner than the faces of a cube around the lamp:
+    such a clump gets the faces instead, however many layers the lamp has."""
+    renderer = Renderer(ctx, load_scene(ASSETS / "night_town.toml"), (64, 36))
+    try:
+        lamps = renderer.shadows.methods[1:]
+        assert all(lamp.light.kind == "point" for lamp in lamps)
+        for lamp in lamps:
+            for record in lamp.static_maps:
+                texel = 2.0 / (record.viewport - 3)  # a face's texel in tan units, as fitted
+                assert np.abs(record.fit.rect).max() <= 1.0 + 2.5 * texel, record.fit.rect
     finally:
         renderer.release()
 

@@ -18,6 +18,7 @@ from game.scene.geometry import PackedGeometry
 from game.shadows import clumping, crowd
 from game.shadows.fit import (
     CUBE_FACES,
+    MAX_TAN,
     MapFit,
     fit_cube_faces,
     fit_directional,
@@ -42,6 +43,10 @@ from game.shadows.plan import (
     ShadowSettings,
 )
 from game.shadows.view_budget import ClumpRequest, ViewBudget
+
+# A clump around a point light gets one frustum only when it is no wider than a cube face (45
+# degrees either side of its axis): a wider one spreads its texels thinner than the faces do.
+CUBE_FACE_TAN = 1.0
 
 
 def _footprint(light: Light, statics: list[np.ndarray]):
@@ -411,9 +416,15 @@ class ClumpedShadows(ShadowMethod):
         """The layers these clumps' maps take: one each, six for a clump around the light."""
         if self.light.kind == "directional":
             return len(clumps)
-        return sum(1 if holds_in_one_frustum(
-            np.concatenate([self._unit_points[core[m]] for m in c.members]), self.light.position)
+        return sum(1 if self._one_frustum(
+            np.concatenate([self._unit_points[core[m]] for m in c.members]))
             else 6 for c in clumps)
+
+    def _one_frustum(self, points: np.ndarray) -> bool:
+        """Whether one frustum from a spot or point light holds ``points``; around a point light
+        only one no wider than a cube's face, whose texels it would otherwise coarsen."""
+        max_tan = CUBE_FACE_TAN if self.light.kind == "point" else MAX_TAN
+        return holds_in_one_frustum(points, self.light.position, max_tan)
 
     def _long_clumps(self, keys: list[tuple[str, int]], footprint) -> list[list[tuple[str, int]]]:
         """The long faces ``keys`` in clumps of their own: few, each about as wide as two of
@@ -530,7 +541,7 @@ class ClumpedShadows(ShadowMethod):
         res = self.settings.clump_resolution
         light = self.light
         fits: list[MapFit] = []
-        if light.kind != "directional" and not holds_in_one_frustum(points, light.position):
+        if light.kind != "directional" and not self._one_frustum(points):
             fits = fit_cube_faces(points, light.position, res)
             spare = self.layer_limit - self.layers + len(self._free)
             if len(fits) - len(self._clump_layers[k]) > spare:
