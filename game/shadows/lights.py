@@ -103,27 +103,34 @@ class LightShadows:
                                    max(1, max_maps // n))
 
         self.methods: list[ShadowMethod] = [create(k, share) for k, share in enumerate(shares)]
-        # A light that leaves part of its share (a lamp whose statics fit one cube of maps, a
-        # sun held to the GL's layers) is held to what it takes, and the rest goes to the
-        # lights short of theirs, by reach. Each light keeps its limit's layers in the array
-        # (reserved_layers), so one that clumps anew, moved, never moves another's maps.
-        short = [k for k, m in enumerate(self.methods) if m.wants_memory] if n > 1 else []
-        givers = [k for k in range(n) if k not in short] if n > 1 else []
+        self._notes: list[str] = []
+        if n > 1:
+            self._pass_on_what_is_left(shares, create, radius, settings.budget_mib)
+        self._bases: list[tuple[int, int]] | None = None
+        self._end = 0
+
+    def _pass_on_what_is_left(self, shares: list[float], create, radius: float,
+                              budget_mib: float) -> None:
+        """A light that leaves part of its share (a lamp whose statics fit one cube of maps, a
+        sun held to the GL's layers) is held to what it takes, and the rest goes to the lights
+        short of theirs, by reach, planned anew with it (``create(k, share)``). Each light keeps
+        its limit's layers in the array (reserved_layers), so one that clumps anew, moved,
+        never moves another's maps."""
+        short = [k for k, m in enumerate(self.methods) if m.wants_memory]
+        givers = [k for k in range(len(self.methods)) if k not in short]
         spare = sum(shares[k] - self.methods[k].memory_mib for k in givers)
         for k in givers:
             self.methods[k].limit_memory(self.methods[k].memory_mib)
-        self._notes: list[str] = []
-        if short and spare > 0:
-            weights = {k: reach_weight(lights[k], radius) for k in short}
-            for k in short:
-                self.methods[k] = create(k, shares[k] + spare * weights[k] / sum(weights.values()))
-            who = (f"light {short[0]} is short of its share" if len(short) == 1 else
-                   f"lights {', '.join(map(str, short))} are short of their shares")
-            self._notes.append(f"{who} of the {settings.budget_mib:g} MiB budget and get"
-                               f"{'s' if len(short) == 1 else ''} the {spare:.1f} MiB the "
-                               "others leave of theirs")
-        self._bases: list[tuple[int, int]] | None = None
-        self._end = 0
+        if not short or spare <= 0:
+            return
+        weights = {k: reach_weight(self.methods[k].light, radius) for k in short}
+        for k in short:
+            self.methods[k] = create(k, shares[k] + spare * weights[k] / sum(weights.values()))
+        who = (f"light {short[0]} is short of its share" if len(short) == 1 else
+               f"lights {', '.join(map(str, short))} are short of their shares")
+        self._notes.append(f"{who} of the {budget_mib:g} MiB budget and get"
+                           f"{'s' if len(short) == 1 else ''} the {spare:.1f} MiB the others "
+                           "leave of theirs")
 
     def __len__(self) -> int:
         return len(self.methods)

@@ -418,7 +418,7 @@ class ClumpedShadows(ShadowMethod):
             return len(clumps)
         return sum(1 if self._one_frustum(
             np.concatenate([self._unit_points[core[m]] for m in c.members]))
-            else 6 for c in clumps)
+            else CUBE_FACES for c in clumps)
 
     def _one_frustum(self, points: np.ndarray) -> bool:
         """Whether one frustum from a spot or point light holds ``points``; around a point light
@@ -779,6 +779,9 @@ class ClumpedShadows(ShadowMethod):
             if fit is None:
                 continue
             render_dynamic.append(len(maps))
+            cover = None
+            if covers is not None:  # a slice, not an index array, for a map of one member
+                cover = covers[members] if len(members) > 1 else covers[members[0]:members[0] + 1]
             layer, origin = self._char_layers[m.layer], m.origin
             if self.view_budget is not None:  # the layer is a square of the view's atlas
                 square = self.view_budget.reserved[m.layer]
@@ -786,10 +789,7 @@ class ClumpedShadows(ShadowMethod):
             maps.append(MapRecord(name=f"character_{members[0]}", kind=KIND_CHARACTER, fit=fit,
                                   layer=layer, viewport=m.resolution,
                                   objects=[first + i for i in members],
-                                  cover=None if covers is None else covers[
-                                      members if len(members) > 1 else slice(*members,
-                                                                             members[0] + 1)],
-                                  origin=origin))
+                                  cover=cover, origin=origin))
             drawn += 1
         return {"character_maps": drawn, "characters_skipped": int(n - len(shown)),
                 "characters_grouped": sum(len(m.members) for m in planned if len(m.members) > 1),
