@@ -38,7 +38,7 @@ def live_gl_names(gap: int = 1024) -> dict[str, int]:
 
     Asks the driver (glIsBuffer, glIsTexture, ...), so it counts what really exists, whoever
     made it. Mesa hands out some kinds' names from the lowest free one and others ever upwards
-    (a long test session's framebuffers reach tens of thousands), so names are probed up to the
+    (a long test run's framebuffers reach tens of thousands), so names are probed up to the
     one the driver would hand out next, and on until ``gap`` names in a row are free.
     """
     from OpenGL import GL

@@ -20,14 +20,10 @@ from __future__ import annotations
 import dataclasses
 
 from game.gpu.limits import GLLimits
-from game.shadows.plan import DEPTH_TEXEL_BYTES, ShadowSettings
+from game.shadows.plan import ShadowSettings, layer_bytes
 from game.shadows.registry import method_class
 
 MIN_MAP_RESOLUTION = 64        # texels per side below which a map is useless; never halve past it
-
-
-def layer_bytes(resolution: int) -> int:
-    return DEPTH_TEXEL_BYTES * resolution * resolution
 
 
 def fit_settings(settings: ShadowSettings, limits: GLLimits,

@@ -163,7 +163,7 @@ def group(sizes: list[int], rects: np.ndarray | None, max_resolution: int,
     boxes, texels = rects.tolist(), texel.tolist()
     groups = {k: _Group([k], boxes[k], texels[k], sizes[k]) for k in range(n)}
     if merge and n > 1:
-        _merge_by_cost(groups, rects, max_resolution)
+        _merge_by_cost(groups, rects, texel, np.asarray(sizes, float), max_resolution)
     while len(groups) > limit:
         _merge_nearest(groups, max_resolution)
     out = []
@@ -188,16 +188,16 @@ def _union(a: _Group, b: _Group) -> list[float]:
             max(a.box[2], b.box[2]), max(a.box[3], b.box[3])]
 
 
-def _merge_by_cost(groups: dict[int, _Group], rects: np.ndarray, max_resolution: int) -> None:
-    """Merge pairs, nearest first, where one map at the finer texel costs less than two."""
+def _merge_by_cost(groups: dict[int, _Group], rects: np.ndarray, texel: np.ndarray,
+                   size: np.ndarray, max_resolution: int) -> None:
+    """Merge pairs, nearest first, where one map at the finer texel costs less than two;
+    ``texel`` and ``size`` are the single maps' (the groups as they start)."""
     centre = 0.5 * (rects[:, :2] + rects[:, 2:])
     reach = 0.5 * (rects[:, 2:] - rects[:, :2]).max(axis=1)
     # Candidate pairs: footprints at most one footprint apart, and worth one map as they are
     # (two single maps): a group's union only grows, so few pairs that fail here would pass.
     i, j, gap = _near_pairs(centre, reach)
     n = len(rects)
-    texel = np.array([groups[k].texel for k in range(n)])
-    size = np.array([groups[k].size for k in range(n)], float)
     side = (np.maximum(rects[i, 2:], rects[j, 2:]) - np.minimum(rects[i, :2], rects[j, :2])).max(1)
     need = side / np.minimum(texel[i], texel[j]) + SPARE_TEXELS
     merged = 2.0 ** np.ceil(np.log2(np.maximum(need, 1.0)))

@@ -25,7 +25,7 @@ from game.scene.model import Light
 from game.shadows import registry
 from game.shadows.fit import CUBE_FACES
 from game.shadows.method import ShadowMethod
-from game.shadows.plan import DEPTH_TEXEL_BYTES, ShadowPlan, ShadowSettings
+from game.shadows.plan import ShadowPlan, ShadowSettings, layer_bytes
 
 MIN_LAMP_RESOLUTION = 128  # the smallest clump maps a lamp's share may make
 
@@ -64,7 +64,7 @@ def budget_shares(lights: list[Light], total_mib: float, resolution: int,
     sides = [resolution] * len(lights)
 
     def floors() -> list[float]:
-        return [min_layers(light) * DEPTH_TEXEL_BYTES * side ** 2 / 2**20
+        return [min_layers(light) * layer_bytes(side) / 2**20
                 for light, side in zip(lights, sides, strict=True)]
 
     lamps = [k for k, light in enumerate(lights) if light.range is not None]

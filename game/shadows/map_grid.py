@@ -82,12 +82,14 @@ def _ortho_pairs(fits: list[MapFit], covers: list[np.ndarray | None] | None, rea
     else:
         # Per map its covers grown by the reach, or its own rectangle: in one go, as a crowd's
         # frame has hundreds of maps.
-        parts = [f.rect[None] if c is None else np.asarray(c, float).reshape(-1, 4)
-                 for f, c in zip(fits, covers, strict=True)]
+        parts, grow = [], []
+        for fit, cover in zip(fits, covers, strict=True):
+            parts.append(fit.rect[None] if cover is None
+                         else np.asarray(cover, float).reshape(-1, 4))
+            grow.append(0.0 if cover is None else reach * fit.texel)
         owner = np.repeat(np.arange(len(fits)), [len(part) for part in parts])
-        grow = np.array([0.0 if c is None else reach * f.texel
-                         for f, c in zip(fits, covers, strict=True)])[owner]
-        rects = np.concatenate(parts) + grow[:, None] * np.array([-1.0, -1.0, 1.0, 1.0])
+        rects = (np.concatenate(parts)
+                 + np.array(grow)[owner][:, None] * np.array([-1.0, -1.0, 1.0, 1.0]))
     # The cells each rectangle touches (cell = row * size + column, rows along y), as ranges
     # grown by a sliver so that float32 rounding in the shader cannot put a fragment one over.
     cell = (rect[2:] - rect[:2]) / size

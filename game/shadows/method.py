@@ -16,7 +16,7 @@ import numpy as np
 
 from game.scene.geometry import PackedGeometry
 from game.scene.model import Light
-from game.shadows.plan import DEPTH_TEXEL_BYTES, ShadowPlan, ShadowSettings
+from game.shadows.plan import ShadowPlan, ShadowSettings, layer_bytes
 
 # Where the shading pass's visibility of the hard light comes from.
 VISIBILITY_MAPS = "maps"      # the depth maps the method plans
@@ -71,7 +71,7 @@ class ShadowMethod(ABC):
     @property
     def memory_mib(self) -> float:
         """The depth memory the method's layers take."""
-        return DEPTH_TEXEL_BYTES * self.layers * self.resolution ** 2 / 2**20
+        return self.layers * layer_bytes(self.resolution) / 2**20
 
     @property
     def reserved_layers(self) -> int:

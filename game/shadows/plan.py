@@ -47,6 +47,11 @@ CASCADE_LAMBDA = 0.75          # csm: practical split blend, 1 logarithmic, 0 un
 CASCADE_RESOLUTION = 2048      # csm: texels per side of each cascade
 
 
+def layer_bytes(resolution: int) -> int:
+    """The bytes of one depth-array layer of ``resolution`` texels per side."""
+    return DEPTH_TEXEL_BYTES * resolution * resolution
+
+
 @dataclass
 class ShadowSettings:
     """Everything a user can change about the hard shadows (command-line flags, the overlay)."""

@@ -255,12 +255,17 @@ def test_character_maps_follow_the_view(ctx):
         renderer.release()
 
 
+def _far_view(scene) -> View:
+    """The scene camera's lens 60 m from the origin, looking at it from above and the side."""
+    eye = np.array([0.0, 0.6, 1.0]) * 60.0
+    return View(transforms.look_at(eye, np.zeros(3)), View.from_camera(scene.camera, SIZE).proj)
+
+
 def test_a_distant_character_map_keeps_half_the_clump_maps_density(ctx):
     """Far from the camera a walker needs few texels per pixel, but its map is never coarser
     than CHARACTER_DENSITY_FLOOR times the clump maps' texels per metre."""
     scene = scene_with([])
-    eye = np.array([0.0, 0.6, 1.0]) * 60.0
-    view = View(transforms.look_at(eye, np.zeros(3)), View.from_camera(scene.camera, SIZE).proj)
+    view = _far_view(scene)
     sizes = {}
     for floor_density in (8.0, 96.0):
         settings = ShadowSettings(character_texels_per_pixel=1.0,
@@ -282,8 +287,7 @@ def test_the_density_floor_follows_the_clump_maps_where_the_budget_holds_them_co
     """Clump maps that cannot meet the density target set the floor at their own density: a
     distant walker's map is not made finer than the statics' shadows around it."""
     scene = scene_with([])
-    eye = np.array([0.0, 0.6, 1.0]) * 60.0
-    view = View(transforms.look_at(eye, np.zeros(3)), View.from_camera(scene.camera, SIZE).proj)
+    view = _far_view(scene)
     settings = ShadowSettings(character_texels_per_pixel=1.0, texels_per_metre=400.0,
                               clump_resolution=256, budget_mib=0.75)
     renderer = Renderer(ctx, scene, SIZE, settings)

@@ -32,7 +32,6 @@ from game.shadows.map_grid import octahedral_encode
 from game.shadows.method import ShadowMethod, bounding_sphere
 from game.shadows.plan import (
     CHARACTER_DENSITY_FLOOR,
-    DEPTH_TEXEL_BYTES,
     KIND_CHARACTER,
     KIND_CLUMP,
     KIND_FALLBACK,
@@ -41,6 +40,7 @@ from game.shadows.plan import (
     MapRecord,
     ShadowPlan,
     ShadowSettings,
+    layer_bytes,
 )
 from game.shadows.view_budget import ClumpRequest, ViewBudget
 
@@ -126,8 +126,8 @@ class ClumpedShadows(ShadowMethod):
     def _start(self, settings: ShadowSettings) -> None:
         """Everything planned from the settings: layers, clumps, character maps."""
         self.settings = settings
-        layer_bytes = DEPTH_TEXEL_BYTES * settings.clump_resolution ** 2
-        self._budget_layers = int(settings.budget_mib * 2**20 // layer_bytes)
+        self._budget_layers = int(settings.budget_mib * 2**20 // layer_bytes(
+            settings.clump_resolution))
         self.layer_limit = max(2, min(self._budget_layers, self.max_layers))
         self.static_maps: list[MapRecord] = []
         self.clumps: list[clumping.Clump] = []
@@ -178,8 +178,7 @@ class ClumpedShadows(ShadowMethod):
 
     def limit_memory(self, mib: float) -> None:
         super().limit_memory(mib)
-        layer_bytes = DEPTH_TEXEL_BYTES * self.settings.clump_resolution ** 2
-        self._budget_layers = int(mib * 2**20 // layer_bytes)
+        self._budget_layers = int(mib * 2**20 // layer_bytes(self.settings.clump_resolution))
         self.layer_limit = max(2, min(self._budget_layers, self.max_layers, self.layer_limit))
 
     @property
@@ -726,7 +725,7 @@ class ClumpedShadows(ShadowMethod):
         if not visible.any():  # a lamp whose range holds no character now
             return {"character_maps": 0, "characters_skipped": n, "characters_grouped": 0,
                     "character_maps_shrunk": 0}
-        if self._names is None or len(self._names) != n:
+        if self._names is None:  # made anew by update_characters
             self._names = self._character_names()
             self.crowd.forget(set(self._names))
         names = self._names
