@@ -25,7 +25,8 @@ from game.scene.model import Light
 from game.shadows import registry
 from game.shadows.fit import CUBE_FACES
 from game.shadows.method import ShadowMethod
-from game.shadows.plan import ShadowPlan, ShadowSettings, layer_bytes
+from game.shadows.plan import MIN_CLUMP_RESOLUTION, ShadowPlan, ShadowSettings, layer_bytes
+from game.shadows.view_budget import ViewBudget, atlas_shape
 
 MIN_LAMP_RESOLUTION = 128  # the smallest clump maps a lamp's share may make
 
@@ -108,6 +109,49 @@ class LightShadows:
             self._pass_on_what_is_left(shares, create, radius, settings.budget_mib)
         self._bases: list[tuple[int, int]] | None = None
         self._end = 0
+        # With view-sized maps, one atlas for every light's clump maps, so that texels go where
+        # the view needs them whichever light casts there.
+        self.view_budget: ViewBudget | None = None
+        self._view_reserved: list[list[int]] = []
+        self._view_shared = (n > 1 and settings.view_resolution
+                             and all(m.shares_view_budget for m in self.methods))
+        if self._view_shared:
+            self._share_view_budget()
+
+    def _share_view_budget(self) -> None:
+        """One atlas in the texels that the lights' fixed maps keep (their limits' layers),
+        of layers of the largest power-of-two side up to ``max_clump_resolution`` that hold
+        them with at most a quarter more; the lights' character maps keep squares of their
+        own. Every clump map is placed, and drawn, anew."""
+        methods, s = self.methods, self.methods[0].settings
+        texels = sum(m.fixed_texels for m in methods)
+        layers, side = atlas_shape(texels, max(m.settings.clump_resolution for m in methods),
+                                   s.max_clump_resolution)
+        self._view_reserved = [m.reserved_sides for m in methods]
+        self.view_budget = ViewBudget(layers, side, MIN_CLUMP_RESOLUTION,
+                                      [side for sides in self._view_reserved for side in sides],
+                                      s.max_map_renders)
+        for method in methods:
+            method.share_view_budget(side)
+
+    def _place_by_view(self, view) -> None:
+        """Every light's clump maps placed by this view's needs in the one atlas: the
+        placements and the character maps' squares handed to each light's planner."""
+        if [m.reserved_sides for m in self.methods] != self._view_reserved:
+            self._share_view_budget()  # characters came or went: their squares change
+        requests, must, spans = [], set(), []
+        for k, method in enumerate(self.methods):
+            own, dirty = method.view_requests(view)
+            first = len(requests)
+            requests += [dataclasses.replace(r, key=(k, r.key)) for r in own]
+            must |= {first + i for i in dirty}
+            spans.append((first, len(requests)))
+        placements, drawn = self.view_budget.place(requests, must)
+        reserved = iter(self.view_budget.reserved)
+        for method, (first, end) in zip(self.methods, spans, strict=True):
+            method.place_by_view(placements[first:end],
+                                 {i - first for i in drawn if first <= i < end},
+                                 [next(reserved) for _ in method.reserved_sides])
 
     def _pass_on_what_is_left(self, shares: list[float], create, radius: float,
                               budget_mib: float) -> None:
@@ -152,6 +196,9 @@ class LightShadows:
         """Where each light's first layer goes: (array layer, square in it). A light whose
         layers are smaller than the array's takes squares of array layers, after the previous
         light's squares of the same size; a layer never holds squares of two sizes."""
+        if self.view_budget is not None:  # one atlas: the maps' layers are the array's
+            self._end = self.view_budget.atlas.layers
+            return [(0, 0)] * len(self.methods)
         places, layer, used, size = [], 0, 0, None
         for method in self.methods:
             per = (self.resolution // method.resolution) ** 2
@@ -180,6 +227,8 @@ class LightShadows:
             # A light's share of the array moved: what its layers held belongs to another.
             self.mark_rendered_lost()
         self._bases = places
+        if self.view_budget is not None:
+            self._place_by_view(view)
         plans = [m.plan(models, view) for m in self.methods]
         if len(plans) == 1:
             return plans[0], [LightSpan(0, len(plans[0].maps), 0)]
@@ -208,6 +257,8 @@ class LightShadows:
             combined.backlog += plan.backlog
             spans.append(LightSpan(first, len(plan.maps), base))
             combined.light_first_maps.append(first)
+        if self.view_budget is not None:
+            combined.backlog = self.view_budget.backlog
         return combined, spans
 
 

@@ -47,6 +47,9 @@ class ShadowMethod(ABC):
     parameters: ClassVar[tuple[str, ...]] = ()
     # Whether the shadow memory budget bounds the array (else the resolution asked is used).
     budgeted: ClassVar[bool] = False
+    # Whether, with view-sized maps, its lights' maps share one atlas placed by the view's needs
+    # (game/shadows/lights.py): it then has view_requests, place_by_view and share_view_budget.
+    shares_view_budget: ClassVar[bool] = False
 
     def __init__(self, geom: PackedGeometry, light: Light, settings: ShadowSettings,
                  max_layers: int, max_maps: int | None = None):

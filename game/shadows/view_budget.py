@@ -28,6 +28,22 @@ from game.shadows.fit import MapFit
 MAX_SCALE = 32.0
 
 
+def atlas_shape(texels: int, min_side: int, max_side: int) -> tuple[int, int]:
+    """Layers and side of an atlas that holds ``texels``: the largest power-of-two side from
+    ``min_side`` up to ``max_side`` whose whole layers hold them with at most a quarter more."""
+    side = pow2_at_least(max(max_side, min_side))
+    while side > min_side and -(-texels // side ** 2) * side ** 2 > 1.25 * texels:
+        side //= 2
+    return max(1, -(-texels // side ** 2)), side
+
+
+def pow2_sides(x: np.ndarray, lo: int, hi: int) -> np.ndarray:
+    """:func:`~game.shadows.crowd.pow2_at_least` of every element of ``x``, at once: the
+    budget's search asks it of every clump some thirty times a frame."""
+    x = np.where(np.isfinite(x), np.maximum(x, 1.0), hi)
+    return np.clip(2 ** np.ceil(np.log2(x)), lo, hi).astype(np.int64)
+
+
 @dataclass
 class Placement:
     """Where a clump's maps are this frame: their side, their squares and their fits."""
@@ -77,12 +93,12 @@ class ViewBudget:
         shadows more exact), with the hysteresis; then, should the hysteresis's larger sides
         not fit, the largest halved."""
         maps = [r.maps for r in requests]
+        counts = np.array(maps, np.int64)
         needs = np.array([r.need for r in requests], float)
-        atlas = self.atlas
 
         def texels(scale: float) -> int:
-            return sum(m * pow2_at_least(n * scale, self.min_side, atlas.resolution) ** 2
-                       for m, n in zip(maps, needs, strict=True))
+            sides = pow2_sides(needs * scale, self.min_side, self.atlas.resolution)
+            return int(counts @ (sides * sides))
 
         low, high = 0.0, MAX_SCALE
         for _ in range(32):  # the largest scale that fits

@@ -14,7 +14,7 @@ from game.scene import load_scene
 from game.scene.generate import generate_town
 from game.scene.loader import MAX_LIGHTS
 from game.shadows.lights import budget_shares, min_layers, scene_radius
-from game.shadows.plan import CLUMP_RESOLUTION, ShadowSettings
+from game.shadows.plan import CLUMP_RESOLUTION, KIND_CHARACTER, ShadowSettings
 from game.shadows.registry import MAP_METHODS
 from tests.conftest import ASSETS, SCENES
 from tests.shadow_check import occluders
@@ -118,6 +118,38 @@ def test_moving_a_lamp_of_the_night_town_re_renders_only_its_maps(ctx):
     light's cached maps move."""
     renderer = Renderer(ctx, load_scene(ASSETS / "night_town.toml"), (64, 36))
     try:
+        _moving_a_lamp_redraws_only_its_maps(renderer, 5)
+    finally:
+        renderer.release()
+
+
+def test_view_sized_maps_of_every_light_share_one_atlas_sized_by_the_view(ctx):
+    """With view-sized maps the lights' clump maps take squares of one atlas, in no more
+    memory than their fixed maps keep, by what the view needs whichever light casts: the
+    lamp nearest the camera gets finer faces than the farthest; a lamp moved re-renders only
+    its own maps."""
+    scene = load_scene(ASSETS / "night_town.toml")
+    size = (160, 90)
+    renderer = Renderer(ctx, scene, size, ShadowSettings(view_resolution=True))
+    try:
+        renderer.render(0.0, View.from_camera(scene.camera, size))
+        methods, plan = renderer.shadows.methods, renderer.last_plan
+        fixed = sum(m.fixed_texels for m in methods) * 4
+        assert renderer.shadow_memory_bytes <= 1.25 * fixed
+        taken: dict[int, np.ndarray] = {}
+        for record in plan.maps:
+            used = taken.setdefault(record.layer, np.zeros((plan.resolution,) * 2, bool))
+            x, y = record.origin
+            if record.kind == KIND_CHARACTER:  # the characters' maps share their squares
+                continue
+            square = used[y:y + record.viewport, x:x + record.viewport]
+            assert not square.any(), record.name
+            square[:] = True
+        distance = [np.linalg.norm(m.light.position - scene.camera.position)
+                    for m in methods[1:]]
+        sides = [max(r.viewport for r in plan.maps[s.first_map:s.first_map + s.map_count]
+                     if r.kind != KIND_CHARACTER) for s in renderer.last_spans[1:]]
+        assert sides[int(np.argmin(distance))] > sides[int(np.argmax(distance))], sides
         _moving_a_lamp_redraws_only_its_maps(renderer, 5)
     finally:
         renderer.release()

@@ -9,8 +9,9 @@ import numpy as np
 from game.render.renderer import Renderer, View
 from game.scene import load_scene
 from game.shadows.atlas import Atlas
+from game.shadows.crowd import pow2_at_least
 from game.shadows.plan import ShadowSettings
-from game.shadows.view_budget import ClumpRequest, ViewBudget
+from game.shadows.view_budget import ClumpRequest, ViewBudget, pow2_sides
 from tests.conftest import COURTYARD
 from tests.shadow_check import frame_error
 
@@ -143,3 +144,10 @@ def test_turning_away_shrinks_the_clump_maps_the_view_cannot_see(ctx):
         assert min(smallest.values()) == 128
     finally:
         renderer.release()
+
+
+def test_the_budget_rounds_every_need_to_a_side_as_the_crowd_does():
+    needs = np.concatenate([np.random.default_rng(1).uniform(0.0, 9000.0, 2000),
+                            [0.0, 1.0, 127.0, 128.0, 129.0, np.inf, np.nan],
+                            [2.0 ** k for k in range(14)]])
+    assert pow2_sides(needs, 128, 4096).tolist() == [pow2_at_least(n, 128, 4096) for n in needs]

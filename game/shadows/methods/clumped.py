@@ -16,6 +16,7 @@ from game import transforms
 from game.scene import Light
 from game.scene.geometry import PackedGeometry
 from game.shadows import clumping, crowd
+from game.shadows.atlas import Square
 from game.shadows.fit import (
     CUBE_FACES,
     MAX_TAN,
@@ -42,7 +43,7 @@ from game.shadows.plan import (
     ShadowSettings,
     layer_bytes,
 )
-from game.shadows.view_budget import ClumpRequest, ViewBudget
+from game.shadows.view_budget import ClumpRequest, Placement, ViewBudget, atlas_shape
 
 # A clump around a point light gets one frustum only when it is no wider than a cube face (45
 # degrees either side of its axis): a wider one spreads its texels thinner than the faces do.
@@ -104,6 +105,7 @@ class ClumpedShadows(ShadowMethod):
                   "character_resolution", "character_texels_per_pixel", "view_resolution",
                   "max_clump_resolution")
     budgeted = True
+    shares_view_budget = True
 
     @classmethod
     def min_layers(cls, settings: ShadowSettings, n_characters: int) -> int:
@@ -148,6 +150,9 @@ class ClumpedShadows(ShadowMethod):
             self._character_resolution)
         self._assign_characters()
         self.view_budget: ViewBudget | None = None
+        self._shared_side: int | None = None  # the lights' shared atlas's side, when shared
+        self._given = None                     # this frame's placements in it
+        self._reserved_squares: list[Square] | None = None
         self.set_light(self.light)
 
     # -- layers ---------------------------------------------------------------------------
@@ -193,6 +198,8 @@ class ClumpedShadows(ShadowMethod):
 
     @property
     def resolution(self) -> int:
+        if self._shared_side is not None:
+            return self._shared_side
         if self.view_budget is not None:
             return self.view_budget.atlas.resolution
         return self.settings.clump_resolution
@@ -201,24 +208,73 @@ class ClumpedShadows(ShadowMethod):
         """With ``view_resolution``, the squares the clump maps take by need
         (game/shadows/view_budget.py), in as many texels as the fixed maps would take (their
         layers, the characters' among them); the character maps keep squares of their own.
-        The layers' side is the largest power of two up to ``max_clump_resolution`` whose
-        whole layers hold those texels with at most a quarter more."""
+        A light among others has none of its own: the lights share one
+        (:meth:`share_view_budget`)."""
         s = self.settings
-        if not s.view_resolution:
+        if not s.view_resolution or self._shared_side is not None:
             return
         texels = (len(self.static_maps) + len(self._char_layers)) * s.clump_resolution ** 2
-        side = crowd.pow2_at_least(max(s.max_clump_resolution, s.clump_resolution))
-        while side > s.clump_resolution and -(-texels // side ** 2) * side ** 2 > 1.25 * texels:
-            side //= 2
-        layers = max(1, -(-texels // side ** 2))
+        layers, side = atlas_shape(texels, s.clump_resolution, s.max_clump_resolution)
         if self.view_budget is not None:
             if (self.view_budget.atlas.layers, self.view_budget.atlas.resolution) == (layers,
                                                                                        side):
                 return
             self._dirty = set(range(len(self._clump_keys)))  # every map is placed anew
-        self.view_budget = ViewBudget(layers, side, MIN_CLUMP_RESOLUTION,
-                                      [s.clump_resolution] * len(self._char_layers),
+        self.view_budget = ViewBudget(layers, side, MIN_CLUMP_RESOLUTION, self.reserved_sides,
                                       s.max_map_renders)
+
+    # -- view-sized maps in the lights' shared atlas ------------------------------------------
+    @property
+    def reserved_sides(self) -> list[int]:
+        """The sides of the squares the character maps keep in a view-sized atlas."""
+        return [self.settings.clump_resolution] * len(self._char_layers)
+
+    @property
+    def fixed_texels(self) -> int:
+        """The texels this light's fixed maps keep in the array: its limit's layers."""
+        return max(self.layers, self.layer_limit) * self.settings.clump_resolution ** 2
+
+    def share_view_budget(self, side: int) -> None:
+        """Place the clump maps in an atlas of ``side``-texel layers that the lights share
+        (game/shadows/lights.py), which hands each frame's placements to :meth:`place_by_view`
+        before :meth:`plan`; the light keeps no atlas of its own."""
+        self._shared_side = side
+        self.view_budget = None
+        self._dirty = set(range(len(self._clump_keys)))
+
+    def view_requests(self, view) -> tuple[list[ClumpRequest], set[int]]:
+        """Each clump as the view's budget sees it, in order, and the clumps whose maps must
+        be drawn whatever their side (their content changed)."""
+        s, light = self.settings, self.light
+        n = len(self._clump_keys)
+        need = np.ones(n)  # without a view, alike: the budget's scale sets them
+        if view is not None and view.size is not None and n:
+            eye = None if light.kind == "directional" else np.asarray(light.position, float)
+            spheres = [self._clump_spheres[k] for k in range(n)]
+            centres = np.array([c for c, _ in spheres]).reshape(-1, 3)
+            radii = np.array([r for _, r in spheres], float)
+            volumes, bounded = crowd.shadow_volumes(centres, radii, light.kind,
+                                                    light.direction, eye, self._ground)
+            hidden = bounded & crowd.outside_view(volumes, view.proj @ view.view)
+            # The density the clump's shadow needs where most of it is seen: at its centre's
+            # distance (at least its radius), not at its nearest point, which for a clump
+            # beside the camera would ask the most texels for a sliver of its shadow.
+            hom = np.concatenate([centres, np.ones((n, 1))], axis=1)
+            depth = np.maximum(-(hom @ view.view[2]), np.maximum(radii, 1e-6))
+            need = (2.0 * radii * 0.5 * view.size[1] * view.proj[1, 1] / depth
+                    * s.view_texels_per_pixel)
+            need[hidden] = 0.0
+        requests = [ClumpRequest(key=(tuple(keys), len(self._map_of_clump.get(k, []))),
+                                 maps=len(self._map_of_clump.get(k, [])), need=float(need[k]),
+                                 refit=lambda side, k=k: self._fits_at(k, side))
+                    for k, keys in enumerate(self._clump_keys)]
+        return requests, set(self._dirty)
+
+    def place_by_view(self, placements: list[Placement], drawn: set[int],
+                      reserved: list[Square]) -> None:
+        """This frame's placements from the shared atlas: every clump's (in order), the clumps
+        whose maps are drawn, and the character maps' squares."""
+        self._given = (placements, drawn, reserved)
 
     def _character_names(self) -> list[str]:
         g = self.geom
@@ -654,8 +710,16 @@ class ClumpedShadows(ShadowMethod):
         """The maps for this frame; ``models`` are the characters' (n, 4, 4) matrices."""
         maps = list(self.static_maps)
         backlog = 0
-        if self.view_budget is not None and view is not None and view.size is not None:
-            drawn = self._view_sized(maps, view)
+        self._reserved_squares = None
+        if self._given is not None:  # placed in the lights' shared atlas
+            placements, drawn, self._reserved_squares = self._given
+            self._given = None
+            self._placed(maps, placements)
+        elif self.view_budget is not None and view is not None and view.size is not None:
+            requests, must = self.view_requests(view)
+            placements, drawn = self.view_budget.place(requests, must)
+            self._reserved_squares = self.view_budget.reserved
+            self._placed(maps, placements)
             backlog = self.view_budget.backlog
         else:
             drawn = self._dirty
@@ -668,37 +732,14 @@ class ClumpedShadows(ShadowMethod):
                           static_pieces=self.static_pieces, characters=counts,
                           backlog=backlog)
 
-    def _view_sized(self, maps: list[MapRecord], view) -> set[int]:
-        """Give each clump map the side this view needs (game/shadows/view_budget.py): its
-        records in ``maps`` are replaced; returns the clumps whose maps are drawn."""
-        s, light = self.settings, self.light
-        eye = None if light.kind == "directional" else np.asarray(light.position, float)
-        spheres = [self._clump_spheres[k] for k in range(len(self._clump_keys))]
-        centres = np.array([c for c, _ in spheres]).reshape(-1, 3)
-        radii = np.array([r for _, r in spheres], float)
-        volumes, bounded = crowd.shadow_volumes(centres, radii, light.kind, light.direction,
-                                                eye, self._ground)
-        hidden = bounded & crowd.outside_view(volumes, view.proj @ view.view)
-        # The density the clump's shadow needs where most of it is seen: at its centre's
-        # distance (at least its radius), not at its nearest point, which for a clump beside
-        # the camera would ask the most texels for a sliver of its shadow.
-        hom = np.concatenate([centres, np.ones((len(centres), 1))], axis=1)
-        depth = np.maximum(-(hom @ view.view[2]), np.maximum(radii, 1e-6))
-        need = (2.0 * radii * 0.5 * view.size[1] * view.proj[1, 1] / depth
-                * s.view_texels_per_pixel)
-        need[hidden] = 0.0
-        requests = [ClumpRequest(key=(tuple(keys), len(self._map_of_clump.get(k, []))),
-                                 maps=len(self._map_of_clump.get(k, [])), need=float(need[k]),
-                                 refit=lambda side, k=k: self._fits_at(k, side))
-                    for k, keys in enumerate(self._clump_keys)]
-        placements, drawn = self.view_budget.place(requests, self._dirty)
+    def _placed(self, maps: list[MapRecord], placements: list[Placement]) -> None:
+        """Replace the clump maps' records in ``maps`` by their view-sized ``placements``."""
         for k, placement in enumerate(placements):
             for j, i in enumerate(self._map_of_clump.get(k, [])):
                 square = placement.squares[j]
                 maps[i] = dataclasses.replace(maps[i], fit=placement.fits[j],
                                               layer=square.layer, viewport=placement.side,
                                               origin=(square.x, square.y))
-        return drawn
 
     def _fits_at(self, k: int, side: int) -> list[MapFit]:
         """Clump k's maps fitted at ``side`` texels: as many as it has, of the same kind."""
@@ -782,8 +823,8 @@ class ClumpedShadows(ShadowMethod):
             if covers is not None:  # a slice, not an index array, for a map of one member
                 cover = covers[members] if len(members) > 1 else covers[members[0]:members[0] + 1]
             layer, origin = self._char_layers[m.layer], m.origin
-            if self.view_budget is not None:  # the layer is a square of the view's atlas
-                square = self.view_budget.reserved[m.layer]
+            if self._reserved_squares is not None:  # the layer is a square of an atlas
+                square = self._reserved_squares[m.layer]
                 layer, origin = square.layer, (square.x + origin[0], square.y + origin[1])
             maps.append(MapRecord(name=f"character_{members[0]}", kind=KIND_CHARACTER, fit=fit,
                                   layer=layer, viewport=m.resolution,
