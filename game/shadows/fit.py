@@ -231,6 +231,27 @@ def fit_cube_faces(points: np.ndarray, eye: np.ndarray, resolution: int) -> list
     return fits
 
 
+def cube_face_reach(points: np.ndarray, eye: np.ndarray, reach: float | None = None
+                    ) -> list[tuple[np.ndarray, float]]:
+    """For each face of :func:`fit_cube_faces` (same faces, same order), the centre and the
+    width of what it holds: a face is as wide as twice the depth of its farthest point
+    within its 90 degrees, held to ``reach`` (a light's range: nothing beyond is lit)."""
+    p = np.asarray(points, float) - np.asarray(eye, float)
+    out = []
+    for axis in CUBE_AXES:
+        a = np.asarray(axis)
+        depth = p @ a
+        if depth.max() <= 0:
+            continue
+        across = np.abs(p - depth[:, None] * a).max(axis=1)
+        held = depth[(depth > 0) & (across <= depth)]
+        far = float(held.max()) if len(held) else 0.0
+        if reach is not None:
+            far = min(far, reach)
+        out.append((np.asarray(eye, float) + a * far / 2, 2.0 * far))
+    return out
+
+
 def light_rotation_of(light) -> np.ndarray | None:
     """The world-to-light rotation (3, 3) of a directional light; None for spot and point
     lights, whose maps are perspective."""

@@ -95,6 +95,8 @@ class ViewBudget:
         maps = [r.maps for r in requests]
         counts = np.array(maps, np.int64)
         needs = np.array([r.need for r in requests], float)
+        if len(needs) and needs.max() > 0:
+            needs = needs ** (2 / 3) * needs.max() ** (1 / 3)
 
         def texels(scale: float) -> int:
             sides = pow2_sides(needs * scale, self.min_side, self.atlas.resolution)

@@ -21,6 +21,7 @@ from game.shadows.fit import (
     CUBE_FACES,
     MAX_TAN,
     MapFit,
+    cube_face_reach,
     fit_cube_faces,
     fit_directional,
     fit_perspective,
@@ -243,32 +244,50 @@ class ClumpedShadows(ShadowMethod):
         self._dirty = set(range(len(self._clump_keys)))
 
     def view_requests(self, view) -> tuple[list[ClumpRequest], set[int]]:
-        """Each clump as the view's budget sees it, in order, and the clumps whose maps must
-        be drawn whatever their side (their content changed)."""
+        """Each clump map as the view's budget sees it, clump by clump, and those that must be
+        drawn whatever their side (their clump changed). A map is as wide as its clump's
+        bounding sphere, a cube's face as what it holds (:func:`cube_face_reach`); its need
+        is the texels that give ``view_texels_per_pixel`` across that width where the clump's
+        shadow is seen, none where the view cannot see it."""
         s, light = self.settings, self.light
-        n = len(self._clump_keys)
+        owners, centres, widths = [], [], []
+        for k in range(len(self._clump_keys)):
+            centre, radius = self._clump_spheres[k]
+            faces = self._face_reach.get(k)
+            for j in range(len(self._map_of_clump.get(k, []))):
+                owners.append(k)
+                centres.append(faces[j][0] if faces else centre)
+                widths.append(faces[j][1] if faces else 2.0 * radius)
+        n = len(owners)
         need = np.ones(n)  # without a view, alike: the budget's scale sets them
         if view is not None and view.size is not None and n:
             eye = None if light.kind == "directional" else np.asarray(light.position, float)
-            spheres = [self._clump_spheres[k] for k in range(n)]
-            centres = np.array([c for c, _ in spheres]).reshape(-1, 3)
-            radii = np.array([r for _, r in spheres], float)
-            volumes, bounded = crowd.shadow_volumes(centres, radii, light.kind,
-                                                    light.direction, eye, self._ground)
-            hidden = bounded & crowd.outside_view(volumes, view.proj @ view.view)
-            # The density the clump's shadow needs where most of it is seen: at its centre's
-            # distance (at least its radius), not at its nearest point, which for a clump
+            spheres = [self._clump_spheres[k] for k in range(len(self._clump_keys))]
+            volumes, bounded = crowd.shadow_volumes(
+                np.array([c for c, _ in spheres]), np.array([r for _, r in spheres], float),
+                light.kind, light.direction, eye, self._ground)
+            hidden = (bounded & crowd.outside_view(volumes, view.proj @ view.view))[owners]
+            # The density the map's shadow needs where most of it is seen: at its centre's
+            # distance (at least half its width), not at its nearest point, which for a clump
             # beside the camera would ask the most texels for a sliver of its shadow.
-            hom = np.concatenate([centres, np.ones((n, 1))], axis=1)
-            depth = np.maximum(-(hom @ view.view[2]), np.maximum(radii, 1e-6))
-            need = (2.0 * radii * 0.5 * view.size[1] * view.proj[1, 1] / depth
-                    * s.view_texels_per_pixel)
+            width = np.array(widths, float)
+            hom = np.concatenate([np.array(centres), np.ones((n, 1))], axis=1)
+            depth = np.maximum(-(hom @ view.view[2]), np.maximum(width / 2, 1e-6))
+            need = width * 0.5 * view.size[1] * view.proj[1, 1] / depth * s.view_texels_per_pixel
             need[hidden] = 0.0
-        requests = [ClumpRequest(key=(tuple(keys), len(self._map_of_clump.get(k, []))),
-                                 maps=len(self._map_of_clump.get(k, [])), need=float(need[k]),
-                                 refit=lambda side, k=k: self._fits_at(k, side))
-                    for k, keys in enumerate(self._clump_keys)]
-        return requests, set(self._dirty)
+        self._request_maps = [i for k in range(len(self._clump_keys))
+                              for i in self._map_of_clump.get(k, [])]
+        requests, must, first = [], set(), 0
+        for k, keys in enumerate(self._clump_keys):
+            count = len(self._map_of_clump.get(k, []))
+            for j in range(count):
+                requests.append(ClumpRequest(
+                    key=(tuple(keys), count, j), maps=1, need=float(need[first + j]),
+                    refit=lambda side, k=k, j=j: self._fits_at(k, side)[j:j + 1]))
+                if k in self._dirty:
+                    must.add(first + j)
+            first += count
+        return requests, must
 
     def place_by_view(self, placements: list[Placement], drawn: set[int],
                       reserved: list[Square]) -> None:
@@ -505,6 +524,7 @@ class ClumpedShadows(ShadowMethod):
         self.clumps, self.static_maps, self._map_of_clump = [], [], {}
         self._clump_geometry: dict[int, tuple[np.ndarray, np.ndarray | None]] = {}
         self._clump_spheres: dict[int, tuple[np.ndarray, float]] = {}  # for the view's need
+        self._face_reach: dict[int, list[tuple[np.ndarray, float]]] = {}  # a cube's faces'
         self.static_pieces = []
         piece_of: dict[int, int] = {}
         member_rects = []
@@ -552,6 +572,9 @@ class ClumpedShadows(ShadowMethod):
             self._clump_geometry[k] = (core_points, depth)
             self._clump_spheres[k] = bounding_sphere(core_points)
             fits = self._clump_fits(k, core_points, depth)
+            if len(fits) > 1:  # a cube: each face's need follows what it holds
+                self._face_reach[k] = cube_face_reach(core_points, self.light.position,
+                                                      self.light.range)
             self._map_of_clump[k] = []
             for fit, layer in zip(fits, self._clump_layers[k], strict=False):
                 self._map_of_clump[k].append(len(self.static_maps))
@@ -714,16 +737,15 @@ class ClumpedShadows(ShadowMethod):
         if self._given is not None:  # placed in the lights' shared atlas
             placements, drawn, self._reserved_squares = self._given
             self._given = None
-            self._placed(maps, placements)
+            render_static = sorted(self._placed(maps, placements, drawn))
         elif self.view_budget is not None and view is not None and view.size is not None:
             requests, must = self.view_requests(view)
             placements, drawn = self.view_budget.place(requests, must)
             self._reserved_squares = self.view_budget.reserved
-            self._placed(maps, placements)
+            render_static = sorted(self._placed(maps, placements, drawn))
             backlog = self.view_budget.backlog
         else:
-            drawn = self._dirty
-        render_static = sorted(i for k in drawn for i in self._map_of_clump.get(k, []))
+            render_static = sorted(i for k in self._dirty for i in self._map_of_clump.get(k, []))
         render_dynamic = []
         counts = self._character_maps(models, view, maps, render_dynamic)
         self._dirty = set()
@@ -732,14 +754,15 @@ class ClumpedShadows(ShadowMethod):
                           static_pieces=self.static_pieces, characters=counts,
                           backlog=backlog)
 
-    def _placed(self, maps: list[MapRecord], placements: list[Placement]) -> None:
-        """Replace the clump maps' records in ``maps`` by their view-sized ``placements``."""
-        for k, placement in enumerate(placements):
-            for j, i in enumerate(self._map_of_clump.get(k, [])):
-                square = placement.squares[j]
-                maps[i] = dataclasses.replace(maps[i], fit=placement.fits[j],
-                                              layer=square.layer, viewport=placement.side,
-                                              origin=(square.x, square.y))
+    def _placed(self, maps: list[MapRecord], placements: list[Placement], drawn: set[int]
+                ) -> list[int]:
+        """Replace the clump maps' records in ``maps`` by their view-sized ``placements`` (in
+        the order of :meth:`view_requests`); returns the records drawn (``drawn`` of them)."""
+        for i, placement in zip(self._request_maps, placements, strict=True):
+            square = placement.squares[0]
+            maps[i] = dataclasses.replace(maps[i], fit=placement.fits[0], layer=square.layer,
+                                          viewport=placement.side, origin=(square.x, square.y))
+        return [self._request_maps[n] for n in drawn]
 
     def _fits_at(self, k: int, side: int) -> list[MapFit]:
         """Clump k's maps fitted at ``side`` texels: as many as it has, of the same kind."""
