@@ -53,6 +53,21 @@ class Atlas:
             square = quarters[0]
         return square
 
+    def take_again(self, square: Square) -> None:
+        """Take ``square`` itself, free again (given back, perhaps joined into a larger free
+        square since), so that a map given its squares back keeps its place."""
+        holder = next(s for s in self._free
+                      if s.layer == square.layer and s.side >= square.side
+                      and s.x <= square.x < s.x + s.side and s.y <= square.y < s.y + s.side)
+        self._free.remove(holder)
+        while holder.side > square.side:
+            half = holder.side // 2
+            quarters = [Square(holder.layer, holder.x + dx, holder.y + dy, half)
+                        for dy in (0, half) for dx in (0, half)]
+            holder = next(q for q in quarters if q.x <= square.x < q.x + half
+                          and q.y <= square.y < q.y + half)
+            self._free.update(q for q in quarters if q != holder)
+
     def give(self, square: Square) -> None:
         """Take back a square handed out by :meth:`take`."""
         while square.side < self.resolution:

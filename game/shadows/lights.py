@@ -9,7 +9,9 @@ range maps of ``lamp_resolution`` texels, as engines give lamps smaller maps tha
 
 Their plans are laid side by side in one depth array: light k's layers follow light k - 1's, and
 the layers of lights whose maps are smaller than the array's layers are packed into the squares
-of shared array layers. :class:`LightSpan` says where each light's maps are, for the
+of shared array layers. With view-sized maps (``view_resolution``) the lights' clump maps
+instead share one atlas, each map's side from what the view needs whichever light casts it
+(game/shadows/view_budget.py). :class:`LightSpan` says where each light's maps are, for the
 shading pass's light records.
 """
 
@@ -23,6 +25,7 @@ import numpy as np
 from game.scene.geometry import PackedGeometry
 from game.scene.model import Light
 from game.shadows import registry
+from game.shadows.crowd import pow2_at_least
 from game.shadows.fit import CUBE_FACES
 from game.shadows.method import ShadowMethod
 from game.shadows.plan import MIN_CLUMP_RESOLUTION, ShadowPlan, ShadowSettings, layer_bytes
@@ -113,9 +116,8 @@ class LightShadows:
         # the view needs them whichever light casts there.
         self.view_budget: ViewBudget | None = None
         self._view_reserved: list[list[int]] = []
-        self._view_shared = (n > 1 and settings.view_resolution
-                             and all(m.shares_view_budget for m in self.methods))
-        if self._view_shared:
+        if (n > 1 and settings.view_resolution
+                and all(m.shares_view_budget for m in self.methods)):
             self._share_view_budget()
 
     def _share_view_budget(self) -> None:
@@ -125,11 +127,12 @@ class LightShadows:
         own. Every clump map is placed, and drawn, anew."""
         methods, s = self.methods, self.methods[0].settings
         texels = sum(m.fixed_texels for m in methods)
-        layers, side = atlas_shape(texels, max(m.settings.clump_resolution for m in methods),
-                                   s.max_clump_resolution)
+        sides = [pow2_at_least(m.settings.clump_resolution) for m in methods]
+        layers, side = atlas_shape(texels, max(sides), s.max_clump_resolution)
         self._view_reserved = [m.reserved_sides for m in methods]
-        self.view_budget = ViewBudget(layers, side, MIN_CLUMP_RESOLUTION,
-                                      [side for sides in self._view_reserved for side in sides],
+        smallest = min(MIN_CLUMP_RESOLUTION, *sides)
+        self.view_budget = ViewBudget(layers, side, smallest,
+                                      [edge for sides in self._view_reserved for edge in sides],
                                       s.max_map_renders)
         for method in methods:
             method.share_view_budget(side)

@@ -120,7 +120,9 @@ class ViewBudget:
                                                                           set[int]]:
         """Placements for every clump (in order) and the clumps whose maps are drawn this
         frame: those in ``must`` (their content changed), new ones, and up to
-        :attr:`max_renders` maps whose side changed, smaller first (they free squares)."""
+        :attr:`max_renders` maps whose side changed, smaller first (they free squares). A map
+        whose new side finds no free square keeps its old side and waits; only a new clump
+        that finds none has every square laid out anew."""
         sides = self.sides(requests)
         keys = {r.key for r in requests}
         for key in [k for k in self.placed if k not in keys]:  # clumps that are gone
@@ -133,31 +135,48 @@ class ViewBudget:
                           key=lambda i: (sides[i] > self.placed[requests[i].key].side,
                                          -requests[i].need))
         budget = self.max_renders - sum(requests[i].maps for i in forced)
-        applied = list(forced)
+        drawn = set(must) | set(forced)
+        self.backlog = 0
         for i in optional:
-            if i in must or budget >= requests[i].maps:
-                applied.append(i)
-                budget -= 0 if i in must else requests[i].maps
-        self.backlog = len(changes) - len(applied)
-        drawn = set(must) | set(applied)
-        for i in applied:
-            old = self.placed.pop(requests[i].key, None)
-            if old is not None:
+            request = requests[i]
+            if i not in must and budget < request.maps:
+                self.backlog += 1
+                continue
+            old = self.placed[request.key]
+            side = sides[i]
+            squares = self._retake(old.squares, side, request.maps)
+            if squares is None:  # no room as the squares lie: the old side and squares
+                self.backlog += 1
                 for square in old.squares:
-                    self.atlas.give(square)
-        for i in must:  # same side, new content (the light moved): new fits
-            if i not in applied and requests[i].key in self.placed:
-                self.placed[requests[i].key].fits = requests[i].refit(sides[i])
-        for i in sorted(applied, key=lambda i: -sides[i]):
-            squares = [self.atlas.take(sides[i]) for _ in range(requests[i].maps)]
-            if any(s is None for s in squares):
-                for s in squares:
-                    if s is not None:
-                        self.atlas.give(s)
+                    self.atlas.take_again(square)
+                if i not in must:
+                    continue
+                side, squares = old.side, old.squares
+            budget -= 0 if i in must else request.maps
+            drawn.add(i)
+            self.placed[request.key] = Placement(side, squares, request.refit(side))
+        for i in set(must) - set(changes):  # same side, new content (the light moved)
+            self.placed[requests[i].key].fits = requests[i].refit(sides[i])
+        for i in sorted(forced, key=lambda i: -sides[i]):
+            squares = self._retake([], sides[i], requests[i].maps)
+            if squares is None:
                 return self._repack(requests, sides), set(range(len(requests)))
             self.placed[requests[i].key] = Placement(sides[i], squares,
                                                      requests[i].refit(sides[i]))
         return [self.placed[r.key] for r in requests], drawn
+
+    def _retake(self, old: list[Square], side: int, count: int) -> list[Square] | None:
+        """Give back ``old`` and take ``count`` squares of ``side``; None, with nothing taken
+        (``old`` given back all the same), when they do not fit."""
+        for square in old:
+            self.atlas.give(square)
+        squares = [self.atlas.take(side) for _ in range(count)]
+        if any(s is None for s in squares):
+            for s in squares:
+                if s is not None:
+                    self.atlas.give(s)
+            return None
+        return squares
 
     def _repack(self, requests: list[ClumpRequest], sides: list[int]) -> list[Placement]:
         """Every square anew (the free space was too broken up): every map is drawn again."""

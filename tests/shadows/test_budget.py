@@ -4,6 +4,8 @@ degraded frame still matches Embree (never a silently missing shadow)."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import moderngl
 import pytest
 
@@ -204,7 +206,8 @@ def test_clumps_short_of_layers_get_maps_of_half_the_side(ctx):
     says so, and the frame still matches Embree. A budget that holds the target keeps 2048."""
     scene = parse_scene(TINY, TINY_PATH, TINY_PATH.parent)
     layer_mib = 4 * 2048 ** 2 / 2**20
-    short = ShadowSettings(texels_per_metre=4000.0, budget_mib=4 * layer_mib)
+    short = ShadowSettings(texels_per_metre=4000.0, budget_mib=4 * layer_mib,
+                           view_resolution=False)  # the fixed maps' side
     renderer = Renderer(ctx, scene, SIZE, short, gbuffer=True)
     try:
         method = renderer.method
@@ -215,7 +218,8 @@ def test_clumps_short_of_layers_get_maps_of_half_the_side(ctx):
         assert err["shadowed"] >= 100 and err["error"] <= MAX_ERROR, err["error"]
     finally:
         renderer.release()
-    renderer = Renderer(ctx, scene, SIZE, ShadowSettings(budget_mib=64 * layer_mib))
+    renderer = Renderer(ctx, scene, SIZE, dataclasses.replace(short, texels_per_metre=96.0,
+                                                              budget_mib=64 * layer_mib))
     try:
         assert renderer.method.resolution == 2048
         assert renderer.method._extent_scale == 1.0

@@ -151,3 +151,21 @@ def test_the_budget_rounds_every_need_to_a_side_as_the_crowd_does():
                             [0.0, 1.0, 127.0, 128.0, 129.0, np.inf, np.nan],
                             [2.0 ** k for k in range(14)]])
     assert pow2_sides(needs, 128, 4096).tolist() == [pow2_at_least(n, 128, 4096) for n in needs]
+
+
+def test_a_map_that_finds_no_free_square_for_its_new_side_waits_instead_of_a_repack():
+    """Laying every square out anew would draw every map again: a map whose larger side finds
+    no free square, the free texels broken up, keeps its side and square and waits."""
+    budget = ViewBudget(layers=1, resolution=1024, min_side=128, reserved=[], max_renders=64)
+    # Map 0 gives up three quarters of its square; map 3 asks as many texels more, which are
+    # free but lie in three pieces.
+    frames = iter([[512, 512, 512, 256, 256, 256, 256], [256, 512, 512, 512, 256, 256, 256]])
+    budget.sides = lambda requests: next(frames)
+    placed, _ = budget.place(_requests([1.0] * 7), set())
+    before = [p.squares[0] for p in placed]
+    placed, drawn = budget.place(_requests([1.0] * 7), set())
+    assert drawn == {0} and budget.backlog == 1
+    assert budget.atlas.free_texels == 512 ** 2 - 256 ** 2
+    assert placed[3].side == 256 and placed[3].squares[0] == before[3]
+    squares = [s for p in placed for s in p.squares]
+    assert not any(_overlap(a, b) for i, a in enumerate(squares) for b in squares[:i])

@@ -180,7 +180,12 @@ class ClumpedShadows(ShadowMethod):
         # maps: a lamp whose clumps all surround it ends in one cube, whatever it is given.
         one_more = CUBE_FACES if self.light.kind == "point" else 1
         return (self._short and self._budget_layers < self.max_layers
-                and self.layers + one_more > self.layer_limit)
+                and self._fixed_layers + one_more > self.layer_limit)
+
+    @property
+    def memory_mib(self) -> float:
+        # The fixed maps' layers: view-sized maps take as many texels.
+        return self._fixed_layers * layer_bytes(self.settings.clump_resolution) / 2**20
 
     def limit_memory(self, mib: float) -> None:
         super().limit_memory(mib)
@@ -195,6 +200,11 @@ class ClumpedShadows(ShadowMethod):
     def layers(self) -> int:
         if self.view_budget is not None:
             return self.view_budget.atlas.layers
+        return self._fixed_layers
+
+    @property
+    def _fixed_layers(self) -> int:
+        """The layers of ``clump_resolution`` that the clump and character maps take."""
         return max(1, self._high)
 
     @property
@@ -214,26 +224,28 @@ class ClumpedShadows(ShadowMethod):
         s = self.settings
         if not s.view_resolution or self._shared_side is not None:
             return
-        texels = (len(self.static_maps) + len(self._char_layers)) * s.clump_resolution ** 2
-        layers, side = atlas_shape(texels, s.clump_resolution, s.max_clump_resolution)
+        smallest = crowd.pow2_at_least(s.clump_resolution)  # the atlas's squares are powers of 2
+        texels = (len(self.static_maps) + len(self._char_layers)) * smallest ** 2
+        layers, side = atlas_shape(texels, smallest, s.max_clump_resolution)
         if self.view_budget is not None:
             if (self.view_budget.atlas.layers, self.view_budget.atlas.resolution) == (layers,
                                                                                        side):
                 return
             self._dirty = set(range(len(self._clump_keys)))  # every map is placed anew
-        self.view_budget = ViewBudget(layers, side, MIN_CLUMP_RESOLUTION, self.reserved_sides,
-                                      s.max_map_renders)
+        self.view_budget = ViewBudget(layers, side, min(MIN_CLUMP_RESOLUTION, smallest),
+                                      self.reserved_sides, s.max_map_renders)
 
     # -- view-sized maps in the lights' shared atlas ------------------------------------------
     @property
     def reserved_sides(self) -> list[int]:
         """The sides of the squares the character maps keep in a view-sized atlas."""
-        return [self.settings.clump_resolution] * len(self._char_layers)
+        return [crowd.pow2_at_least(self.settings.clump_resolution)] * len(self._char_layers)
 
     @property
     def fixed_texels(self) -> int:
         """The texels this light's fixed maps keep in the array: its limit's layers."""
-        return max(self.layers, self.layer_limit) * self.settings.clump_resolution ** 2
+        side = crowd.pow2_at_least(self.settings.clump_resolution)  # as the atlas rounds it
+        return max(self._fixed_layers, self.layer_limit) * side ** 2
 
     def share_view_budget(self, side: int) -> None:
         """Place the clump maps in an atlas of ``side``-texel layers that the lights share
