@@ -225,10 +225,11 @@ class Timing:
             out["static_triangles"] = g.triangle_count(range(g.first_static, g.first_character))
             out["characters"] = g.n_characters
             out["lights"] = len(self.scene.lights)
-            k = self.k - 1
-            plan = renderer.method.plan(renderer.models(k / FPS), self.view)
+            # Light 0's maps as the last frame drew them (sized for its view).
+            span = renderer.last_spans[0]
+            maps = renderer.last_plan.maps[span.first_map:span.first_map + span.map_count]
             statics = set(range(g.first_static, g.first_character))
-            out.update(footprints([m for m in plan.maps if statics.intersection(m.objects)]))
+            out.update(footprints([m for m in maps if statics.intersection(m.objects)]))
             for p in PASSES:
                 ms = [f.ms.get(p, 0.0) for f in timed]
                 out[f"{p}_ms_median"], out[f"{p}_ms_p95"] = _stats(ms)

@@ -234,18 +234,16 @@ def fit_cube_faces(points: np.ndarray, eye: np.ndarray, resolution: int) -> list
 def cube_face_reach(points: np.ndarray, eye: np.ndarray, reach: float | None = None
                     ) -> list[tuple[np.ndarray, float]]:
     """For each face of :func:`fit_cube_faces` (same faces, same order), the centre and the
-    width of what it holds: a face is as wide as twice the depth of its farthest point
-    within its 90 degrees, held to ``reach`` (a light's range: nothing beyond is lit)."""
+    width of what it may hold: a face is as wide as twice the depth of the farthest point in
+    front of it (what lies within its 90 degrees, a wall's middle between corners outside
+    them among it, is no deeper), held to ``reach`` (a light's range: nothing beyond is lit)."""
     p = np.asarray(points, float) - np.asarray(eye, float)
     out = []
     for axis in CUBE_AXES:
         a = np.asarray(axis)
-        depth = p @ a
-        if depth.max() <= 0:
+        far = float((p @ a).max())
+        if far <= 0:
             continue
-        across = np.abs(p - depth[:, None] * a).max(axis=1)
-        held = depth[(depth > 0) & (across <= depth)]
-        far = float(held.max()) if len(held) else 0.0
         if reach is not None:
             far = min(far, reach)
         out.append((np.asarray(eye, float) + a * far / 2, 2.0 * far))

@@ -25,7 +25,6 @@ import numpy as np
 from game.scene.geometry import PackedGeometry
 from game.scene.model import Light
 from game.shadows import registry
-from game.shadows.crowd import pow2_at_least
 from game.shadows.fit import CUBE_FACES
 from game.shadows.method import ShadowMethod
 from game.shadows.plan import MIN_CLUMP_RESOLUTION, ShadowPlan, ShadowSettings, layer_bytes
@@ -115,7 +114,7 @@ class LightShadows:
         # With view-sized maps, one atlas for every light's clump maps, so that texels go where
         # the view needs them whichever light casts there.
         self.view_budget: ViewBudget | None = None
-        self._view_reserved: list[list[int]] = []
+        self._view_shape: tuple = ()
         if (n > 1 and settings.view_resolution
                 and all(m.shares_view_budget for m in self.methods)):
             self._share_view_budget()
@@ -127,21 +126,30 @@ class LightShadows:
         own. Every clump map is placed, and drawn, anew."""
         methods, s = self.methods, self.methods[0].settings
         texels = sum(m.fixed_texels for m in methods)
-        sides = [pow2_at_least(m.settings.clump_resolution) for m in methods]
+        sides = [m.settings.clump_resolution for m in methods]
         layers, side = atlas_shape(texels, max(sides), s.max_clump_resolution)
-        self._view_reserved = [m.reserved_sides for m in methods]
+        self._view_shape = self._view_wants()
         smallest = min(MIN_CLUMP_RESOLUTION, *sides)
         self.view_budget = ViewBudget(layers, side, smallest,
-                                      [edge for sides in self._view_reserved for edge in sides],
+                                      [edge for m in methods for edge in m.reserved_sides],
                                       s.max_map_renders)
         for method in methods:
             method.share_view_budget(side)
 
+    def _view_wants(self) -> tuple:
+        """What the shared atlas is made for: every light's fixed texels and character
+        squares."""
+        return tuple((m.fixed_texels, tuple(m.reserved_sides)) for m in self.methods)
+
+    def _check_view_budget(self) -> None:
+        """Make the shared atlas anew where characters or clumps came or went: asked before
+        the array is sized (:attr:`resolution`, :attr:`layers`)."""
+        if self.view_budget is not None and self._view_wants() != self._view_shape:
+            self._share_view_budget()
+
     def _place_by_view(self, view) -> None:
         """Every light's clump maps placed by this view's needs in the one atlas: the
         placements and the character maps' squares handed to each light's planner."""
-        if [m.reserved_sides for m in self.methods] != self._view_reserved:
-            self._share_view_budget()  # characters came or went: their squares change
         requests, must, spans = [], set(), []
         for k, method in enumerate(self.methods):
             own, dirty = method.view_requests(view)
@@ -193,6 +201,7 @@ class LightShadows:
     @property
     def resolution(self) -> int:
         """Texels per side of the array's layers: the largest any light's method asks."""
+        self._check_view_budget()
         return max(m.resolution for m in self.methods)
 
     def _places(self) -> list[tuple[int, int]]:
@@ -200,6 +209,7 @@ class LightShadows:
         layers are smaller than the array's takes squares of array layers, after the previous
         light's squares of the same size; a layer never holds squares of two sizes."""
         if self.view_budget is not None:  # one atlas: the maps' layers are the array's
+            self._check_view_budget()
             self._end = self.view_budget.atlas.layers
             return [(0, 0)] * len(self.methods)
         places, layer, used, size = [], 0, 0, None

@@ -32,7 +32,7 @@ def atlas_shape(texels: int, min_side: int, max_side: int) -> tuple[int, int]:
     """Layers and side of an atlas that holds ``texels``: the largest power-of-two side from
     ``min_side`` up to ``max_side`` whose whole layers hold them with at most a quarter more."""
     side = pow2_at_least(max(max_side, min_side))
-    while side > min_side and -(-texels // side ** 2) * side ** 2 > 1.25 * texels:
+    while side > min_side and max(1, -(-texels // side ** 2)) * side ** 2 > 1.25 * texels:
         side //= 2
     return max(1, -(-texels // side ** 2)), side
 
@@ -125,9 +125,12 @@ class ViewBudget:
         that finds none has every square laid out anew."""
         sides = self.sides(requests)
         keys = {r.key for r in requests}
-        for key in [k for k in self.placed if k not in keys]:  # clumps that are gone
+        gone = [k for k in self.placed if k not in keys]
+        for key in gone:
             for square in self.placed.pop(key).squares:
                 self.atlas.give(square)
+        if gone:
+            self._sizes.forget({str(key) for key in keys})
         changes = [i for i, r in enumerate(requests)
                    if r.key not in self.placed or self.placed[r.key].side != sides[i]]
         forced = [i for i in changes if requests[i].key not in self.placed]

@@ -155,6 +155,31 @@ def test_view_sized_maps_of_every_light_share_one_atlas_sized_by_the_view(ctx):
         renderer.release()
 
 
+def test_characters_that_come_to_a_scene_of_several_lights_get_squares_of_the_shared_atlas(
+        ctx):
+    """The lights' atlas is made anew for the characters' squares before the array is sized:
+    every map of the next frame lies in the array, and the walkers cast their shadows."""
+    scene = load_scene(LAMPS)
+    walkers, scene.characters = scene.characters, []
+    view = View.from_camera(scene.camera, SIZE)
+    renderer = Renderer(ctx, scene, SIZE, ShadowSettings(budget_mib=256.0), gbuffer=True)
+    try:
+        renderer.render(0.0, view)
+        for walker in walkers:
+            renderer.add_character(walker)
+        frame = renderer.render(0.0, view)
+        plan = renderer.last_plan
+        assert plan.render_dynamic
+        assert all(record.layer < renderer.shadows.layers for record in plan.maps)
+        mesh = occluders(renderer.scene, 0.0)
+        for k, light in enumerate(renderer.scene.lights):
+            g = frame.gbuffer
+            err = score_frame(g["lit_lights"][..., k], g["position"], g["normal"], mesh, light)
+            assert err["error"] <= MAX_ERROR, (k, err["error"])
+    finally:
+        renderer.release()
+
+
 def test_every_light_shares_one_budget(ctx):
     budget = 64.0
     renderer, _ = _render(ctx, budget_mib=budget)

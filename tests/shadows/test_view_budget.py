@@ -10,8 +10,9 @@ from game.render.renderer import Renderer, View
 from game.scene import load_scene
 from game.shadows.atlas import Atlas
 from game.shadows.crowd import pow2_at_least
+from game.shadows.fit import cube_face_reach, fit_cube_faces
 from game.shadows.plan import ShadowSettings
-from game.shadows.view_budget import ClumpRequest, ViewBudget, pow2_sides
+from game.shadows.view_budget import ClumpRequest, ViewBudget, atlas_shape, pow2_sides
 from tests.conftest import COURTYARD
 from tests.shadow_check import frame_error
 
@@ -169,3 +170,27 @@ def test_a_map_that_finds_no_free_square_for_its_new_side_waits_instead_of_a_rep
     assert placed[3].side == 256 and placed[3].squares[0] == before[3]
     squares = [s for p in placed for s in p.squares]
     assert not any(_overlap(a, b) for i, a in enumerate(squares) for b in squares[:i])
+
+
+def test_a_cube_face_is_as_wide_as_the_deepest_point_in_front_of_it_within_the_range():
+    """A lamp in a long room: the wall beside it has its corners outside the face that looks
+    at it, and its middle inside; the floor's face holds the lamp's height; nothing lies
+    beyond the range."""
+    eye = np.zeros(3)
+    wall = np.array([[5.0, y, z] for y in (-2.0, 2.0) for z in (-10.0, 10.0)])
+    floor = np.array([[x, -2.0, z] for x in (-4.0, 4.0) for z in (-10.0, 10.0)])
+    points = np.concatenate([wall, floor])
+    faces = cube_face_reach(points, eye, reach=8.0)
+    assert len(faces) == len(fit_cube_faces(points, eye, 256))
+    widths = {tuple(np.sign(np.round(centre, 6)).astype(int)): width for centre, width in faces}
+    assert widths[(1, 0, 0)] == 10.0    # the wall, 5 m away
+    assert widths[(0, -1, 0)] == 4.0    # the floor, 2 m below
+    assert widths[(0, 0, 1)] == 16.0    # along the room: held to the range
+
+
+def test_a_clump_that_goes_takes_its_hysteresis_with_it_and_an_empty_atlas_is_small():
+    budget = ViewBudget(layers=1, resolution=2048, min_side=128, reserved=[], max_renders=64)
+    budget.place(_requests([500.0, 500.0]), set())
+    budget.place(_requests([500.0]), set())
+    assert set(budget._sizes._size) == {"clump_0"}
+    assert atlas_shape(0, 128, 4096) == (1, 128)

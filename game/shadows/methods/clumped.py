@@ -114,6 +114,11 @@ class ClumpedShadows(ShadowMethod):
 
     def __init__(self, geom: PackedGeometry, light: Light, settings: ShadowSettings,
                  max_layers: int, max_maps: int | None = None):
+        if settings.view_resolution:
+            # The atlas's squares have power-of-two sides: the fixed maps whose texels it holds
+            # too, no larger than asked, so that it keeps to the budget.
+            side = settings.clump_resolution
+            settings = dataclasses.replace(settings, clump_resolution=1 << (side.bit_length() - 1))
         super().__init__(geom, light, settings, max_layers, max_maps)
         self._start(settings)
         side = settings.clump_resolution
@@ -224,28 +229,26 @@ class ClumpedShadows(ShadowMethod):
         s = self.settings
         if not s.view_resolution or self._shared_side is not None:
             return
-        smallest = crowd.pow2_at_least(s.clump_resolution)  # the atlas's squares are powers of 2
-        texels = (len(self.static_maps) + len(self._char_layers)) * smallest ** 2
-        layers, side = atlas_shape(texels, smallest, s.max_clump_resolution)
+        texels = (len(self.static_maps) + len(self._char_layers)) * s.clump_resolution ** 2
+        layers, side = atlas_shape(texels, s.clump_resolution, s.max_clump_resolution)
         if self.view_budget is not None:
             if (self.view_budget.atlas.layers, self.view_budget.atlas.resolution) == (layers,
                                                                                        side):
                 return
             self._dirty = set(range(len(self._clump_keys)))  # every map is placed anew
-        self.view_budget = ViewBudget(layers, side, min(MIN_CLUMP_RESOLUTION, smallest),
+        self.view_budget = ViewBudget(layers, side, min(MIN_CLUMP_RESOLUTION, s.clump_resolution),
                                       self.reserved_sides, s.max_map_renders)
 
     # -- view-sized maps in the lights' shared atlas ------------------------------------------
     @property
     def reserved_sides(self) -> list[int]:
         """The sides of the squares the character maps keep in a view-sized atlas."""
-        return [crowd.pow2_at_least(self.settings.clump_resolution)] * len(self._char_layers)
+        return [self.settings.clump_resolution] * len(self._char_layers)
 
     @property
     def fixed_texels(self) -> int:
         """The texels this light's fixed maps keep in the array: its limit's layers."""
-        side = crowd.pow2_at_least(self.settings.clump_resolution)  # as the atlas rounds it
-        return max(self._fixed_layers, self.layer_limit) * side ** 2
+        return max(self._fixed_layers, self.layer_limit) * self.settings.clump_resolution ** 2
 
     def share_view_budget(self, side: int) -> None:
         """Place the clump maps in an atlas of ``side``-texel layers that the lights share
@@ -633,7 +636,7 @@ class ClumpedShadows(ShadowMethod):
         fits: list[MapFit] = []
         if light.kind != "directional" and not self._one_frustum(points):
             fits = fit_cube_faces(points, light.position, res)
-            spare = self.layer_limit - self.layers + len(self._free)
+            spare = self.layer_limit - self._fixed_layers + len(self._free)
             if len(fits) - len(self._clump_layers[k]) > spare:
                 self.notes.append(f"clump {k} surrounds the light but {spare} free layers "
                                   "cannot hold a cube of maps; its widest frustum is used")
