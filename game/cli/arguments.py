@@ -199,8 +199,8 @@ def _add_shadow_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--view-resolution", action=argparse.BooleanOptionalAction,
                    default=d.view_resolution,
                    help="clumped: size each clump map by what the view needs (up to "
-                        "--max-clump-resolution, in the memory the fixed maps would take); "
-                        "--no-view-resolution gives every clump map --clump-resolution")
+                        "--max-clump-resolution, in the memory the fixed maps would take), "
+                        "instead of --clump-resolution for every clump map")
     g.add_argument("--max-clump-resolution", type=positive_int, default=d.max_clump_resolution,
                    help="clumped with --view-resolution: the largest side of a clump map")
     g.add_argument("--single-resolution", type=positive_int, default=d.single_resolution,

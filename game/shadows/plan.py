@@ -74,8 +74,8 @@ class ShadowSettings:
     grid: str = "auto"
     budget_mib: float = SHADOW_BUDGET_MIB
     # clumped: size each clump map by what the view needs, in the memory the fixed maps would
-    # take (off: every clump map has clump_resolution texels per side)
-    view_resolution: bool = True
+    # take (else every clump map has clump_resolution texels per side)
+    view_resolution: bool = False
     max_clump_resolution: int = MAX_CLUMP_RESOLUTION
     view_texels_per_pixel: float = VIEW_TEXELS_PER_PIXEL
     max_map_renders: int = MAX_MAP_RENDERS

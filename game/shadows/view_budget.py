@@ -2,15 +2,18 @@
 
 With a fixed texel density every clump map has the same side, near the camera or 300 m away. Here
 each frame gives each clump map a side from the need its owner computes from the view (the
-clumped method: game/shadows/methods/clumped.py ``_view_sized``), as a power of two between a
-minimum and the array's layer side. All needs are scaled by one factor, the largest for which
-the sides fit the budget, so maps keep their share relative to each other. Sides grow at once
-and shrink only when the need falls well under the smaller side (the characters' hysteresis,
-game/shadows/crowd.py), so small camera moves re-render nothing.
+clumped method: game/shadows/methods/clumped.py ``view_requests``), as a power of two between a
+minimum and the array's layer side. The sides follow the needs to the power 2/3 (a map's
+misclassified pixels go as its edge pixels, about its need, times the edges' offset, the need
+over the side: for a fixed sum of squares their total is least so), all scaled by one factor,
+the largest for which the sides fit the budget. Sides grow at once and shrink only when the need
+falls well under the smaller side (the characters' hysteresis, game/shadows/crowd.py), so small
+camera moves re-render nothing.
 The maps live in squares of the array's layers (game/shadows/atlas.py); a map keeps its square
 while its side stays, and a cached map is drawn again only when its side changes (or its clump
-does). At most ``max_renders`` maps change side in a frame; the others wait, keeping their old
-side and square, and :attr:`ViewBudget.backlog` counts them. Holds no GL object.
+does). At most ``max_renders`` maps change side in a frame, and a larger side waits for a free
+square; the others keep their old side and square, and :attr:`ViewBudget.backlog` counts them.
+The maps of several lights may share one budget (game/shadows/lights.py). Holds no GL object.
 """
 
 from __future__ import annotations
@@ -55,8 +58,9 @@ class Placement:
 
 @dataclass(frozen=True)
 class ClumpRequest:
-    """One clump as the budget sees it: a key that stays while the clump is unchanged, how
-    many maps it has, the side its view asks, and its fits at a given side."""
+    """A clump's maps (the clumped method asks for each map apart) as the budget sees them: a
+    key that stays while the clump is unchanged, how many maps, the side the view asks, and
+    their fits at a given side."""
 
     key: Hashable
     maps: int

@@ -162,7 +162,8 @@ def test_characters_that_come_to_a_scene_of_several_lights_get_squares_of_the_sh
     scene = load_scene(LAMPS)
     walkers, scene.characters = scene.characters, []
     view = View.from_camera(scene.camera, SIZE)
-    renderer = Renderer(ctx, scene, SIZE, ShadowSettings(budget_mib=256.0), gbuffer=True)
+    renderer = Renderer(ctx, scene, SIZE, ShadowSettings(budget_mib=256.0, view_resolution=True),
+                        gbuffer=True)
     try:
         renderer.render(0.0, view)
         for walker in walkers:
