@@ -22,6 +22,7 @@ result into map records (game/shadows/methods/clumped.py). Holds no GL object.
 from __future__ import annotations
 
 import math
+from collections.abc import Hashable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -124,10 +125,11 @@ class CrowdPlanner:
     def __init__(self, min_resolution: int, max_resolution: int):
         self.min_resolution = min_resolution
         self.max_resolution = max_resolution
-        self._size: dict[str, int] = {}
+        self._size: dict[Hashable, int] = {}
 
-    def sizes(self, names: list[str], needed: np.ndarray) -> list[int]:
-        """Power-of-two sides for these needs, with the hysteresis."""
+    def sizes(self, names: list[Hashable], needed: np.ndarray) -> list[int]:
+        """Power-of-two sides for these needs, with the hysteresis; ``names`` are any keys that
+        stay while what they name does."""
         out = []
         for name, need in zip(names, needed, strict=True):
             size = pow2_at_least(float(need), self.min_resolution, self.max_resolution)
@@ -138,7 +140,7 @@ class CrowdPlanner:
             out.append(size)
         return out
 
-    def forget(self, keep: set[str]) -> None:
+    def forget(self, keep: set[Hashable]) -> None:
         """Drop the sizes of characters that no longer exist."""
         self._size = {n: s for n, s in self._size.items() if n in keep}
 

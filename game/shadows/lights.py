@@ -28,7 +28,7 @@ from game.shadows import registry
 from game.shadows.fit import CUBE_FACES
 from game.shadows.method import ShadowMethod
 from game.shadows.plan import MIN_CLUMP_RESOLUTION, ShadowPlan, ShadowSettings, layer_bytes
-from game.shadows.view_budget import ViewBudget, atlas_shape
+from game.shadows.view_budget import ClumpRequest, ViewBudget, atlas_shape
 
 MIN_LAMP_RESOLUTION = 128  # the smallest clump maps a lamp's share may make
 
@@ -154,7 +154,7 @@ class LightShadows:
         for k, method in enumerate(self.methods):
             own, dirty = method.view_requests(view)
             first = len(requests)
-            requests += [dataclasses.replace(r, key=(k, r.key)) for r in own]
+            requests += [ClumpRequest((k, r.key), r.maps, r.need, r.refit) for r in own]
             must |= {first + i for i in dirty}
             spans.append((first, len(requests)))
         placements, drawn = self.view_budget.place(requests, must)

@@ -111,7 +111,9 @@ class ViewBudget:
             scale = (low + high) / 2
             low, high = (scale, high) if texels(scale) <= self.capacity else (low, scale)
         scale = low
-        sides = self._sizes.sizes([str(r.key) for r in requests], needs * scale)
+        # The keys themselves name the maps: spelling out a clump's members each frame cost
+        # more than the rest of the search.
+        sides = self._sizes.sizes([r.key for r in requests], needs * scale)
         while sum(m * s * s for m, s in zip(maps, sides, strict=True)) > self.capacity:
             largest = max(range(len(sides)), key=lambda i: (sides[i], -requests[i].need))
             if sides[largest] <= self.min_side:
@@ -134,7 +136,7 @@ class ViewBudget:
             for square in self.placed.pop(key).squares:
                 self.atlas.give(square)
         if gone:
-            self._sizes.forget({str(key) for key in keys})
+            self._sizes.forget(keys)
         changes = [i for i, r in enumerate(requests)
                    if r.key not in self.placed or self.placed[r.key].side != sides[i]]
         forced = [i for i in changes if requests[i].key not in self.placed]
