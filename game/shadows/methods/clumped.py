@@ -258,56 +258,63 @@ class ClumpedShadows(ShadowMethod):
         self.view_budget = None
         self._dirty = set(range(len(self._clump_keys)))
 
-    def view_requests(self, view) -> tuple[list[ClumpRequest], set[int]]:
-        """Each clump map as the view's budget sees it, clump by clump, and those that must be
-        drawn whatever their side (their clump changed). A map is as wide as its clump's
-        bounding sphere, a cube's face as what it holds (:func:`cube_face_reach`); its need
-        is the texels that give ``view_texels_per_pixel`` across that width where the clump's
-        shadow is seen, none where the view cannot see it."""
-        s, light = self.settings, self.light
-        owners, centres, widths = [], [], []
-        for k in range(len(self._clump_keys)):
+    def _index_view_maps(self) -> None:
+        """What the view's budget asks of each clump map that does not depend on the view,
+        kept while the clumps are: its record, its clump, its key, the centre and width it
+        is measured at (a clump's bounding sphere, a cube face's :func:`cube_face_reach`), and
+        the clumps' spheres for their shadow volumes."""
+        owners, centres, widths, keys, records = [], [], [], [], []
+        for k, members in enumerate(self._clump_keys):
             centre, radius = self._clump_spheres[k]
             faces = self._face_reach.get(k)
-            for j in range(len(self._map_of_clump.get(k, []))):
+            own = tuple(members)
+            count = len(self._map_of_clump.get(k, []))
+            for j, i in enumerate(self._map_of_clump.get(k, [])):
                 owners.append(k)
+                records.append(i)
+                keys.append((own, count, j))
                 centres.append(faces[j][0] if faces else centre)
                 widths.append(faces[j][1] if faces else 2.0 * radius)
+        spheres = [self._clump_spheres[k] for k in range(len(self._clump_keys))]
+        self._view_maps = {
+            "owners": np.array(owners, int), "records": records, "keys": keys,
+            "centres": np.array(centres, float).reshape(-1, 3), "widths": np.array(widths, float),
+            "sphere_centres": np.array([c for c, _ in spheres], float).reshape(-1, 3),
+            "sphere_radii": np.array([r for _, r in spheres], float)}
+
+    def view_requests(self, view) -> tuple[list[ClumpRequest], set[int]]:
+        """Each clump map as the view's budget sees it, clump by clump, and those that must be
+        drawn whatever their side (their clump changed). A map's need is the texels that give
+        ``view_texels_per_pixel`` across its width (:meth:`_index_view_maps`) where the
+        clump's shadow is seen, none where the view cannot see it."""
+        s, light, m = self.settings, self.light, self._view_maps
+        owners, width = m["owners"], m["widths"]
         n = len(owners)
         need = np.ones(n)  # without a view, alike: the budget's scale sets them
         if view is not None and view.size is not None and n:
             eye = None if light.kind == "directional" else np.asarray(light.position, float)
-            spheres = [self._clump_spheres[k] for k in range(len(self._clump_keys))]
-            volumes, bounded = crowd.shadow_volumes(
-                np.array([c for c, _ in spheres]), np.array([r for _, r in spheres], float),
-                light.kind, light.direction, eye, self._ground)
+            volumes, bounded = crowd.shadow_volumes(m["sphere_centres"], m["sphere_radii"],
+                                                    light.kind, light.direction, eye,
+                                                    self._ground)
             hidden = (bounded & crowd.outside_view(volumes, view.proj @ view.view))[owners]
             # The density the map's shadow needs where most of it is seen: at its centre's
             # distance (at least half its width), not at its nearest point, which for a clump
             # beside the camera would ask the most texels for a sliver of its shadow.
-            width = np.array(widths, float)
-            hom = np.concatenate([np.array(centres), np.ones((n, 1))], axis=1)
-            depth = np.maximum(-(hom @ view.view[2]), np.maximum(width / 2, 1e-6))
+            depth = np.maximum(-(m["centres"] @ view.view[2, :3] + view.view[2, 3]),
+                               np.maximum(width / 2, 1e-6))
             need = width * 0.5 * view.size[1] * view.proj[1, 1] / depth * s.view_texels_per_pixel
             need[hidden] = 0.0
-        self._request_maps = [i for k in range(len(self._clump_keys))
-                              for i in self._map_of_clump.get(k, [])]
-        requests, must, first = [], set(), 0
-        for k, keys in enumerate(self._clump_keys):
-            count = len(self._map_of_clump.get(k, []))
-            for j in range(count):
-                requests.append(ClumpRequest(
-                    key=(tuple(keys), count, j), maps=1, need=float(need[first + j]),
-                    refit=lambda side, k=k, j=j: self._fits_at(k, side)[j:j + 1]))
-                if k in self._dirty:
-                    must.add(first + j)
-            first += count
+        requests = [ClumpRequest(key=key, maps=1, need=float(need[q]),
+                                 refit=lambda side, k=int(owners[q]), j=key[2]:
+                                 self._fits_at(k, side)[j:j + 1])
+                    for q, key in enumerate(m["keys"])]
+        must = {q for q in range(n) if owners[q] in self._dirty}
         return requests, must
 
     def place_by_view(self, placements: list[Placement], drawn: set[int],
                       reserved: list[Square]) -> None:
-        """This frame's placements from the shared atlas: every clump's (in order), the clumps
-        whose maps are drawn, and the character maps' squares."""
+        """This frame's placements from the shared atlas: every clump map's (in the order of
+        :meth:`view_requests`), those drawn, and the character maps' squares."""
         self._given = (placements, drawn, reserved)
 
     def _character_names(self) -> list[str]:
@@ -599,6 +606,7 @@ class ClumpedShadows(ShadowMethod):
                     objects=[self.geom.static_object(i) for i in statics], cover=cover,
                     pieces=pieces))
         self._clump_density = self._density_reached()
+        self._index_view_maps()
         self._make_view_budget()
 
     def _density_reached(self) -> float:
@@ -773,11 +781,12 @@ class ClumpedShadows(ShadowMethod):
                 ) -> list[int]:
         """Replace the clump maps' records in ``maps`` by their view-sized ``placements`` (in
         the order of :meth:`view_requests`); returns the records drawn (``drawn`` of them)."""
-        for i, placement in zip(self._request_maps, placements, strict=True):
+        records = self._view_maps["records"]
+        for i, placement in zip(records, placements, strict=True):
             square = placement.squares[0]
             maps[i] = dataclasses.replace(maps[i], fit=placement.fits[0], layer=square.layer,
                                           viewport=placement.side, origin=(square.x, square.y))
-        return [self._request_maps[n] for n in drawn]
+        return [records[n] for n in drawn]
 
     def _fits_at(self, k: int, side: int) -> list[MapFit]:
         """Clump k's maps fitted at ``side`` texels: as many as it has, of the same kind."""
