@@ -6,12 +6,20 @@
 // Each light has its own maps, u_maps[first_map, first_map + map_count), and its own grid.
 //
 // What is fixed for a whole frame arrives as #defines, and the renderer picks the program made
-// for it (game/render/shading_pass.py): PCF (0 or 1), and with one light (MANY_LIGHTS 0) its kind
+// for it (game/render/shading_pass.py): PCF (0 or 1), COUNT_PIXELS (0 or 1), and with one light (MANY_LIGHTS 0) its kind
 // LIGHT_KIND (LIGHT_DIRECTIONAL, LIGHT_SPOT, LIGHT_POINT) and its grid's mode GRID (GRID_NONE,
 // GRID_ORTHO, GRID_OCTAHEDRAL). Branching on uniforms instead costs more on llvmpipe, which runs
 // both sides of a branch under a lane mask; with several lights those two are read per light.
 
 uniform sampler2DArrayShadow u_shadow_maps;
+
+// COUNT_PIXELS (a #define) counts, per map, the pixels that read it within a texel of one of its
+// shadow edges, where its texels' size moves the shadow: view-sized maps are sized by them
+// (game/shadows/view_budget.py).
+#if COUNT_PIXELS
+#include "blocks/map_pixels.glsl"
+bool g_on_edge;  // set by lookup(): the 2 x 2 texels around the sample do not all agree
+#endif
 
 // KIND_CASCADE (a #define from game/shadows/plan.py) marks csm cascades. They are listed
 // finest first, and the first one that holds the fragment decides (coarser ones would only add
@@ -29,6 +37,10 @@ float lookup(int i, vec2 uv, float depth) {
     float layer = float(u_maps[i].layer);
     vec2 offset = u_maps[i].uv_offset;
     uv = offset + uv * u_maps[i].uv_scale;
+#if COUNT_PIXELS
+    vec4 taps = textureGather(u_shadow_maps, vec3(uv, layer), depth);
+    g_on_edge = any(notEqual(taps, taps.xxxx));
+#endif
 #if !PCF
     return texture(u_shadow_maps, vec4(uv, layer, depth));
 #else
@@ -138,6 +150,11 @@ void consider(LightRecord light, int i, Receiver r, inout float vis, inout int s
         v = sample_perspective(i, r.p, r.n, r.l, r.sin_t, r.tan_t, biased, read);
     }
     if (read) {
+#if COUNT_PIXELS
+        if (g_on_edge) {
+            atomicAdd(u_map_pixels[i], 1u);
+        }
+#endif
         sampled += 1;
         held += u_maps[i].kind == KIND_CLUMP ? 1 : 0;
         if (used < 0 || v < vis) {

@@ -28,13 +28,15 @@ TRACE_LIGHT_SEGMENT, TRACE_LIGHT_POINT, TRACE_LIGHT_DIRECTIONAL = 0, 1, 2
 # Binding points of every block. Uniform and storage blocks are numbered apart, as GL numbers
 # them, and each kind stays below the GL 4.3 minimum of its binding points (36 uniform, 8
 # storage). The frame's storage buffers keep 0-2 for the whole frame; the tracer's and the
-# culler's take 3-7 in turn, each binding its own before it dispatches.
+# culler's take 3-7 in turn, each binding its own before it dispatches, and the shading pass's
+# pixel counts take 3 while it draws.
 UNIFORM_BINDINGS = {"Frame": 0, "ShadowMaps": 1, "TraceParams": 2, "CullParams": 3,
                     "Lights": 4}
 STORAGE_BINDINGS = {
     "MapGrid": 0, "Models": 1, "CharacterMaps": 2,
     "Triangles": 3, "StaticCells": 4, "DynamicCells": 5, "TriState": 6, "Results": 7,
     "Corners": 3, "Indices": 4, "Chunks": 5, "Culled": 6, "Commands": 7,
+    "MapPixels": 3,
 }
 BINDINGS = {**UNIFORM_BINDINGS, **STORAGE_BINDINGS}
 MIN_GL_BINDINGS = {"uniform": 36, "buffer": 8}  # GL_MAX_*_BUFFER_BINDINGS of any GL 4.3
@@ -310,6 +312,12 @@ GROUPS: dict[str, list[Struct | Block]] = {
         # Per light, then per character, the index of its map in u_maps this frame (-1: none).
         Block("buffer", "CharacterMaps", array=("int", "u_character_maps", ""),
               access="readonly"),
+    ],
+    # Per map of the frame, the pixels that read it within a texel of its shadow edges
+    # (shaders/shadow.glsl; view-sized maps are sized by them on the next frame:
+    # game/shadows/view_budget.py). Zeroed before each counted draw.
+    "blocks/map_pixels.glsl": [
+        Block("buffer", "MapPixels", array=("uint", "u_map_pixels", "")),
     ],
     "blocks/trace.glsl": [
         Block("uniform", "TraceParams", TRACE_DTYPE, instance="u_trace"),

@@ -74,6 +74,7 @@ class FrameBlocks:
         self.models = ctx.buffer(reserve=64 * max(1, n_characters))
         self.n_lights = n_lights
         self.character_maps = ctx.buffer(reserve=4 * max(1, n_characters * n_lights))
+        self.pixels = ctx.buffer(reserve=4 * self.max_maps)  # per map: pixels near its edges
         self._frame_data = np.zeros(1, FRAME_DTYPE)
 
     def upload(self, plan: ShadowPlan, spans: list[LightSpan], view: View,
@@ -159,6 +160,16 @@ class FrameBlocks:
         self.models.bind_to_storage_buffer(b["Models"])
         self.character_maps.bind_to_storage_buffer(b["CharacterMaps"])
 
+    def count_pixels(self) -> None:
+        """Zero the per-map counts of pixels near shadow edges and bind them for the next draw
+        (after the culler, which binds its own buffers to the same point)."""
+        self.pixels.write(bytes(self.pixels.size))
+        self.pixels.bind_to_storage_buffer(blocks.BINDINGS["MapPixels"])
+
+    def counted_pixels(self, n_maps: int) -> np.ndarray:
+        """The counts of the last counted draw's first ``n_maps`` maps."""
+        return np.frombuffer(self.pixels.read(size=4 * n_maps), np.uint32).astype(np.int64)
+
     def characters_changed(self, n_characters: int) -> None:
         """Characters were added or removed: the per-character buffers, resized and zeroed."""
         n = max(1, n_characters)
@@ -168,11 +179,11 @@ class FrameBlocks:
             buffer.write(bytes(size))
 
     def gl_objects(self) -> int:
-        return 6
+        return 7
 
     def release(self) -> None:
         for buffer in (self.frame, self.maps, self.lights, self.grid, self.models,
-                       self.character_maps):
+                       self.character_maps, self.pixels):
             buffer.release()
 
 

@@ -6,6 +6,11 @@ array (shadow_pass) -> the camera pass's triangle culling (cull) -> the shading 
 frame target (shading_pass, target) -> pixels and G-buffer read back. A frame lit through
 traced visibility (soft shadows, the ``traced`` method) then goes through the tracer and the
 soft composite (traced_lighting). Run-time scene edits are in scene_edits.
+
+With view-sized clump maps the shading pass also counts, per map, the pixels near its shadow
+edges; the next frame's plan reads them back (long after the GPU is done with them) and sizes
+the maps by them (game/shadows/view_budget.py). The first frame has no counts to go by: it is
+planned, drawn and counted, then planned and drawn again by its own counts.
 """
 
 from __future__ import annotations
@@ -53,6 +58,9 @@ class Renderer(SceneEdits):
         self.cull = cull
         self.last_plan: ShadowPlan | None = None  # for the overlay's map list
         self.last_spans: list[LightSpan] = []       # each light's maps in it
+        # The last frame's plan, when its draw counted the pixels that read each map (the
+        # view-sized maps' needs): read back at the next plan, when the GPU is long done.
+        self._counted: ShadowPlan | None = None
         self.grids = [map_grid.GridBuilder() for _ in scene.lights]
         self.lights_on = [True] * len(scene.lights)  # the window switches lights off
         # The G-buffer is kept when the caller asks (dumps, soft shadows) and while the method
@@ -106,6 +114,7 @@ class Renderer(SceneEdits):
                                                      self.geom.n_characters)
         self.shadows = LightShadows(self.geom, self.scene.lights, self.settings,
                                     self.limits.max_layers, self.limits.max_maps)
+        self._counted = None
 
     def set_settings(self, settings: ShadowSettings) -> None:
         """Switch method or parameters; every map is planned (and cached) anew."""
@@ -151,22 +160,16 @@ class Renderer(SceneEdits):
         if view.size != self.size:  # the character maps are sized for this frame's pixels
             view = dataclasses.replace(view, size=self.size)
         with timer.measure("total", wall=True):
-            plan, grid_mode = self._plan(models, view)
-            with timer.measure("shadow_static"):
-                triangles = self.shadow_pass.draw_maps(plan, plan.render_static)
-            with timer.measure("shadow_dynamic"):
-                triangles += self.shadow_pass.draw_dynamic(plan)
-            culled = self.cull and self.culler is not None
-            if culled:
-                with timer.measure("cull"):
-                    self.culler.run(self.size)
-            with timer.measure("shade"):
-                s = self.settings
-                variant = Variant.of(self.target.gbuffer, self.scene.lights, s.pcf, grid_mode,
-                                     blocks.DEBUG_VIEWS[self.debug_view])
-                self.shading.draw(self.target, self.shadow_pass.array, variant, self.culler,
-                                  culled)
-        frame = self._frame(plan, triangles, culled, read)
+            plan, triangles, culled = self._draw(models, view)
+            first = None
+            if self._counted is not None and self.shadows.placed_blind:
+                # View-sized maps placed before any pixel was counted (the first frame): they
+                # are placed anew at once, by this draw's counts, and drawn again.
+                self.shadows.place_anew()
+                first = plan
+                plan, more, culled = self._draw(models, view)
+                triangles += more
+        frame = self._frame(plan, triangles, culled, read, first)
         self._composited = False
         if self.method.visibility == VISIBILITY_TRACED:
             result = self.traced.light_frame(frame, self.target, self.geom, models, None, read)
@@ -185,11 +188,40 @@ class Renderer(SceneEdits):
                 frame.gbuffer["soft"] = frame.soft.visibility
         return frame
 
+    def _draw(self, models: np.ndarray, view: View) -> tuple[ShadowPlan, int, bool]:
+        """Plan, draw the maps and shade: the plan, the triangles drawn into maps, and whether
+        the camera pass drew only the culled triangles."""
+        timer = self.timer
+        plan, grid_mode = self._plan(models, view)
+        with timer.measure("shadow_static"):
+            triangles = self.shadow_pass.draw_maps(plan, plan.render_static)
+        with timer.measure("shadow_dynamic"):
+            triangles += self.shadow_pass.draw_dynamic(plan)
+        culled = self.cull and self.culler is not None
+        if culled:
+            with timer.measure("cull"):
+                self.culler.run(self.size)
+        with timer.measure("shade"):
+            s = self.settings
+            count = self.shadows.counts_pixels
+            variant = Variant.of(self.target.gbuffer, self.scene.lights, s.pcf, grid_mode,
+                                 blocks.DEBUG_VIEWS[self.debug_view], count)
+            if count:
+                self.blocks.count_pixels()
+            self.shading.draw(self.target, self.shadow_pass.array, variant, self.culler, culled)
+            self._counted = plan if count else None
+        return plan, triangles, culled
+
     def _plan(self, models: np.ndarray, view: View) -> tuple[ShadowPlan, int]:
         """The method's plan for this frame, in the blocks; and the map grid's mode."""
         # The array first: making it anew loses every cached layer.
         if self.shadow_pass.prepare(self.shadows.resolution, self.shadows.layers):
             self.shadows.mark_rendered_lost()
+        if self._counted is not None:
+            pixels = self.blocks.counted_pixels(len(self._counted.maps))
+            self.shadows.served([pixels[span.first_map:span.first_map + span.map_count]
+                                 for span in self.last_spans])
+            self._counted = None
         plan, spans = self.shadows.plan(models, view)
         if self.buffers.order_statics(plan.static_pieces) and self.culler is not None:
             self.culler.set_layout()
@@ -211,12 +243,20 @@ class Renderer(SceneEdits):
         self.last_plan, self.last_spans = plan, spans
         return plan, grids[0].mode
 
-    def _frame(self, plan: ShadowPlan, triangles: int, culled: bool, read: bool) -> Frame:
+    def _frame(self, plan: ShadowPlan, triangles: int, culled: bool, read: bool,
+               first: ShadowPlan | None = None) -> Frame:
+        """The frame's record; ``first`` is a plan drawn before ``plan`` in the same frame,
+        whose renders count too."""
         rendered = len(plan.render_static) + len(plan.render_dynamic)
         drawn = (*plan.render_static, *plan.render_dynamic)
-        counts = {"maps_rendered": rendered, "maps_cached": len(plan.maps) - rendered,
+        texels = sum(plan.maps[i].viewport ** 2 for i in drawn)
+        if first is not None:
+            again = (*first.render_static, *first.render_dynamic)
+            texels += sum(first.maps[i].viewport ** 2 for i in again)
+        counts = {"maps_rendered": rendered + (len(again) if first is not None else 0),
+                  "maps_cached": len(plan.maps) - rendered,
                   "maps_total": len(plan.maps), "triangles_to_maps": triangles,
-                  "texels_to_maps": sum(plan.maps[i].viewport ** 2 for i in drawn),
+                  "texels_to_maps": texels,
                   "maps_waiting": plan.backlog,
                   "characters": dict(plan.characters)}
         if not read:

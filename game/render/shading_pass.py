@@ -31,15 +31,17 @@ class Variant(NamedTuple):
     grid_mode: int      # blocks.GRID_* of the one light's map grid (0 with several)
     debug_view: int     # blocks.DEBUG_VIEWS
     many_lights: bool = False  # lights, kinds and grids read from the Lights block
+    count_pixels: bool = False  # the pixels that read each map, counted (FrameBlocks.pixels)
 
     @classmethod
     def of(cls, gbuffer: bool, lights: list, pcf: bool, grid_mode: int,
-           debug_view: int) -> Variant:
+           debug_view: int, count_pixels: bool = False) -> Variant:
         """The variant for a frame: with several lights, their kinds and grids are read from
         their records, so one program serves them all."""
         if len(lights) > 1:
-            return cls(gbuffer, 0, pcf, 0, debug_view, True)
-        return cls(gbuffer, blocks.LIGHT_KINDS[lights[0].kind], pcf, grid_mode, debug_view)
+            return cls(gbuffer, 0, pcf, 0, debug_view, True, count_pixels)
+        return cls(gbuffer, blocks.LIGHT_KINDS[lights[0].kind], pcf, grid_mode, debug_view,
+                   False, count_pixels)
 
 
 class ShadingPass:
@@ -57,7 +59,8 @@ class ShadingPass:
         if variant not in self._programs:
             defines = {**self.defines, "GBUFFER": variant.gbuffer, "LIGHT_KIND": variant.light_kind,
                        "PCF": variant.pcf, "GRID": variant.grid_mode,
-                       "DEBUG_VIEW": variant.debug_view, "MANY_LIGHTS": variant.many_lights}
+                       "DEBUG_VIEW": variant.debug_view, "MANY_LIGHTS": variant.many_lights,
+                       "COUNT_PIXELS": variant.count_pixels}
             prog = self.ctx.program(vertex_shader=glsl.build("shade.vert", self.defines),
                                     fragment_shader=glsl.build("shade.frag", defines))
             culled = (None if culler is None

@@ -4,9 +4,10 @@ Every square has a power-of-two side and sits at a multiple of its side in its l
 square's four quarters are the squares of the next size down. A free square of the size asked
 is taken when there is one; otherwise the smallest larger one is split, its other quarters left
 free. A square given back joins its three buddies into their parent when all four are free.
-Maps keep their square while their size stays, so a cached map is never moved; :meth:`repack`
-lays out every square anew (largest first, which always fits when the total fits) for when the
-free space is too broken up. Holds no GL object.
+Maps keep their square while their size stays, so a cached map moves only when the budget moves
+it aside (game/shadows/view_budget.py); :meth:`repack` lays out every square anew (largest
+first, which always fits when the total fits) for when the free space is too broken up. Holds
+no GL object.
 """
 
 from __future__ import annotations
@@ -33,6 +34,16 @@ class Atlas:
         self.layers = layers
         self.resolution = resolution
         self._free: set[Square] = {Square(k, 0, 0, resolution) for k in range(layers)}
+
+    def copy(self) -> Atlas:
+        """An atlas with the same squares free, to try a change on."""
+        other = Atlas(self.layers, self.resolution)
+        other._free = set(self._free)
+        return other
+
+    def restore(self, other: Atlas) -> None:
+        """Take the free squares of ``other`` (a changed :meth:`copy`)."""
+        self._free = set(other._free)
 
     @property
     def free_texels(self) -> int:

@@ -140,6 +140,10 @@ class CrowdPlanner:
             out.append(size)
         return out
 
+    def last_sizes(self, names: list[Hashable]) -> np.ndarray:
+        """The last size of each of ``names`` (0 for one never sized)."""
+        return np.array([self._size.get(name, 0) for name in names], np.int64)
+
     def forget(self, keep: set[Hashable]) -> None:
         """Drop the sizes of characters that no longer exist."""
         self._size = {n: s for n, s in self._size.items() if n in keep}

@@ -28,7 +28,7 @@ from game.shadows import registry
 from game.shadows.fit import CUBE_FACES
 from game.shadows.method import ShadowMethod
 from game.shadows.plan import MIN_CLUMP_RESOLUTION, ShadowPlan, ShadowSettings, layer_bytes
-from game.shadows.view_budget import ClumpRequest, ViewBudget, atlas_shape
+from game.shadows.view_budget import ViewBudget, atlas_shape
 
 MIN_LAMP_RESOLUTION = 128  # the smallest clump maps a lamp's share may make
 
@@ -154,7 +154,7 @@ class LightShadows:
         for k, method in enumerate(self.methods):
             own, dirty = method.view_requests(view)
             first = len(requests)
-            requests += [ClumpRequest((k, r.key), r.maps, r.need, r.refit) for r in own]
+            requests += [dataclasses.replace(r, key=(k, r.key)) for r in own]
             must |= {first + i for i in dirty}
             spans.append((first, len(requests)))
         placements, drawn = self.view_budget.place(requests, must)
@@ -232,6 +232,31 @@ class LightShadows:
     def mark_rendered_lost(self) -> None:
         for method in self.methods:
             method.mark_rendered_lost()
+
+    @property
+    def counts_pixels(self) -> bool:
+        """Whether the shading pass should count the pixels that read each map: some light's
+        maps are sized by them."""
+        return any(m.counts_pixels for m in self.methods)
+
+    def served(self, pixels: list[np.ndarray]) -> None:
+        """Per map of the last plan drawn, light by light, the pixels near its shadow edges."""
+        for method, own in zip(self.methods, pixels, strict=True):
+            method.served(own)
+
+    @property
+    def placed_blind(self) -> bool:
+        """Whether the last plan placed view-sized maps before any pixels were counted (the
+        first frame): the renderer then counts them and has them placed anew at once."""
+        shared = self.view_budget is not None and self.view_budget.blind
+        return shared or any(m.placed_blind for m in self.methods)
+
+    def place_anew(self) -> None:
+        """Every view-sized map placed (and drawn) anew on the next plan."""
+        if self.view_budget is not None:
+            self.view_budget.forget()
+        for method in self.methods:
+            method.place_anew()
 
     def plan(self, models: np.ndarray, view=None) -> tuple[ShadowPlan, list[LightSpan]]:
         """This frame's maps of every light in one plan, and each light's span of it."""

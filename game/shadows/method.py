@@ -125,6 +125,24 @@ class ShadowMethod(ABC):
     def mark_rendered_lost(self) -> None:  # noqa: B027 - most methods cache nothing
         """The depth array was re-created: every cached map must be drawn again."""
 
+    @property
+    def counts_pixels(self) -> bool:
+        """Whether its maps are sized by the pixels near their shadow edges
+        (:meth:`served`)."""
+        return False
+
+    def served(self, pixels: np.ndarray) -> None:  # noqa: B027 - most methods size by nothing
+        """Per map of the last plan drawn (in the plan's order), the pixels that read it within
+        a texel of its shadow edges (shaders/shadow.glsl)."""
+
+    @property
+    def placed_blind(self) -> bool:
+        """Whether its last plan placed its maps before any pixels were counted."""
+        return False
+
+    def place_anew(self) -> None:  # noqa: B027 - most methods place nothing by the view
+        """Place its maps anew on the next plan, by the pixels counted since."""
+
     # -- a light's reach ------------------------------------------------------------------
     def reached_statics(self) -> list[int]:
         """The statics a spot or point light's range and cone can reach (all for others)."""

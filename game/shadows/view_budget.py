@@ -1,19 +1,23 @@
 """Clump maps sized by what the view needs, inside the shadow memory budget.
 
 With a fixed texel density every clump map has the same side, near the camera or 300 m away. Here
-each frame gives each clump map a side from the need its owner computes from the view (the
-clumped method: game/shadows/methods/clumped.py ``view_requests``), as a power of two between a
-minimum and the array's layer side. The sides follow the needs to the power 2/3 (a map's
-misclassified pixels go as its edge pixels, about its need, times the edges' offset, the need
-over the side: for a fixed sum of squares their total is least so), all scaled by one factor,
-the largest for which the sides fit the budget. Sides grow at once and shrink only when the need
-falls well under the smaller side (the characters' hysteresis, game/shadows/crowd.py), so small
-camera moves re-render nothing.
+each frame gives each clump map a power-of-two side between a minimum and the array's layer side,
+from what its owner measures in the view (the clumped method: game/shadows/methods/clumped.py
+``view_requests``): the map's weight, the length of its shadow edges on screen times its need,
+counted in the shading pass of the frame before (shaders/shadow.glsl). A map misclassifies
+pixels in proportion to its weight over its side; for a fixed sum of squares their total is
+least when each side goes as the cube root of the weight. Before a map is counted its edges are
+taken as long as it is wide on screen, which makes the side go as the need to the power 2/3.
+All are scaled by one factor, the largest for which the sides fit the budget. Sides grow at once
+and shrink only when the need falls well under the smaller side (the characters' hysteresis,
+game/shadows/crowd.py), the sides it holds paid for by the scale, so small camera moves
+re-render nothing.
 The maps live in squares of the array's layers (game/shadows/atlas.py); a map keeps its square
-while its side stays, and a cached map is drawn again only when its side changes (or its clump
-does). At most ``max_renders`` maps change side in a frame, and a larger side waits for a free
-square; the others keep their old side and square, and :attr:`ViewBudget.backlog` counts them.
-The maps of several lights may share one budget (game/shadows/lights.py). Holds no GL object.
+while its side stays, and a cached map is drawn again only when its side changes, its clump
+does, or it is moved aside to make room for a larger square. At most ``max_renders`` maps are
+drawn again in a frame; the others keep their old side and square, and
+:attr:`ViewBudget.backlog` counts them. The maps of several lights may share one budget
+(game/shadows/lights.py). Holds no GL object.
 """
 
 from __future__ import annotations
@@ -24,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from game.shadows.atlas import Atlas, Square
-from game.shadows.crowd import CrowdPlanner, pow2_at_least
+from game.shadows.crowd import SHRINK_BELOW, CrowdPlanner, pow2_at_least
 from game.shadows.fit import MapFit
 
 # The most the needs are scaled up to fill the budget (a need of 128 texels may become 4096).
@@ -59,13 +63,17 @@ class Placement:
 @dataclass(frozen=True)
 class ClumpRequest:
     """A clump's maps (the clumped method asks for each map apart) as the budget sees them: a
-    key that stays while the clump is unchanged, how many maps, the side the view asks, and
-    their fits at a given side."""
+    key that stays while the clump is unchanged, how many maps, the side the view asks, their
+    fits at a given side, and their weight: the length in pixels of their shadow edges times
+    the need and the texels per pixel, to which the pixels they misclassify at a given side
+    are proportional (None: edges as long as the maps are wide in pixels, the need
+    squared)."""
 
     key: Hashable
     maps: int
     need: float
     refit: Callable[[int], list[MapFit]]
+    weight: float | None = None
 
 
 class ViewBudget:
@@ -83,6 +91,7 @@ class ViewBudget:
         self._sizes = CrowdPlanner(self.min_side, resolution)
         self.placed: dict[Hashable, Placement] = {}
         self.backlog = 0
+        self.blind = False
 
     @property
     def capacity(self) -> int:
@@ -91,44 +100,51 @@ class ViewBudget:
         return total - sum(s * s for s in self._reserved_sides)
 
     def sides(self, requests: list[ClumpRequest]) -> list[int]:
-        """Each clump's side this frame: its need, all needs scaled by one factor, the largest
-        that fits the budget (below 1 where the needs exceed it, so near maps keep more texels
-        than far ones; above 1 where they leave texels unused, since finer maps only make
-        shadows more exact), with the hysteresis; then, should the hysteresis's larger sides
-        not fit, the largest halved."""
-        maps = [r.maps for r in requests]
-        counts = np.array(maps, np.int64)
+        """Each clump's side this frame: from its weight (or need), all scaled by one factor,
+        the largest for which the sides, with the hysteresis, fit the budget (below 1 where
+        the needs exceed it, so near maps keep more texels than far ones; above 1 where they
+        leave texels unused, since finer maps only make shadows more exact)."""
+        counts = np.array([r.maps for r in requests], np.int64)
         needs = np.array([r.need for r in requests], float)
-        if len(needs) and needs.max() > 0:
-            needs = needs ** (2 / 3) * needs.max() ** (1 / 3)
+        weights = np.array([r.need ** 2 if r.weight is None else r.weight
+                            for r in requests], float)
+        if len(needs) and needs.max() > 0 and weights.max() > 0:
+            needs = np.cbrt(weights) * (needs.max() / np.cbrt(weights.max()))
+
+        keys = [r.key for r in requests]
+        last = np.minimum(self._sizes.last_sizes(keys), self.atlas.resolution)
 
         def texels(scale: float) -> int:
-            sides = pow2_sides(needs * scale, self.min_side, self.atlas.resolution)
+            # The sides the hysteresis gives (game/shadows/crowd.py CrowdPlanner.sizes), so
+            # that the sides it holds are paid for by a smaller scale, not by cutting maps
+            # that need theirs.
+            scaled = needs * scale
+            sides = pow2_sides(scaled, self.min_side, self.atlas.resolution)
+            sides = np.where((last > sides) & (scaled > SHRINK_BELOW * last / 2), last, sides)
             return int(counts @ (sides * sides))
 
+        if texels(0.0) > self.capacity:
+            raise ValueError("the clump maps do not fit the shadow budget at their smallest "
+                             "side")
         low, high = 0.0, MAX_SCALE
         for _ in range(32):  # the largest scale that fits
             scale = (low + high) / 2
             low, high = (scale, high) if texels(scale) <= self.capacity else (low, scale)
-        scale = low
         # The keys themselves name the maps: spelling out a clump's members each frame cost
         # more than the rest of the search.
-        sides = self._sizes.sizes([r.key for r in requests], needs * scale)
-        while sum(m * s * s for m, s in zip(maps, sides, strict=True)) > self.capacity:
-            largest = max(range(len(sides)), key=lambda i: (sides[i], -requests[i].need))
-            if sides[largest] <= self.min_side:
-                raise ValueError("the clump maps do not fit the shadow budget at their "
-                                 "smallest side")
-            sides[largest] //= 2
-        return sides
+        return self._sizes.sizes(keys, needs * low)
 
     def place(self, requests: list[ClumpRequest], must: set[int]) -> tuple[list[Placement],
                                                                           set[int]]:
         """Placements for every clump (in order) and the clumps whose maps are drawn this
         frame: those in ``must`` (their content changed), new ones, and up to
         :attr:`max_renders` maps whose side changed, smaller first (they free squares). A map
-        whose new side finds no free square keeps its old side and waits; only a new clump
-        that finds none has every square laid out anew."""
+        whose larger side finds no free square gets one made by moving smaller maps aside
+        (drawn again, within the cap), or keeps its old side and waits; only a new clump that
+        finds none has every square laid out anew."""
+        # Placed blind: every map anew, with no weight measured (the first frame).
+        self.blind = (bool(requests) and not self.placed
+                      and all(r.weight is None for r in requests))
         sides = self.sides(requests)
         keys = {r.key for r in requests}
         gone = [k for k in self.placed if k not in keys]
@@ -140,6 +156,7 @@ class ViewBudget:
         changes = [i for i, r in enumerate(requests)
                    if r.key not in self.placed or self.placed[r.key].side != sides[i]]
         forced = [i for i in changes if requests[i].key not in self.placed]
+        index = {r.key: i for i, r in enumerate(requests)}
         optional = sorted((i for i in changes if i not in forced),
                           key=lambda i: (sides[i] > self.placed[requests[i].key].side,
                                          -requests[i].need))
@@ -154,6 +171,14 @@ class ViewBudget:
             old = self.placed[request.key]
             side = sides[i]
             squares = self._retake(old.squares, side, request.maps)
+            if squares is None and side > old.side:  # room made by moving small maps aside
+                done = {requests[j].key for j in drawn}  # drawn anyway: free to move
+                squares, moved = self._make_room(request.key, side, request.maps,
+                                                 budget - request.maps, done)
+                for key in moved:
+                    if index[key] not in drawn:
+                        drawn.add(index[key])
+                        budget -= len(self.placed[key].squares)
             if squares is None:  # no room as the squares lie: the old side and squares
                 self.backlog += 1
                 for square in old.squares:
@@ -173,6 +198,29 @@ class ViewBudget:
             self.placed[requests[i].key] = Placement(sides[i], squares,
                                                      requests[i].refit(sides[i]))
         return [self.placed[r.key] for r in requests], drawn
+
+    def _make_room(self, own: Hashable, side: int, count: int, budget: int,
+                   done: set[Hashable]) -> tuple[list[Square] | None, list[Hashable]]:
+        """``count`` squares of ``side`` for map ``own`` (its old squares given back) where the
+        free texels are too broken up for one: each the aligned square whose smaller maps are
+        fewest, those moved to free squares elsewhere, at most ``budget`` maps drawn again
+        (those in ``done`` are drawn this frame anyway). Returns the squares (None, nothing
+        moved, when no such square is found) and the keys of the maps moved."""
+        atlas = self.atlas.copy()
+        placed = {k: list(p.squares) for k, p in self.placed.items() if k != own}
+        squares, moved = [], set()
+        for _ in range(count):
+            found = _free_a_square(atlas, placed, self.reserved, side, budget, done | moved)
+            if found is None:
+                return None, []
+            square, keys = found
+            squares.append(square)
+            budget -= sum(len(placed[k]) for k in keys - moved - done)
+            moved |= keys
+        self.atlas.restore(atlas)
+        for key in moved:
+            self.placed[key].squares = placed[key]
+        return squares, sorted(moved, key=str)
 
     def _retake(self, old: list[Square], side: int, count: int) -> list[Square] | None:
         """Give back ``old`` and take ``count`` squares of ``side``; None, with nothing taken
@@ -204,8 +252,50 @@ class ViewBudget:
         return [self.placed[r.key] for r in requests]
 
     def forget(self) -> None:
-        """Every clump is placed anew on the next frame (its squares are given back)."""
+        """Every clump is placed anew on the next frame (its squares are given back), its side
+        from its weight alone (no hysteresis)."""
         for placement in self.placed.values():
             for square in placement.squares:
                 self.atlas.give(square)
         self.placed = {}
+        self._sizes.forget(set())
+
+
+def _free_a_square(atlas: Atlas, placed: dict[Hashable, list[Square]], fixed: list[Square],
+                   side: int, budget: int, free: set[Hashable]
+                   ) -> tuple[Square, set[Hashable]] | None:
+    """Free an aligned square of ``side`` in ``atlas`` by moving the smaller squares in it
+    (``placed``: each map's squares; ``fixed`` never move) to free squares outside it, their
+    maps, but those in ``free``, at most ``budget`` squares; the square taken and the maps
+    moved, both ``atlas`` and ``placed`` changed, or None with both as they were. Tries the
+    squares whose maps cost fewest draws, then the fewest texels."""
+    blocked, inside = set(), {}
+    for key, squares in [*placed.items(), (None, fixed)]:
+        for sq in squares:
+            block = (sq.layer, sq.x - sq.x % side, sq.y - sq.y % side)
+            if key is None or sq.side >= side:
+                for y in range(sq.y, sq.y + max(sq.side, side), side):
+                    for x in range(sq.x, sq.x + max(sq.side, side), side):
+                        blocked.add((sq.layer, x - x % side, y - y % side))
+            else:
+                inside.setdefault(block, []).append((key, sq))
+    costs = sorted((sum(len(placed[k]) for k in {k for k, _ in held} - free),
+                    sum(sq.side ** 2 for _, sq in held), block)
+                   for block, held in inside.items() if block not in blocked)
+    for maps, _, block in costs[:8]:
+        if maps > budget:
+            break
+        trial = atlas.copy()
+        held = inside[block]
+        for _, sq in held:
+            trial.give(sq)
+        square = Square(*block, side)
+        trial.take_again(square)
+        moves = [(key, sq, trial.take(sq.side)) for key, sq in held]
+        if any(new is None for _, _, new in moves):
+            continue
+        atlas.restore(trial)
+        for key, sq, new in moves:
+            placed[key][placed[key].index(sq)] = new
+        return square, {key for key, _, _ in moves}
+    return None

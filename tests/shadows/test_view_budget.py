@@ -8,12 +8,18 @@ import numpy as np
 
 from game.render.renderer import Renderer, View
 from game.scene import load_scene
-from game.shadows.atlas import Atlas
+from game.shadows.atlas import Atlas, Square
 from game.shadows.crowd import pow2_at_least
 from game.shadows.fit import cube_face_reach, fit_cube_faces
-from game.shadows.plan import ShadowSettings
-from game.shadows.view_budget import ClumpRequest, ViewBudget, atlas_shape, pow2_sides
-from tests.conftest import COURTYARD
+from game.shadows.plan import KIND_CHARACTER, ShadowSettings
+from game.shadows.view_budget import (
+    ClumpRequest,
+    ViewBudget,
+    _free_a_square,
+    atlas_shape,
+    pow2_sides,
+)
+from tests.conftest import ASSETS, COURTYARD
 from tests.shadow_check import frame_error
 
 
@@ -154,22 +160,99 @@ def test_the_budget_rounds_every_need_to_a_side_as_the_crowd_does():
     assert pow2_sides(needs, 128, 4096).tolist() == [pow2_at_least(n, 128, 4096) for n in needs]
 
 
-def test_a_map_that_finds_no_free_square_for_its_new_side_waits_instead_of_a_repack():
-    """Laying every square out anew would draw every map again: a map whose larger side finds
-    no free square, the free texels broken up, keeps its side and square and waits."""
-    budget = ViewBudget(layers=1, resolution=1024, min_side=128, reserved=[], max_renders=64)
-    # Map 0 gives up three quarters of its square; map 3 asks as many texels more, which are
-    # free but lie in three pieces.
+def _fragmented(max_renders: int):
+    """A budget whose map 0 gives up three quarters of its square while map 3 asks as many
+    texels more, free but in three pieces; the squares before, and the second frame."""
+    budget = ViewBudget(layers=1, resolution=1024, min_side=128, reserved=[],
+                        max_renders=max_renders)
     frames = iter([[512, 512, 512, 256, 256, 256, 256], [256, 512, 512, 512, 256, 256, 256]])
     budget.sides = lambda requests: next(frames)
     placed, _ = budget.place(_requests([1.0] * 7), set())
     before = [p.squares[0] for p in placed]
     placed, drawn = budget.place(_requests([1.0] * 7), set())
+    squares = [s for p in placed for s in p.squares]
+    assert not any(_overlap(a, b) for i, a in enumerate(squares) for b in squares[:i])
+    return budget, before, placed, drawn
+
+
+def test_a_map_that_finds_no_free_square_moves_smaller_maps_aside_instead_of_a_repack():
+    """Laying every square out anew would draw every map again: a map whose larger side finds
+    no free square, the free texels broken up, takes the aligned square that costs fewest
+    draws, its maps moved to free squares elsewhere and drawn again there."""
+    budget, before, placed, drawn = _fragmented(max_renders=64)
+    assert placed[3].side == 512 and budget.backlog == 0
+    assert drawn == {0, 3}  # map 0 shrank into the square map 3 left, and is drawn anyway
+    assert placed[0].squares[0] == before[3]
+    assert [p.squares[0] for p in placed[1:3]] == before[1:3]
+    assert [p.squares[0] for p in placed[4:]] == before[4:]
+
+
+def test_a_map_that_finds_no_free_square_within_the_render_cap_waits():
+    budget, before, placed, drawn = _fragmented(max_renders=1)
     assert drawn == {0} and budget.backlog == 1
     assert budget.atlas.free_texels == 512 ** 2 - 256 ** 2
     assert placed[3].side == 256 and placed[3].squares[0] == before[3]
-    squares = [s for p in placed for s in p.squares]
-    assert not any(_overlap(a, b) for i, a in enumerate(squares) for b in squares[:i])
+
+
+def test_moving_maps_aside_never_moves_the_character_maps_squares():
+    """Squares of 256 in a layer of 1024: the 512 square that holds a character square is
+    never freed, though it holds the fewest maps; the next fewest is, its one map moved."""
+    atlas = Atlas(1, 1024)
+    squares = [Square(0, x, y, 256) for y in range(0, 1024, 256) for x in range(0, 1024, 256)]
+    for square in squares:
+        atlas.take_again(square)
+    fixed = [squares[0]]  # the 512 square at (0, 0) holds it and the squares 1, 4 and 5
+    placed = {k: [squares[k]] for k in range(1, 16)}
+    for k in (1, 4, 2, 3, 7):  # leave one map in (0, 0) and one, map 6, in (512, 0)
+        atlas.give(placed.pop(k)[0])
+    found = _free_a_square(atlas, placed, fixed, 512, 8, set())
+    assert found is not None
+    square, moved = found
+    assert square == Square(0, 512, 0, 512) and moved == {6}
+    assert not any(_overlap(placed[6][0], other) for other in (square, *fixed))
+    # The other two 512 squares hold four maps each: more than the free texels can take.
+    assert _free_a_square(atlas, placed, fixed, 512, 8, set()) is None
+
+
+def test_sides_follow_the_weights_the_counts_give():
+    """At the same need, a map with longer shadow edges gets more texels, one whose pixels
+    show no edge of it the least; a map with no weight goes as wide as its need."""
+    budget = ViewBudget(layers=1, resolution=2048, min_side=128, reserved=[], max_renders=64)
+    requests = [dataclasses.replace(r, weight=w) for r, w in
+                zip(_requests([500.0] * 4), [8e6, 1e6, 0.0, None], strict=True)]
+    sides = budget.sides(requests)
+    assert sides[0] > sides[1] > sides[2] == 128
+    assert sum(s * s for s in sides) <= 2048 ** 2
+
+
+def test_sides_the_hysteresis_holds_give_way_to_a_map_whose_weight_grows():
+    """Eight maps fill two layers at 1024; map 0's edges grow 27-fold. The hysteresis would
+    keep the others at 1024, which leaves map 0 no more: the held sides are paid for by the
+    scale, so they shrink and map 0 gets the 2048 its weight asks."""
+    budget = ViewBudget(layers=2, resolution=2048, min_side=128, reserved=[], max_renders=64)
+    for w0 in (1e6, 27e6):
+        requests = [dataclasses.replace(r, weight=w0 if k == 0 else 1e6)
+                    for k, r in enumerate(_requests([900.0] * 8))]
+        placed, _ = budget.place(requests, set())
+    assert [p.side for p in placed] == [2048] + [512] * 7
+
+
+def test_weights_that_fall_as_a_map_grows_do_not_flip_its_side_frame_after_frame():
+    """Counted at a larger side, a map's edges may weigh less than at the smaller one: the
+    sides the hysteresis holds are paid for by the scale, so the map keeps its new side and
+    nothing is drawn again once it has grown."""
+    budget = ViewBudget(layers=1, resolution=2048, min_side=128, reserved=[], max_renders=64)
+    weights = {0: 2e7, 1: 4e6, 2: 4e6, 3: 4e6}
+    redrawn = []
+    for frame in range(8):
+        placed, drawn = budget.place(
+            [dataclasses.replace(r, weight=weights[k]) for k, r in
+             enumerate(_requests([900.0] * 4))], set())
+        redrawn.append(len(drawn) if frame else 0)
+        # Map 0's count as it would be at its new side: its edges' pixels fall faster than
+        # its side grows.
+        weights[0] = 2e7 * (512 / placed[0].side) ** 1.2
+    assert redrawn[3:] == [0] * 5, redrawn
 
 
 def test_a_cube_face_is_as_wide_as_the_deepest_point_in_front_of_it_within_the_range():
@@ -194,3 +277,49 @@ def test_a_clump_that_goes_takes_its_hysteresis_with_it_and_an_empty_atlas_is_sm
     budget.place(_requests([500.0]), set())
     assert set(budget._sizes._size) == {"clump_0"}
     assert atlas_shape(0, 128, 4096) == (1, 128)
+
+
+def test_the_shading_pass_counts_each_maps_pixels_near_its_shadow_edges(ctx):
+    """From the scene's camera, pixels near the edges of the clumps' shadows are counted for
+    the maps that hold them, never more than the pixels covered; looking at the sky, none."""
+    scene = load_scene(COURTYARD)
+    size = (160, 90)
+    renderer = Renderer(ctx, scene, size, ShadowSettings(view_resolution=True))
+    try:
+        frame = renderer.render(0.0, View.from_camera(scene.camera, size))
+        plan = renderer.last_plan
+        counts = renderer.blocks.counted_pixels(len(plan.maps))
+        clumps = [i for i, rec in enumerate(plan.maps) if rec.kind == 0]
+        assert counts[clumps].sum() > 0
+        assert counts.max() <= frame.covered.sum()
+        up = dataclasses.replace(scene.camera, target=scene.camera.position + [0.0, 10.0, 0.1])
+        renderer.render(0.0, View.from_camera(up, size))
+        assert renderer.blocks.counted_pixels(len(renderer.last_plan.maps)).sum() == 0
+    finally:
+        renderer.release()
+
+
+def test_the_first_frame_places_the_view_sized_maps_by_its_own_counts(ctx):
+    """The first frame's maps are placed before any pixel is counted: the frame counts them,
+    places them anew and draws them again. Counted at their new sides, a few maps may change
+    side on the next frame; then a still camera draws no clump map again and keeps every
+    side."""
+    scene = load_scene(ASSETS / "night_town.toml")
+    size = (160, 90)
+    view = View.from_camera(scene.camera, size)
+    renderer = Renderer(ctx, scene, size, ShadowSettings(view_resolution=True))
+    try:
+        first = renderer.render(0.0, view)
+        plan = renderer.last_plan
+        clump_maps = sum(rec.kind != KIND_CHARACTER for rec in plan.maps)
+        assert first.maps_rendered >= 2 * clump_maps
+        renderer.render(0.0, view)
+        assert len(renderer.last_plan.render_static) <= clump_maps // 10
+        renderer.render(0.0, view)
+        sides = [rec.viewport for rec in renderer.last_plan.maps]
+        for _ in range(3):
+            renderer.render(0.0, view)
+            assert renderer.last_plan.render_static == []
+            assert [rec.viewport for rec in renderer.last_plan.maps] == sides
+    finally:
+        renderer.release()

@@ -159,6 +159,11 @@ class ClumpedShadows(ShadowMethod):
         self._shared_side: int | None = None  # the lights' shared atlas's side, when shared
         self._given = None                     # this frame's placements in it
         self._reserved_squares: list[Square] | None = None
+        # Per clump map's key, the pixels within a texel of its shadow edges in the last frame
+        # drawn times its side then (:meth:`served`); the last plan's clump maps: key, record
+        # and side.
+        self._edges: dict = {}
+        self._planned: list[tuple] = []
         self.set_light(self.light)
 
     # -- layers ---------------------------------------------------------------------------
@@ -282,15 +287,43 @@ class ClumpedShadows(ShadowMethod):
             "sphere_centres": np.array([c for c, _ in spheres], float).reshape(-1, 3),
             "sphere_radii": np.array([r for _, r in spheres], float)}
 
+    @property
+    def counts_pixels(self) -> bool:
+        return self.view_budget is not None or self._shared_side is not None
+
+    @property
+    def placed_blind(self) -> bool:
+        """Whether its own view-sized atlas placed every map of the last plan anew with no
+        pixels counted (the first frame): :meth:`place_anew` once they are."""
+        return self.view_budget is not None and self.view_budget.blind
+
+    def place_anew(self) -> None:
+        """Every view-sized map placed (and drawn) anew on the next plan."""
+        if self.view_budget is not None:
+            self.view_budget.forget()
+
+    def served(self, pixels: np.ndarray) -> None:
+        """Kept, by map key, for the next frames' weights."""
+        # One pixel more than counted: a count of a few pixels is mostly chance, and a map
+        # that shows none at one side and a few at the next would change side each frame.
+        self._edges = {key: (int(pixels[record]) + 1.0) * side
+                       for key, record, side in self._planned}
+
     def view_requests(self, view) -> tuple[list[ClumpRequest], set[int]]:
         """Each clump map as the view's budget sees it, clump by clump, and those that must be
         drawn whatever their side (their clump changed). A map's need is the texels that give
         ``view_texels_per_pixel`` across its width (:meth:`_index_view_maps`) where the
-        clump's shadow is seen, none where the view cannot see it."""
+        clump's shadow is seen, none where the view cannot see it. Its weight
+        (game/shadows/view_budget.py) is the length of its shadow edges in pixels times its
+        need and the texels per pixel, from the pixels near those edges in the last frame
+        drawn (:meth:`served`): at the side it had then, a texel spans the need over the side
+        and the texels per pixel in pixels, so that many pixels per pixel of edge were
+        counted."""
         s, light, m = self.settings, self.light, self._view_maps
         owners, width = m["owners"], m["widths"]
         n = len(owners)
         need = np.ones(n)  # without a view, alike: the budget's scale sets them
+        weight = None
         if view is not None and view.size is not None and n:
             eye = None if light.kind == "directional" else np.asarray(light.position, float)
             volumes, bounded = crowd.shadow_volumes(m["sphere_centres"], m["sphere_radii"],
@@ -304,7 +337,15 @@ class ClumpedShadows(ShadowMethod):
                                np.maximum(width / 2, 1e-6))
             need = width * 0.5 * view.size[1] * view.proj[1, 1] / depth * s.view_texels_per_pixel
             need[hidden] = 0.0
+            if self._edges:
+                # A map not yet counted has edges as long as its width in pixels: its weight
+                # is its need squared.
+                counted = np.array([self._edges.get(key, np.nan) for key in m["keys"]])
+                weight = np.where(np.isnan(counted), need ** 2,
+                                  counted * s.view_texels_per_pixel ** 2)
+                weight[need <= 0] = 0.0
         requests = [ClumpRequest(key=key, maps=1, need=float(need[q]),
+                                 weight=None if weight is None else float(weight[q]),
                                  refit=lambda side, k=int(owners[q]), j=key[2]:
                                  self._fits_at(k, side)[j:j + 1])
                     for q, key in enumerate(m["keys"])]
@@ -772,6 +813,8 @@ class ClumpedShadows(ShadowMethod):
         render_dynamic = []
         counts = self._character_maps(models, view, maps, render_dynamic)
         self._dirty = set()
+        self._planned = [(key, i, maps[i].viewport) for key, i in
+                         zip(self._view_maps["keys"], self._view_maps["records"], strict=True)]
         return ShadowPlan(resolution=self.resolution, maps=maps,
                           render_static=render_static, render_dynamic=render_dynamic,
                           static_pieces=self.static_pieces, characters=counts,
