@@ -8,6 +8,7 @@ Floors are never drawn into any map.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 
 import numpy as np
@@ -49,6 +50,10 @@ from game.shadows.view_budget import ClumpRequest, Placement, ViewBudget, atlas_
 # A clump around a point light gets one frustum only when it is no wider than a cube face (45
 # degrees either side of its axis): a wider one spreads its texels thinner than the faces do.
 CUBE_FACE_TAN = 1.0
+
+# The clump maps' keys for the view's budget: numbers never given twice in a run, so that no two
+# maps, of any light or planner, share one (_index_view_maps).
+_MAP_IDS = itertools.count()
 
 
 def _footprint(light: Light, statics: list[np.ndarray]):
@@ -164,6 +169,8 @@ class ClumpedShadows(ShadowMethod):
         # and side.
         self._edges: dict = {}
         self._planned: list[tuple] = []
+        self._map_ids: dict[tuple, int] = {}  # the clump maps' keys (_index_view_maps)
+        self._placed_records: dict[int, tuple] = {}  # _placed's last records, by index
         self.set_light(self.light)
 
     # -- layers ---------------------------------------------------------------------------
@@ -268,21 +275,29 @@ class ClumpedShadows(ShadowMethod):
         kept while the clumps are: its record, its clump, its key, the centre and width it
         is measured at (a clump's bounding sphere, a cube face's :func:`cube_face_reach`), and
         the clumps' spheres for their shadow volumes."""
-        owners, centres, widths, keys, records = [], [], [], [], []
+        owners, centres, widths, keys, records, within = [], [], [], [], [], []
+        ids: dict[tuple, int] = {}
         for k, members in enumerate(self._clump_keys):
             centre, radius = self._clump_spheres[k]
             faces = self._face_reach.get(k)
             own = tuple(members)
             count = len(self._map_of_clump.get(k, []))
             for j, i in enumerate(self._map_of_clump.get(k, [])):
+                # A map's key is a number that stays while its clump's members do: the budget
+                # hashes keys many times a frame, and a tuple of the members is slow to hash.
+                ident = self._map_ids.get((own, count, j))
+                ids[own, count, j] = ident if ident is not None else next(_MAP_IDS)
                 owners.append(k)
                 records.append(i)
-                keys.append((own, count, j))
+                keys.append(ids[own, count, j])
+                within.append(j)
                 centres.append(faces[j][0] if faces else centre)
                 widths.append(faces[j][1] if faces else 2.0 * radius)
+        self._map_ids = ids
         spheres = [self._clump_spheres[k] for k in range(len(self._clump_keys))]
         self._view_maps = {
             "owners": np.array(owners, int), "records": records, "keys": keys,
+            "within": within,
             "centres": np.array(centres, float).reshape(-1, 3), "widths": np.array(widths, float),
             "sphere_centres": np.array([c for c, _ in spheres], float).reshape(-1, 3),
             "sphere_radii": np.array([r for _, r in spheres], float)}
@@ -346,7 +361,7 @@ class ClumpedShadows(ShadowMethod):
                 weight[need <= 0] = 0.0
         requests = [ClumpRequest(key=key, maps=1, need=float(need[q]),
                                  weight=None if weight is None else float(weight[q]),
-                                 refit=lambda side, k=int(owners[q]), j=key[2]:
+                                 refit=lambda side, k=int(owners[q]), j=m["within"][q]:
                                  self._fits_at(k, side)[j:j + 1])
                     for q, key in enumerate(m["keys"])]
         must = {q for q in range(n) if owners[q] in self._dirty}
@@ -825,10 +840,20 @@ class ClumpedShadows(ShadowMethod):
         """Replace the clump maps' records in ``maps`` by their view-sized ``placements`` (in
         the order of :meth:`view_requests`); returns the records drawn (``drawn`` of them)."""
         records = self._view_maps["records"]
+        made = {}
         for i, placement in zip(records, placements, strict=True):
-            square = placement.squares[0]
-            maps[i] = dataclasses.replace(maps[i], fit=placement.fits[0], layer=square.layer,
-                                          viewport=placement.side, origin=(square.x, square.y))
+            square, fit = placement.squares[0], placement.fits[0]
+            # The record of a map whose square and fit stay is the last frame's: most stay.
+            last = self._placed_records.get(i)
+            if last is not None and last[0] is maps[i] and last[1] is fit and last[2] == square:
+                made[i] = last
+                maps[i] = last[3]
+                continue
+            made[i] = (maps[i], fit, square, dataclasses.replace(
+                maps[i], fit=fit, layer=square.layer, viewport=placement.side,
+                origin=(square.x, square.y)))
+            maps[i] = made[i][3]
+        self._placed_records = made
         return [records[n] for n in drawn]
 
     def _fits_at(self, k: int, side: int) -> list[MapFit]:
