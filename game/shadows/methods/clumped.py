@@ -51,6 +51,9 @@ from game.shadows.view_budget import ClumpRequest, Placement, ViewBudget, atlas_
 # degrees either side of its axis): a wider one spreads its texels thinner than the faces do.
 CUBE_FACE_TAN = 1.0
 
+# View-sized maps: the share of a map's weight that its counts before the last frame keep.
+EDGE_MEMORY = 0.5
+
 # The clump maps' keys for the view's budget: numbers never given twice in a run, so that no two
 # maps, of any light or planner, share one (_index_view_maps).
 _MAP_IDS = itertools.count()
@@ -318,11 +321,19 @@ class ClumpedShadows(ShadowMethod):
             self.view_budget.forget()
 
     def served(self, pixels: np.ndarray) -> None:
-        """Kept, by map key, for the next frames' weights."""
+        """Kept, by map key, for the next frames' weights: half this frame's count, half the
+        frames' before it. One frame's count moves with every step of the camera and every
+        walker; maps sized by it alone changed side, and were drawn again, several a frame
+        while the camera turned by a degree a frame."""
+        last = self._edges
         # One pixel more than counted: a count of a few pixels is mostly chance, and a map
         # that shows none at one side and a few at the next would change side each frame.
-        self._edges = {key: (int(pixels[record]) + 1.0) * side
-                       for key, record, side in self._planned}
+        edges = {}
+        for key, record, side in self._planned:
+            counted = (int(pixels[record]) + 1.0) * side
+            edges[key] = EDGE_MEMORY * last[key] + (1 - EDGE_MEMORY) * counted if key in last \
+                else counted
+        self._edges = edges
 
     def view_requests(self, view) -> tuple[list[ClumpRequest], set[int]]:
         """Each clump map as the view's budget sees it, clump by clump, and those that must be
