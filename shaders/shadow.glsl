@@ -19,6 +19,9 @@ uniform sampler2DArrayShadow u_shadow_maps;
 #if COUNT_PIXELS
 #include "blocks/map_pixels.glsl"
 bool g_on_edge;  // set by lookup(): the 2 x 2 texels around the sample do not all agree
+// A shader that writes to a buffer is run for hidden fragments too, unless told to test depth
+// first: that counted hidden pixels, and on llvmpipe shaded them all.
+layout(early_fragment_tests) in;
 #endif
 
 // KIND_CASCADE (a #define from game/shadows/plan.py) marks csm cascades. They are listed
@@ -38,6 +41,8 @@ float lookup(int i, vec2 uv, float depth) {
     vec2 offset = u_maps[i].uv_offset;
     uv = offset + uv * u_maps[i].uv_scale;
 #if COUNT_PIXELS
+    // The 2 x 2 texels around uv (gather order: (i0, j1), (i1, j1), (i1, j0), (i0, j0)); the
+    // nearest of them is what a single compare would read.
     vec4 taps = textureGather(u_shadow_maps, vec3(uv, layer), depth);
     g_on_edge = any(notEqual(taps, taps.xxxx));
 #endif

@@ -7,10 +7,11 @@ frame target (shading_pass, target) -> pixels and G-buffer read back. A frame li
 traced visibility (soft shadows, the ``traced`` method) then goes through the tracer and the
 soft composite (traced_lighting). Run-time scene edits are in scene_edits.
 
-With view-sized clump maps the shading pass also counts, per map, the pixels near its shadow
-edges; the next frame's plan reads them back (long after the GPU is done with them) and sizes
-the maps by them (game/shadows/view_budget.py). The first frame has no counts to go by: it is
-planned, drawn and counted, then planned and drawn again by its own counts.
+With view-sized clump maps the shading pass also counts, one frame in ``COUNT_EVERY``, the pixels
+near each map's shadow edges; the next frame's plan reads them back (long after the GPU is done
+with them) and sizes the maps by them (game/shadows/view_budget.py). The first frame has no
+counts to go by: it is planned, drawn and counted, then planned and drawn again by its own
+counts.
 """
 
 from __future__ import annotations
@@ -41,6 +42,11 @@ from game.shadows.plan import ShadowPlan, ShadowSettings
 from game.soft.methods import EXACT_HARD, TraceSettings, hard_light
 from game.soft.tracer import TraceResult
 
+# View-sized maps: one frame in this many counts the pixels near each map's shadow edges.
+# Counting costs the shading pass about a fifth more on llvmpipe (a texture gather per map read
+# and the atomic counters); the weights move slowly (game/shadows/methods/clumped.py ``served``).
+COUNT_EVERY = 4
+
 
 class Renderer(SceneEdits):
     """Renders frames of one scene with one hard-shadow method at a time."""
@@ -61,6 +67,7 @@ class Renderer(SceneEdits):
         # The last frame's plan, when its draw counted the pixels that read each map (the
         # view-sized maps' needs): read back at the next plan, when the GPU is long done.
         self._counted: ShadowPlan | None = None
+        self._uncounted = 0  # frames drawn since the last counted one
         self.grids = [map_grid.GridBuilder() for _ in scene.lights]
         self.lights_on = [True] * len(scene.lights)  # the window switches lights off
         # The G-buffer is kept when the caller asks (dumps, soft shadows) and while the method
@@ -166,6 +173,7 @@ class Renderer(SceneEdits):
                 # View-sized maps placed before any pixel was counted (the first frame): they
                 # are placed anew at once, by this draw's counts, and drawn again.
                 self.shadows.place_anew()
+                self._uncounted = COUNT_EVERY  # counted at the sides it is placed at
                 first = plan
                 plan, more, culled = self._draw(models, view)
                 triangles += more
@@ -203,7 +211,9 @@ class Renderer(SceneEdits):
                 self.culler.run(self.size)
         with timer.measure("shade"):
             s = self.settings
-            count = self.shadows.counts_pixels
+            count = self.shadows.counts_pixels and (
+                self.shadows.placed_blind or self._uncounted >= COUNT_EVERY - 1)
+            self._uncounted = 0 if count else self._uncounted + 1
             variant = Variant.of(self.target.gbuffer, self.scene.lights, s.pcf, grid_mode,
                                  blocks.DEBUG_VIEWS[self.debug_view], count)
             if count:
