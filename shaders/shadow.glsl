@@ -20,7 +20,8 @@ uniform sampler2DArrayShadow u_shadow_maps;
 #include "blocks/map_pixels.glsl"
 bool g_on_edge;  // set by lookup(): the 2 x 2 texels around the sample do not all agree
 // A shader that writes to a buffer is run for hidden fragments too, unless told to test depth
-// first: that counted hidden pixels, and on llvmpipe shaded them all.
+// first: that counted every hidden fragment, and on llvmpipe shaded them all. Fragments drawn
+// over later in the pass are still counted.
 layout(early_fragment_tests) in;
 #endif
 
@@ -41,9 +42,11 @@ float lookup(int i, vec2 uv, float depth) {
     vec2 offset = u_maps[i].uv_offset;
     uv = offset + uv * u_maps[i].uv_scale;
 #if COUNT_PIXELS
-    // The 2 x 2 texels around uv (gather order: (i0, j1), (i1, j1), (i1, j0), (i0, j0)); the
-    // nearest of them is what a single compare would read.
-    vec4 taps = textureGather(u_shadow_maps, vec3(uv, layer), depth);
+    // The 2 x 2 texels around uv, kept inside the map's own square: near its border they would
+    // read the next square's, another map's depths, and find an edge all along the border.
+    vec2 texel = 1.0 / vec2(textureSize(u_shadow_maps, 0).xy);
+    vec2 inside = clamp(uv, offset + texel, offset + vec2(u_maps[i].uv_scale) - texel);
+    vec4 taps = textureGather(u_shadow_maps, vec3(inside, layer), depth);
     g_on_edge = any(notEqual(taps, taps.xxxx));
 #endif
 #if !PCF

@@ -314,7 +314,7 @@ GROUPS: dict[str, list[Struct | Block]] = {
               access="readonly"),
     ],
     # Per map of the frame, the pixels that read it within a texel of its shadow edges
-    # (shaders/shadow.glsl; view-sized maps are sized by them on the next frame:
+    # (shaders/shadow.glsl; view-sized maps are sized by them in the frames after:
     # game/shadows/view_budget.py). Zeroed before each counted draw.
     "blocks/map_pixels.glsl": [
         Block("buffer", "MapPixels", array=("uint", "u_map_pixels", "")),

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 
+import moderngl
 import numpy as np
 
 from game import transforms
@@ -66,6 +67,7 @@ class FrameBlocks:
     """The frame's uniform and storage buffers. Owns them; they grow in place."""
 
     def __init__(self, ctx, n_characters: int, n_lights: int = 1):
+        self._ctx = ctx
         self.max_maps = blocks.max_maps(ctx)
         self.frame = ctx.buffer(reserve=FRAME_DTYPE.itemsize)
         self.maps = ctx.buffer(reserve=MAP_DTYPE.itemsize * self.max_maps)
@@ -163,11 +165,15 @@ class FrameBlocks:
     def count_pixels(self) -> None:
         """Zero the per-map counts of pixels near shadow edges and bind them for the next draw
         (after the culler, which binds its own buffers to the same point)."""
+        self._ctx.memory_barrier(moderngl.BUFFER_UPDATE_BARRIER_BIT)  # the last count's writes
         self.pixels.write(bytes(self.pixels.size))
         self.pixels.bind_to_storage_buffer(blocks.BINDINGS["MapPixels"])
 
     def counted_pixels(self, n_maps: int) -> np.ndarray:
         """The counts of the last counted draw's first ``n_maps`` maps."""
+        if n_maps == 0:
+            return np.zeros(0, np.int64)
+        self._ctx.memory_barrier(moderngl.BUFFER_UPDATE_BARRIER_BIT)
         return np.frombuffer(self.pixels.read(size=4 * n_maps), np.uint32).astype(np.int64)
 
     def characters_changed(self, n_characters: int) -> None:

@@ -229,8 +229,11 @@ class Renderer(SceneEdits):
             self.shadows.mark_rendered_lost()
         if self._counted is not None:
             pixels = self.blocks.counted_pixels(len(self._counted.maps))
+            # A light switched off read no map: its maps keep what they had.
             self.shadows.served([pixels[span.first_map:span.first_map + span.map_count]
-                                 for span in self.last_spans])
+                                 if on else None
+                                 for span, on in zip(self.last_spans, self.lights_on,
+                                                     strict=True)])
             self._counted = None
         plan, spans = self.shadows.plan(models, view)
         if self.buffers.order_statics(plan.static_pieces) and self.culler is not None:

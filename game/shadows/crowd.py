@@ -140,12 +140,18 @@ class CrowdPlanner:
             out.append(size)
         return out
 
+    def settle(self, names: list[Hashable], sizes: list[int]) -> None:
+        """Make ``sizes`` the last sizes of ``names`` (what they got, where it differs from
+        what they asked)."""
+        self._size.update(zip(names, sizes, strict=True))
+
     def last_sizes(self, names: list[Hashable]) -> np.ndarray:
         """The last size of each of ``names`` (0 for one never sized)."""
         return np.array([self._size.get(name, 0) for name in names], np.int64)
 
     def forget(self, keep: set[Hashable]) -> None:
-        """Drop the sizes of characters that no longer exist."""
+        """Drop the sizes of the names not in ``keep`` (characters, or clump maps, that no
+        longer exist)."""
         self._size = {n: s for n, s in self._size.items() if n in keep}
 
 

@@ -239,10 +239,12 @@ class LightShadows:
         maps are sized by them."""
         return any(m.counts_pixels for m in self.methods)
 
-    def served(self, pixels: list[np.ndarray]) -> None:
-        """Per map of the last plan drawn, light by light, the pixels near its shadow edges."""
+    def served(self, pixels: list[np.ndarray | None]) -> None:
+        """Per map of the last plan counted, light by light, the pixels near its shadow edges
+        (None for a light not counted)."""
         for method, own in zip(self.methods, pixels, strict=True):
-            method.served(own)
+            if own is not None:
+                method.served(own)
 
     @property
     def placed_blind(self) -> bool:

@@ -4,7 +4,7 @@ With a fixed texel density every clump map has the same side, near the camera or
 each frame gives each clump map a power-of-two side between a minimum and the array's layer side,
 from what its owner measures in the view (the clumped method: game/shadows/methods/clumped.py
 ``view_requests``): the map's weight, the length of its shadow edges on screen times its need,
-counted in the shading pass of the frame before (shaders/shadow.glsl). A map misclassifies
+counted in the shading pass of earlier frames (shaders/shadow.glsl). A map misclassifies
 pixels in proportion to its weight over its side; for a fixed sum of squares their total is
 least when each side goes as the cube root of the weight. Before a map is counted its edges are
 taken as long as it is wide on screen, which makes the side go as the need to the power 2/3.
@@ -132,7 +132,12 @@ class ViewBudget:
             low, high = (scale, high) if texels(scale) <= self.capacity else (low, scale)
         # The keys themselves name the maps: spelling out a clump's members each frame cost
         # more than the rest of the search.
-        return self._sizes.sizes(keys, needs * low)
+        sides = self._sizes.sizes(keys, needs * low)
+        while sum(int(c) * s * s for c, s in zip(counts, sides, strict=True)) > self.capacity:
+            # Only where the two roundings to a power of two disagree: the largest halved.
+            largest = max(range(len(sides)), key=lambda i: sides[i])
+            sides[largest] //= 2
+        return sides
 
     def place(self, requests: list[ClumpRequest], must: set[int]) -> tuple[list[Placement],
                                                                           set[int]]:
@@ -165,7 +170,7 @@ class ViewBudget:
         self.backlog = 0
         for i in optional:
             request = requests[i]
-            if i not in must and budget < request.maps:
+            if i not in must and i not in drawn and budget < request.maps:
                 self.backlog += 1
                 continue
             old = self.placed[request.key]
@@ -173,8 +178,9 @@ class ViewBudget:
             squares = self._retake(old.squares, side, request.maps)
             if squares is None and side > old.side:  # room made by moving small maps aside
                 done = {requests[j].key for j in drawn}  # drawn anyway: free to move
+                own = 0 if i in must or i in drawn else request.maps
                 squares, moved = self._make_room(request.key, side, request.maps,
-                                                 budget - request.maps, done)
+                                                 budget - own, done)
                 for key in moved:
                     if index[key] not in drawn:
                         drawn.add(index[key])
@@ -186,7 +192,7 @@ class ViewBudget:
                 if i not in must:
                     continue
                 side, squares = old.side, old.squares
-            budget -= 0 if i in must else request.maps
+            budget -= 0 if i in must or i in drawn else request.maps
             drawn.add(i)
             self.placed[request.key] = Placement(side, squares, request.refit(side))
         for i in set(must) - set(changes):  # same side, new content (the light moved)
@@ -197,7 +203,11 @@ class ViewBudget:
                 return self._repack(requests, sides), set(range(len(requests)))
             self.placed[requests[i].key] = Placement(sides[i], squares,
                                                      requests[i].refit(sides[i]))
-        return [self.placed[r.key] for r in requests], drawn
+        placed = [self.placed[r.key] for r in requests]
+        # The hysteresis goes from the sides the maps have, not those they asked: a map that
+        # waits has not the texels it asked for.
+        self._sizes.settle([r.key for r in requests], [p.side for p in placed])
+        return placed, drawn
 
     def _make_room(self, own: Hashable, side: int, count: int, budget: int,
                    done: set[Hashable]) -> tuple[list[Square] | None, list[Hashable]]:

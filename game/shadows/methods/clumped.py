@@ -167,10 +167,11 @@ class ClumpedShadows(ShadowMethod):
         self._shared_side: int | None = None  # the lights' shared atlas's side, when shared
         self._given = None                     # this frame's placements in it
         self._reserved_squares: list[Square] | None = None
-        # Per clump map's key, the pixels within a texel of its shadow edges in the last frame
-        # drawn times its side then (:meth:`served`); the last plan's clump maps: key, record
-        # and side.
-        self._edges: dict = {}
+        # Per clump map's key, the length of its shadow edges on screen in widths of the map,
+        # from the counted frames (:meth:`served`); the needs of the last view's requests; the
+        # last plan's clump maps: key, record, side and need.
+        self._edge_widths: dict = {}
+        self._asked: np.ndarray | None = None
         self._planned: list[tuple] = []
         self._map_ids: dict[tuple, int] = {}  # the clump maps' keys (_index_view_maps)
         self._placed_records: dict[int, tuple] = {}  # _placed's last records, by index
@@ -321,30 +322,39 @@ class ClumpedShadows(ShadowMethod):
             self.view_budget.forget()
 
     def served(self, pixels: np.ndarray) -> None:
-        """Kept, by map key, for the next frames' weights: half this frame's count, half the
-        frames' before it. One frame's count moves with every step of the camera and every
-        walker; maps sized by it alone changed side, and were drawn again, several a frame
-        while the camera turned by a degree a frame."""
-        last = self._edges
-        # One pixel more than counted: a count of a few pixels is mostly chance, and a map
-        # that shows none at one side and a few at the next would change side each frame.
-        edges = {}
-        for key, record, side in self._planned:
-            counted = (int(pixels[record]) + 1.0) * side
-            edges[key] = EDGE_MEMORY * last[key] + (1 - EDGE_MEMORY) * counted if key in last \
-                else counted
-        self._edges = edges
+        """The length of each clump map's shadow edges in widths of the map, kept by map key
+        for the next frames' weights. At the side s it had, a texel spans need / s /
+        ``view_texels_per_pixel`` pixels, so that many pixels were counted per pixel of edge;
+        the edges' length over the map's width in pixels (the need over the texels per pixel)
+        is then the count times s times the texels per pixel squared over the need squared.
+        It changes little as the camera comes nearer or goes away, or the frame is resized,
+        where the count itself goes with the need. Half of it is kept from the frames before:
+        one frame's count moves with every step of the camera and every walker, and maps sized
+        by it alone changed side, and were drawn again, several a frame while the camera
+        turned by a degree a frame."""
+        last, tpp = self._edge_widths, self.settings.view_texels_per_pixel
+        widths = {}
+        for key, record, side, need in self._planned:
+            if need <= 0:  # not in view: nothing was counted
+                if key in last:
+                    widths[key] = last[key]
+                continue
+            # One pixel more than counted: a count of a few pixels is mostly chance, and a
+            # map that shows none at one side and a few at the next would change side each
+            # frame.
+            counted = (int(pixels[record]) + 1.0) * side * tpp ** 2 / need ** 2
+            widths[key] = (EDGE_MEMORY * last[key] + (1 - EDGE_MEMORY) * counted
+                           if key in last else counted)
+        self._edge_widths = widths
 
     def view_requests(self, view) -> tuple[list[ClumpRequest], set[int]]:
         """Each clump map as the view's budget sees it, clump by clump, and those that must be
         drawn whatever their side (their clump changed). A map's need is the texels that give
         ``view_texels_per_pixel`` across its width (:meth:`_index_view_maps`) where the
         clump's shadow is seen, none where the view cannot see it. Its weight
-        (game/shadows/view_budget.py) is the length of its shadow edges in pixels times its
-        need and the texels per pixel, from the pixels near those edges in the last frame
-        drawn (:meth:`served`): at the side it had then, a texel spans the need over the side
-        and the texels per pixel in pixels, so that many pixels per pixel of edge were
-        counted."""
+        (game/shadows/view_budget.py) is its need squared times the length of its shadow
+        edges in widths of the map, as counted (:meth:`served`); a map not counted yet has
+        edges one width long."""
         s, light, m = self.settings, self.light, self._view_maps
         owners, width = m["owners"], m["widths"]
         n = len(owners)
@@ -363,13 +373,10 @@ class ClumpedShadows(ShadowMethod):
                                np.maximum(width / 2, 1e-6))
             need = width * 0.5 * view.size[1] * view.proj[1, 1] / depth * s.view_texels_per_pixel
             need[hidden] = 0.0
-            if self._edges:
-                # A map not yet counted has edges as long as its width in pixels: its weight
-                # is its need squared.
-                counted = np.array([self._edges.get(key, np.nan) for key in m["keys"]])
-                weight = np.where(np.isnan(counted), need ** 2,
-                                  counted * s.view_texels_per_pixel ** 2)
-                weight[need <= 0] = 0.0
+            if self._edge_widths:
+                edges = np.array([self._edge_widths.get(key, 1.0) for key in m["keys"]])
+                weight = need ** 2 * edges
+        self._asked = need
         requests = [ClumpRequest(key=key, maps=1, need=float(need[q]),
                                  weight=None if weight is None else float(weight[q]),
                                  refit=lambda side, k=int(owners[q]), j=m["within"][q]:
@@ -839,8 +846,11 @@ class ClumpedShadows(ShadowMethod):
         render_dynamic = []
         counts = self._character_maps(models, view, maps, render_dynamic)
         self._dirty = set()
-        self._planned = [(key, i, maps[i].viewport) for key, i in
-                         zip(self._view_maps["keys"], self._view_maps["records"], strict=True)]
+        asked = self._asked if self._asked is not None and view is not None else None
+        self._planned = [(key, i, maps[i].viewport, 0.0 if asked is None else float(asked[q]))
+                         for q, (key, i) in enumerate(zip(self._view_maps["keys"],
+                                                          self._view_maps["records"],
+                                                          strict=True))]
         return ShadowPlan(resolution=self.resolution, maps=maps,
                           render_static=render_static, render_dynamic=render_dynamic,
                           static_pieces=self.static_pieces, characters=counts,
