@@ -420,9 +420,12 @@ def _stability_bars(plt, picked: list[dict], factor: str, what: str, unit: str,
 
 def lights_figure(plt, rows: list[dict]) -> Figure | None:
     """Per-frame cost and shadow error against the number of lights on the night town, every
-    method at its defaults. None where no run fits."""
+    method at its defaults, and clumped with view-sized maps where the sweep ran them (dashed).
+    None where no run fits."""
+    view = "view_resolution=True"
     picked = [r for r in rows if r["group"] == "lights" and r["factor"] == "lights" and _ok(r)
-              and _default(r) and math.isfinite(row_number(r, "lights"))]
+              and (_default(r) or r["run"].split("|")[2] == view)
+              and math.isfinite(row_number(r, "lights"))]
     if not picked:
         return None
     _need_two(row_number(r, "lights") for r in picked)
@@ -432,13 +435,14 @@ def lights_figure(plt, rows: list[dict]) -> Figure | None:
               ("shadow error, % (all lights pooled)",
                lambda r: 100.0 * row_number(r, "error")))
     for ax, (ylabel, value) in zip(axes, panels, strict=True):
-        series: dict[str, list] = defaultdict(list)
+        series: dict[tuple[str, bool], list] = defaultdict(list)
         for r in picked:
-            series[r["method"]].append((row_number(r, "lights"), value(r)))
-        for method, pts in sorted(series.items()):
+            series[r["method"], not _default(r)].append((row_number(r, "lights"), value(r)))
+        for (method, sized), pts in sorted(series.items()):
             pts.sort()
             ax.plot([p[0] for p in pts], [p[1] for p in pts], marker=MARKERS.get(method, "x"),
-                    color=COLOURS.get(method, "k"), label=method)
+                    color=COLOURS.get(method, "k"), linestyle="--" if sized else "-",
+                    label=f"{method}, view-sized maps" if sized else method)
         ax.set_xscale("log")
         plain_log_ticks(ax.xaxis)
         ax.set_xlabel("lights: the moon and street lamps (log scale)")
