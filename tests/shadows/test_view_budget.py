@@ -6,6 +6,7 @@ import dataclasses
 
 import numpy as np
 
+from game import transforms
 from game.render.renderer import COUNT_EVERY, Renderer, View
 from game.scene import load_scene
 from game.shadows.atlas import Atlas, Square
@@ -324,5 +325,29 @@ def test_the_first_frame_places_the_view_sized_maps_by_its_own_counts(ctx):
             renderer.render(0.0, view)
             assert renderer.last_plan.render_static == []
             assert [rec.viewport for rec in renderer.last_plan.maps] == sides
+    finally:
+        renderer.release()
+
+
+def test_counted_weights_survive_scene_edits_and_a_still_camera_settles_again(ctx):
+    """Statics moved and removed between counted frames, with view-sized maps: every frame's
+    maps lie in the array, and a still camera draws no clump map again once the counts of the
+    new clumps have caught up."""
+    scene = load_scene(COURTYARD)
+    size = (160, 90)
+    view = View.from_camera(scene.camera, size)
+    renderer = Renderer(ctx, scene, size, ShadowSettings(view_resolution=True))
+    try:
+        for _ in range(COUNT_EVERY + 1):
+            renderer.render(0.0, view)
+        statics = sorted(renderer.scene.statics, key=lambda b: b.mesh.area)
+        renderer.move_static(statics[-1].name, transforms.translation([1.5, 0.0, 0.0]))
+        renderer.render(0.0, view)
+        renderer.remove_static(statics[0].name)
+        for _ in range(3 * COUNT_EVERY):
+            renderer.render(0.0, view)
+            plan = renderer.last_plan
+            assert all(rec.layer < renderer.shadows.layers for rec in plan.maps)
+        assert renderer.last_plan.render_static == []
     finally:
         renderer.release()

@@ -846,7 +846,8 @@ class ClumpedShadows(ShadowMethod):
         render_dynamic = []
         counts = self._character_maps(models, view, maps, render_dynamic)
         self._dirty = set()
-        asked = self._asked if self._asked is not None and view is not None else None
+        # The needs of this frame's requests, where this plan made them.
+        asked, self._asked = self._asked, None
         self._planned = [(key, i, maps[i].viewport, 0.0 if asked is None else float(asked[q]))
                          for q, (key, i) in enumerate(zip(self._view_maps["keys"],
                                                           self._view_maps["records"],
