@@ -6,9 +6,9 @@
 // Each light has its own maps, u_maps[first_map, first_map + map_count), and its own grid.
 //
 // What is fixed for a whole frame arrives as #defines, and the renderer picks the program made
-// for it (game/render/shading_pass.py): PCF (0 or 1), COUNT_PIXELS (0 or 1), and with one light (MANY_LIGHTS 0) its kind
-// LIGHT_KIND (LIGHT_DIRECTIONAL, LIGHT_SPOT, LIGHT_POINT) and its grid's mode GRID (GRID_NONE,
-// GRID_ORTHO, GRID_OCTAHEDRAL). Branching on uniforms instead costs more on llvmpipe, which runs
+// for it (game/render/shading_pass.py): PCF (0 or 1), COUNT_PIXELS (0 or 1), and with one light
+// (MANY_LIGHTS 0) its kind LIGHT_KIND (LIGHT_DIRECTIONAL, LIGHT_SPOT, LIGHT_POINT) and its
+// grid's mode GRID (GRID_NONE, GRID_ORTHO, GRID_OCTAHEDRAL). Branching on uniforms instead costs more on llvmpipe, which runs
 // both sides of a branch under a lane mask; with several lights those two are read per light.
 
 uniform sampler2DArrayShadow u_shadow_maps;

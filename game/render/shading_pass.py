@@ -31,7 +31,7 @@ class Variant(NamedTuple):
     grid_mode: int      # blocks.GRID_* of the one light's map grid (0 with several)
     debug_view: int     # blocks.DEBUG_VIEWS
     many_lights: bool = False  # lights, kinds and grids read from the Lights block
-    count_pixels: bool = False  # the pixels that read each map, counted (FrameBlocks.pixels)
+    count_pixels: bool = False  # each map's pixels near its shadow edges, counted (FrameBlocks)
 
     @classmethod
     def of(cls, gbuffer: bool, lights: list, pcf: bool, grid_mode: int,

@@ -132,8 +132,8 @@ class ShadowMethod(ABC):
         return False
 
     def served(self, pixels: np.ndarray) -> None:  # noqa: B027 - most methods size by nothing
-        """Per map of the last plan drawn (in the plan's order), the pixels that read it within
-        a texel of its shadow edges (shaders/shadow.glsl)."""
+        """Per map of the last plan counted (in the plan's order), the pixels that read it
+        within a texel of its shadow edges (shaders/shadow.glsl)."""
 
     @property
     def placed_blind(self) -> bool:
