@@ -67,6 +67,22 @@ def pow2_at_least(x: float, lo: int = 1, hi: int = 1 << 30) -> int:
     return min(hi, max(lo, 1 << max(0, math.ceil(math.log2(max(x, 1.0))))))
 
 
+def pow2_sides(x: np.ndarray, lo: int, hi: int) -> np.ndarray:
+    """:func:`pow2_at_least` of every element of ``x``, at once: the view's budget asks it of
+    every clump map some thirty times a frame."""
+    x = np.where(np.isfinite(x), np.maximum(x, 1.0), hi)
+    return np.clip(2 ** np.ceil(np.log2(x)), lo, hi).astype(np.int64)
+
+
+def held_sizes(needed: np.ndarray, last: np.ndarray, lo: int, hi: int) -> np.ndarray:
+    """Power-of-two sizes for ``needed`` within [lo, hi], with the hysteresis: a size grows at
+    once, and shrinks from ``last`` (0: none yet) only when the need falls under
+    :data:`SHRINK_BELOW` of the smaller size."""
+    sizes = pow2_sides(needed, lo, hi)
+    last = np.minimum(last, hi)
+    return np.where((last > sizes) & (needed > SHRINK_BELOW * last / 2), last, sizes)
+
+
 def shadow_volumes(centres: np.ndarray, radii: np.ndarray, light_kind: str,
                    direction: np.ndarray | None, eye: np.ndarray | None, ground: float
                    ) -> tuple[np.ndarray, np.ndarray]:
@@ -128,16 +144,11 @@ class CrowdPlanner:
         self._size: dict[Hashable, int] = {}
 
     def sizes(self, names: list[Hashable], needed: np.ndarray) -> list[int]:
-        """Power-of-two sides for these needs, with the hysteresis; ``names`` are any keys that
-        stay while what they name does."""
-        out = []
-        for name, need in zip(names, needed, strict=True):
-            size = pow2_at_least(float(need), self.min_resolution, self.max_resolution)
-            last = self._size.get(name)
-            if last is not None and size < last and need > SHRINK_BELOW * last / 2:
-                size = last
-            self._size[name] = size
-            out.append(size)
+        """Power-of-two sides for these needs, with the hysteresis (:func:`held_sizes`);
+        ``names`` are any keys that stay while what they name does."""
+        out = held_sizes(np.asarray(needed, float), self.last_sizes(names),
+                         self.min_resolution, self.max_resolution).tolist()
+        self._size.update(zip(names, out, strict=True))
         return out
 
     def settle(self, names: list[Hashable], sizes: list[int]) -> None:

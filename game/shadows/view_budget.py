@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from game.shadows.atlas import Atlas, Square
-from game.shadows.crowd import SHRINK_BELOW, CrowdPlanner, pow2_at_least
+from game.shadows.crowd import CrowdPlanner, held_sizes, pow2_at_least
 from game.shadows.fit import MapFit
 
 # The most the needs are scaled up to fill the budget (a need of 128 texels may become 4096).
@@ -42,13 +42,6 @@ def atlas_shape(texels: int, min_side: int, max_side: int) -> tuple[int, int]:
     while side > min_side and max(1, -(-texels // side ** 2)) * side ** 2 > 1.25 * texels:
         side //= 2
     return max(1, -(-texels // side ** 2)), side
-
-
-def pow2_sides(x: np.ndarray, lo: int, hi: int) -> np.ndarray:
-    """:func:`~game.shadows.crowd.pow2_at_least` of every element of ``x``, at once: the
-    budget's search asks it of every clump some thirty times a frame."""
-    x = np.where(np.isfinite(x), np.maximum(x, 1.0), hi)
-    return np.clip(2 ** np.ceil(np.log2(x)), lo, hi).astype(np.int64)
 
 
 @dataclass
@@ -112,15 +105,12 @@ class ViewBudget:
             needs = np.cbrt(weights) * (needs.max() / np.cbrt(weights.max()))
 
         keys = [r.key for r in requests]
-        last = np.minimum(self._sizes.last_sizes(keys), self.atlas.resolution)
+        last = self._sizes.last_sizes(keys)
 
         def texels(scale: float) -> int:
-            # The sides the hysteresis gives (game/shadows/crowd.py CrowdPlanner.sizes), so
-            # that the sides it holds are paid for by a smaller scale, not by cutting maps
-            # that need theirs.
-            scaled = needs * scale
-            sides = pow2_sides(scaled, self.min_side, self.atlas.resolution)
-            sides = np.where((last > sides) & (scaled > SHRINK_BELOW * last / 2), last, sides)
+            # With the hysteresis, as the sides will be given: the sides it holds are paid for
+            # by a smaller scale, not by cutting maps that need theirs.
+            sides = held_sizes(needs * scale, last, self.min_side, self.atlas.resolution)
             return int(counts @ (sides * sides))
 
         if texels(0.0) > self.capacity:
@@ -132,12 +122,7 @@ class ViewBudget:
             low, high = (scale, high) if texels(scale) <= self.capacity else (low, scale)
         # The keys themselves name the maps: spelling out a clump's members each frame cost
         # more than the rest of the search.
-        sides = self._sizes.sizes(keys, needs * low)
-        while sum(int(c) * s * s for c, s in zip(counts, sides, strict=True)) > self.capacity:
-            # Only where the two roundings to a power of two disagree: the largest halved.
-            largest = max(range(len(sides)), key=lambda i: sides[i])
-            sides[largest] //= 2
-        return sides
+        return self._sizes.sizes(keys, needs * low)
 
     def place(self, requests: list[ClumpRequest], must: set[int]) -> tuple[list[Placement],
                                                                           set[int]]:

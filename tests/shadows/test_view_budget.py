@@ -10,7 +10,7 @@ from game import transforms
 from game.render.renderer import COUNT_EVERY, Renderer, View
 from game.scene import load_scene
 from game.shadows.atlas import Atlas, Square
-from game.shadows.crowd import pow2_at_least
+from game.shadows.crowd import pow2_at_least, pow2_sides
 from game.shadows.fit import cube_face_reach, fit_cube_faces
 from game.shadows.plan import KIND_CHARACTER, ShadowSettings
 from game.shadows.view_budget import (
@@ -18,7 +18,6 @@ from game.shadows.view_budget import (
     ViewBudget,
     _free_a_square,
     atlas_shape,
-    pow2_sides,
 )
 from tests.conftest import ASSETS, COURTYARD
 from tests.shadow_check import frame_error

@@ -846,12 +846,15 @@ class ClumpedShadows(ShadowMethod):
         render_dynamic = []
         counts = self._character_maps(models, view, maps, render_dynamic)
         self._dirty = set()
-        # The needs of this frame's requests, where this plan made them.
+        # The needs of this frame's requests, where this plan made them; only counted maps
+        # need what :meth:`served` reads.
         asked, self._asked = self._asked, None
-        self._planned = [(key, i, maps[i].viewport, 0.0 if asked is None else float(asked[q]))
-                         for q, (key, i) in enumerate(zip(self._view_maps["keys"],
-                                                          self._view_maps["records"],
-                                                          strict=True))]
+        if self.counts_pixels:
+            self._planned = [(key, i, maps[i].viewport,
+                              0.0 if asked is None else float(asked[q]))
+                             for q, (key, i) in enumerate(zip(self._view_maps["keys"],
+                                                              self._view_maps["records"],
+                                                              strict=True))]
         return ShadowPlan(resolution=self.resolution, maps=maps,
                           render_static=render_static, render_dynamic=render_dynamic,
                           static_pieces=self.static_pieces, characters=counts,
