@@ -1,7 +1,7 @@
 """shadowgame: several tight shadow maps per light, and linear-light soft shadows, measured
 against a ray tracer.
 
-The packages, bottom to top; each imports only from those below it (tests/test_layers.py):
+The packages, bottom to top; each imports only from those below it (tests/test_imports.py):
 
 - ``errors``, ``transforms``, ``data``: the one error type, matrix conventions, data folders;
 - ``scene``: the scene model, its file format, shapes, towns, packed triangles;

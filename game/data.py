@@ -10,15 +10,15 @@ from __future__ import annotations
 
 from pathlib import Path
 
-_PACKAGE = Path(__file__).resolve().parent
-_CHECKOUT = _PACKAGE.parent
+PACKAGE_DIR = Path(__file__).resolve().parent
+CHECKOUT_DIR = PACKAGE_DIR.parent
 
 
 def data_dir(name: str) -> Path:
     """The folder ``name`` (``"shaders"`` or ``"assets"``): the wheel's copy, else the
     checkout's."""
-    installed = _PACKAGE / name
-    return installed if installed.is_dir() else _CHECKOUT / name
+    installed = PACKAGE_DIR / name
+    return installed if installed.is_dir() else CHECKOUT_DIR / name
 
 
 SHADER_DIR = data_dir("shaders")

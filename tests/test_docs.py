@@ -9,7 +9,7 @@ import pytest
 
 from game.shadows import registry
 from game.soft import methods as trace_methods
-from tests.conftest import ROOT
+from tests.helpers import ROOT
 
 DOCS = sorted([ROOT / "README.md", *(ROOT / "docs").rglob("*.md")])
 

@@ -7,7 +7,7 @@ import sys
 import numpy as np
 import trimesh
 
-from tests.conftest import ASSETS
+from tests.helpers import ASSETS
 
 # trimesh imports these lazily for some repairs; neither is a dependency of the project.
 NOT_DEPENDENCIES = ("scipy", "networkx")

@@ -6,7 +6,7 @@ from __future__ import annotations
 import tomllib
 
 from game import data
-from tests.conftest import ROOT
+from tests.helpers import ROOT
 
 DATA_PACKAGES = {"game.shaders": "shaders", "game.assets": "assets",
                  "game.assets.models": "assets/models"}
@@ -25,9 +25,9 @@ def test_every_package_and_data_folder_is_in_the_wheel():
 
 def test_installed_data_wins_over_the_checkout(tmp_path, monkeypatch):
     (tmp_path / "shaders").mkdir()
-    monkeypatch.setattr(data, "_PACKAGE", tmp_path)
+    monkeypatch.setattr(data, "PACKAGE_DIR", tmp_path)
     assert data.data_dir("shaders") == tmp_path / "shaders"
-    assert data.data_dir("assets") == data._CHECKOUT / "assets"  # not installed: the checkout's
+    assert data.data_dir("assets") == data.CHECKOUT_DIR / "assets"  # not installed: the checkout's
 
 
 def test_every_dependency_is_pinned_to_the_release_line_it_was_tested_with():

@@ -14,6 +14,7 @@ import numpy as np
 
 from game.app import headless, progress
 from game.gpu import context
+from game.render.passes import PASSES_AND_TOTAL
 from game.render.renderer import Frame, Renderer, View
 from game.scene import Scene, floors
 from game.shadows.plan import ShadowSettings
@@ -32,11 +33,12 @@ class CaptureOptions(headless.HeadlessRun):
 def frame_stats(index: int, t: float, frame: Frame) -> dict:
     """One frame's entry of the stats file (docs/reference.md, section 4)."""
     ms = {name: round(value, 4) for name, value in frame.ms.items()}
+    characters = frame.characters.as_dict() if frame.characters is not None else {}
     return {"frame": index, "time": t, "ms": ms, **ms,
             "maps_rendered": frame.maps_rendered, "maps_cached": frame.maps_cached,
             "maps_total": frame.maps_total, "triangles_to_maps": frame.triangles_to_maps,
             "texels_to_maps": frame.texels_to_maps, "maps_waiting": frame.maps_waiting,
-            "camera_triangles": frame.camera_triangles, **frame.characters,
+            "camera_triangles": frame.camera_triangles, **characters,
             "maps_per_fragment": round(frame.maps_per_fragment, 5),
             **headless.resource_stats(frame)}
 
@@ -105,7 +107,7 @@ def _overlay():
 
 def summary(stats: dict) -> str:
     """One line: medians over the frames after the first."""
-    keys = ("shadow_static", "shadow_dynamic", "cull", "shade", "total")
+    keys = PASSES_AND_TOTAL
     ms = np.array([[f["ms"].get(k, 0.0) for k in keys] for f in stats["frames"]])
     ms = ms[1:] if len(ms) > 1 else ms
     med = dict(zip(keys, np.median(ms, axis=0).tolist(), strict=True))

@@ -32,7 +32,8 @@ class FrameLog:
     def __len__(self) -> int:
         return len(self._offsets)
 
-    def _line(self, i: int) -> bytes:
+    def line(self, i: int) -> bytes:
+        """Frame ``i``'s entry as the JSON line spooled to disk."""
         self._file.seek(self._offsets[i])
         return self._file.readline()
 
@@ -43,11 +44,11 @@ class FrameLog:
             index += len(self)
         if not 0 <= index < len(self):
             raise IndexError(index)
-        return json.loads(self._line(index))
+        return json.loads(self.line(index))
 
     def __iter__(self) -> Iterator[dict]:
         for i in range(len(self)):
-            yield json.loads(self._line(i))
+            yield json.loads(self.line(i))
 
     def write_json(self, path: str | Path, document: dict, key: str = "frames") -> None:
         """Write ``document`` with this log as ``document[key]``, streamed, temp then rename."""
@@ -57,7 +58,7 @@ class FrameLog:
             f.write(text[:-1].rstrip().encode())
             f.write(f',\n "{key}": [\n'.encode() if head else f'{{"{key}": [\n'.encode())
             for i in range(len(self)):
-                f.write(self._line(i).rstrip(b"\n"))
+                f.write(self.line(i).rstrip(b"\n"))
                 f.write(b",\n" if i + 1 < len(self) else b"\n")
             f.write(b"]}\n")
 

@@ -17,7 +17,8 @@ from game.errors import GameError
 from game.gpu import context
 from game.render.renderer import Frame, Renderer, View
 from game.scene import Scene
-from game.soft.tracer import COUNTERS, TraceResult, TraceSettings
+from game.soft.results import COUNTERS, TraceResult
+from game.soft.tracer import TraceSettings
 
 
 @dataclass

@@ -10,8 +10,10 @@ game/bench/acceptance.py.
 from __future__ import annotations
 
 import shutil
+import subprocess
 import sys
 import time
+from datetime import UTC, datetime
 from pathlib import Path
 
 from game.app import interrupts, outputs
@@ -25,10 +27,12 @@ from game.gpu import context
 from game.scene import Scene, parse_scene
 
 
-def run(opts: BenchOptions, ctx=None) -> dict:
+def run(opts: BenchOptions, ctx=None, command: str = "") -> dict:
     """Run the sweep (skipping finished rows), then write the charts; returns a summary.
 
     ``ctx``: a GL context to use (and leave open); by default one is made and released here.
+    ``command``: the command line, recorded in ``OUT/run.json`` for the report
+    (game/bench/report.py).
     """
 
     opts.out.mkdir(parents=True, exist_ok=True)
@@ -40,6 +44,7 @@ def run(opts: BenchOptions, ctx=None) -> dict:
     ctx = context.create_headless() if own else ctx
     try:
         runs = plan_runs(opts, int(ctx.info["GL_MAX_TEXTURE_SIZE"]))
+        write_run_record(opts.out, command, context.describe(ctx))
         # A row of a scene whose text has changed since (or another file of the same name) is
         # measured again, not kept.
         current = {b.key: b.sha256 for b, _ in runs}
@@ -82,6 +87,27 @@ def run(opts: BenchOptions, ctx=None) -> dict:
     outputs.write_json(opts.out / "summary.json", summary)
     return {"csv": str(csv_path), "rows": len(rows), "charts": [str(p) for p in written],
             "summary": summary}
+
+
+def write_run_record(out: Path, command: str, gl: dict) -> None:
+    """``OUT/run.json``: what a reader of the figures needs to redo them - the command, the
+    renderer, the date (UTC) and the commit (with ``dirty`` where the tree had changes)."""
+    record = {"command": command, "renderer": gl["renderer"], "version": gl["version"],
+              "date": datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC"), **git_commit(out)}
+    outputs.write_json(out / "run.json", record)
+
+
+def git_commit(folder: Path) -> dict:
+    """The commit of the checkout that holds ``folder``; empty where there is none (a wheel)."""
+    try:
+        head = subprocess.run(["git", "-C", str(folder), "rev-parse", "HEAD"], text=True,
+                              capture_output=True, timeout=10, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "-C", str(folder), "status", "--porcelain",
+                                "--untracked-files=no"], text=True, capture_output=True,
+                               timeout=10, check=True).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return {}
+    return {"commit": head, "dirty": bool(dirty)}
 
 
 def reference_available() -> bool:

@@ -15,6 +15,7 @@ from pathlib import Path
 
 from game.bench import stability
 from game.data import ASSET_DIR
+from game.render.passes import PASSES_AND_TOTAL
 from game.scene import default_scene_path, reference_scene_path
 from game.shadows import clumping, registry
 from game.shadows.plan import ShadowSettings
@@ -23,7 +24,7 @@ FPS = 30.0                  # scene seconds per timing frame: 1 / FPS
 ORBIT_DEG = 1.0             # camera yaw per timing frame about the scene camera's target
 FLICKER_DEG = 0.25          # camera yaw per flicker frame (time frozen)
 ERROR_SPACING_S = 0.75      # scene seconds between error frames (characters move between them)
-PASSES = ("shadow_static", "shadow_dynamic", "cull", "shade", "total")
+PASSES = PASSES_AND_TOTAL   # timed per run: a column each of median, p95 and least
 PARAM_KEYS = ("clumping", "clump_count", "texels_per_metre", "clump_resolution",
               "character_resolution", "character_texels_per_pixel", "view_resolution",
               "max_clump_resolution", "single_resolution", "cascades", "cascade_lambda",

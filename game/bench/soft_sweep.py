@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from game.app import dumps, outputs
-from game.bench.charts import plain_log_ticks
+from game.bench.chart_axes import plain_log_ticks
 from game.errors import GameError
 from game.gpu import context
 from game.reference import soft as sr
@@ -32,7 +32,8 @@ from game.render.renderer import Renderer, View
 from game.scene import load_scene, reference_scene_path
 from game.soft.grid import DEFAULT_STRUCTURE, STRUCTURES
 from game.soft.methods import SAMPLED_METHODS
-from game.soft.tracer import COUNTERS, RAY_OFFSET_DISTANCE, RAY_OFFSET_SCENE, TraceSettings
+from game.soft.results import COUNTERS
+from game.soft.tracer import RAY_OFFSET_DISTANCE, RAY_OFFSET_SCENE, TraceSettings
 
 SAMPLES = (1, 2, 4, 8, 16, 32, 64, 128, 256)
 METHODS = SAMPLED_METHODS  # the analytic reference runs once, beside them
@@ -65,7 +66,6 @@ def sweep(ctx, scene, size: tuple[int, int], samples=SAMPLES, methods=METHODS,
         frame = renderer.render(0.0, View.from_camera(scene.camera, size))
         g = frame.gbuffer
         covered = np.isfinite(g["position"]).all(axis=-1)
-        light = scene.linear_light
 
         def timed(settings: TraceSettings):
             runs = [renderer.trace(0.0, settings) for _ in range(repeats)]
@@ -75,56 +75,21 @@ def sweep(ctx, scene, size: tuple[int, int], samples=SAMPLES, methods=METHODS,
         exact, exact_ms = timed(TraceSettings(method="analytic", structure=first, **extra))
         tracer = renderer.soft_tracer
         spec = tracer.grid.spec
-        occluder = sr.EmbreeOccluder(dumps.frame_geometry(scene, 0.0).to_geometry())
-        normals = g["normal"][covered].astype(np.float64)
-        origins = sr.ray_origins(g["position"][covered], normals,
-                                 RAY_OFFSET_SCENE * spec.diagonal, RAY_OFFSET_DISTANCE)
-        start = time.perf_counter()
-        reference = sr.stratified_reference(occluder, origins, normals, light.a, light.b,
-                                            REFERENCE_SAMPLES)
-        log(f"{name}: Embree reference, {REFERENCE_SAMPLES} samples: "
-            f"{time.perf_counter() - start:.1f} s")
+        reference, embree = _embree_side(scene, g, covered, spec.diagonal, size, samples,
+                                         repeats, name, log)
         truth = exact.visibility[covered]
-        rows_, cols = np.nonzero(covered)
-        index = (size[1] - 1 - rows_) * size[0] + cols  # the tracer's point index (GL rows)
-        embree = {}
-        for n in samples:
-            t = sr.tracer_samples(index, n)
-            times = []
-            for _ in range(repeats):
-                occluder.seconds, occluder.rays = 0.0, 0
-                sr.segment_visibility(occluder, origins, normals, light.a, light.b, t)
-                times.append(occluder.seconds * 1e3)
-            embree[n] = (float(np.median(times)), occluder.rays)
+        scored = (truth, reference, covered)
         structure_info = {}
         for structure in structures:
             result, ms = (exact, exact_ms) if structure == first else timed(
                 TraceSettings(method="analytic", structure=structure, **extra))
-            row = _row(name, structure, "analytic", 0, result, ms, truth, reference, covered)
+            row = _row(name, structure, "analytic", 0, result, ms, *scored)
             rows.append(row)
             structure_info[structure] = renderer.soft_tracer.grid.describe()
             log(f"{name} {structure:9s} analytic: {ms:9.1f} ms, rmse vs Embree "
                 f"{row['rmse_embree']:.6f}, truncated {row['truncated']}")
-            for n in samples:
-                embree_ms, rays = embree[n]
-                for method in methods:
-                    if method == "brute" and n > brute_max:
-                        continue
-                    settings = TraceSettings(method=method, samples=n, structure=structure,
-                                             **extra)
-                    result, ms = timed(settings)
-                    row = _row(name, structure, method, n, result, ms, truth, reference,
-                               covered)
-                    row.update(rays=rays, rays_per_s=round(rays / max(ms, 1e-9) * 1e3, 1),
-                               embree_ms=round(embree_ms, 3), embree_rays=rays,
-                               embree_rays_per_s=round(rays / max(embree_ms, 1e-9) * 1e3, 1),
-                               trace_over_embree=round(ms / max(embree_ms, 1e-9), 4))
-                    rows.append(row)
-                    log(f"{name} {structure:9s} {method:12s} N={n:4d}: {ms:9.1f} ms "
-                        f"({row['rays_per_s'] / 1e6:.3f} M rays/s), rmse "
-                        f"{row['rmse_analytic']:.4f}, ray-tri {row['ray_triangle_tests']:.1f}, "
-                        f"tri-tri {row['triangle_triangle_tests']:.1f}, bytes "
-                        f"{row['bytes_total']:.0f}; Embree {embree_ms:.1f} ms")
+            rows += _sampled_rows(timed, name, structure, samples, methods, brute_max, extra,
+                                  embree, scored, log)
         header = {**context.describe(ctx), "clock": renderer.soft_tracer.timer.clock,
                   "scene": scene.given, "scene_name": name,
                   "size": list(size), "shaded_points": int(covered.sum()),
@@ -134,6 +99,60 @@ def sweep(ctx, scene, size: tuple[int, int], samples=SAMPLES, methods=METHODS,
     finally:
         renderer.release()
     return rows, header
+
+
+def _embree_side(scene, g: dict, covered: np.ndarray, diagonal: float, size: tuple[int, int],
+                 samples, repeats: int, name: str, log) -> tuple[np.ndarray, dict]:
+    """Embree on the G-buffer's points: the stratified reference visibility, and for every N the
+    median ms and the rays of the tracer's very rays cast with the any-hit query."""
+    light = scene.linear_light
+    occluder = sr.EmbreeOccluder(dumps.frame_geometry(scene, 0.0).to_geometry())
+    normals = g["normal"][covered].astype(np.float64)
+    origins = sr.ray_origins(g["position"][covered], normals,
+                             RAY_OFFSET_SCENE * diagonal, RAY_OFFSET_DISTANCE)
+    start = time.perf_counter()
+    reference = sr.stratified_reference(occluder, origins, normals, light.a, light.b,
+                                        REFERENCE_SAMPLES)
+    log(f"{name}: Embree reference, {REFERENCE_SAMPLES} samples: "
+        f"{time.perf_counter() - start:.1f} s")
+    rows_, cols = np.nonzero(covered)
+    index = (size[1] - 1 - rows_) * size[0] + cols  # the tracer's point index (GL rows)
+    embree = {}
+    for n in samples:
+        t = sr.tracer_samples(index, n)
+        times = []
+        for _ in range(repeats):
+            occluder.seconds, occluder.rays = 0.0, 0
+            sr.segment_visibility(occluder, origins, normals, light.a, light.b, t)
+            times.append(occluder.seconds * 1e3)
+        embree[n] = (float(np.median(times)), occluder.rays)
+    return reference, embree
+
+
+def _sampled_rows(timed, name: str, structure: str, samples, methods, brute_max: int,
+                  extra: dict, embree: dict, scored: tuple, log) -> list[dict]:
+    """The rows of every sampled method at every N on one structure, each beside Embree's
+    time for the same rays."""
+    rows = []
+    for n in samples:
+        embree_ms, rays = embree[n]
+        for method in methods:
+            if method == "brute" and n > brute_max:
+                continue
+            settings = TraceSettings(method=method, samples=n, structure=structure, **extra)
+            result, ms = timed(settings)
+            row = _row(name, structure, method, n, result, ms, *scored)
+            row.update(rays=rays, rays_per_s=round(rays / max(ms, 1e-9) * 1e3, 1),
+                       embree_ms=round(embree_ms, 3), embree_rays=rays,
+                       embree_rays_per_s=round(rays / max(embree_ms, 1e-9) * 1e3, 1),
+                       trace_over_embree=round(ms / max(embree_ms, 1e-9), 4))
+            rows.append(row)
+            log(f"{name} {structure:9s} {method:12s} N={n:4d}: {ms:9.1f} ms "
+                f"({row['rays_per_s'] / 1e6:.3f} M rays/s), rmse "
+                f"{row['rmse_analytic']:.4f}, ray-tri {row['ray_triangle_tests']:.1f}, "
+                f"tri-tri {row['triangle_triangle_tests']:.1f}, bytes "
+                f"{row['bytes_total']:.0f}; Embree {embree_ms:.1f} ms")
+    return rows
 
 
 def _row(scene, structure, method, n, result, ms, truth, reference, covered) -> dict:

@@ -390,6 +390,11 @@ def _add_bench_parser(sub) -> None:
                             "single_resolution, clump_count, clumping, ...) with every method "
                             "that reads it; repeatable; replaces the built-in parameter grid")
     bench.add_argument("--list", action="store_true", help="print the runs and exit")
+    bench.add_argument("--report", type=Path, nargs="?", const=Path("."), default=None,
+                       metavar="ROOT",
+                       help="measure nothing: write ROOT/docs/results.md and the figure table "
+                            "of ROOT/README.md from the recorded runs in ROOT/docs/runs/*/ "
+                            "(ROOT: the checkout, default: this folder)")
     bench.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 

@@ -8,6 +8,7 @@ line.
 from __future__ import annotations
 
 import os
+import shlex
 import sys
 import zipfile
 from pathlib import Path
@@ -81,6 +82,8 @@ def cmd_bench(args) -> int:
     from game.bench import runner as bench
     from game.bench import runs
 
+    if args.report is not None:
+        return _report(args)
     if args.suite == "gpu":
         return _gpu_suite(args)
     args.out = args.out or Path("bench")
@@ -132,13 +135,35 @@ def cmd_bench(args) -> int:
     if not opts.reference:
         say("note: embreex missing: no shadow error or reference flicker "
             "(pip install -e '.[bench]')", err=True)
-    result = bench.run(opts)
+    result = bench.run(opts, command=_command_line())
     say(f"bench: {result['rows']} rows in {result['csv']}; "
         f"{len(result['charts'])} chart files in {args.out / 'charts'}")
     for c in result["summary"].get("comparisons", []):
         say(f"  {c['scene']}: clumped {c['clumped_ms']:.1f} ms, error "
             f"{100 * c['clumped_error']:.2f}% vs {c['baseline']}: {c['baseline_ms']:.1f} ms, "
             f"{100 * c['baseline_error']:.2f}% -> {c['speedup']:.1f}x")
+    return 0
+
+
+def _command_line() -> str:
+    """This process's command line as a user would type it again (recorded in run.json)."""
+    prog = Path(sys.argv[0]).name if sys.argv else ""
+    head = ["python", "-m", "game"] if prog in ("", "__main__.py", "-c") else [prog]
+    return shlex.join(head + sys.argv[1:])
+
+
+def _report(args) -> int:
+    from game.bench import report
+
+    given = [flag for flag, value in (("--scenes", args.scenes), ("--methods", args.methods),
+                                      ("--param", args.param), ("--list", args.list),
+                                      ("--out", args.out), ("--quick", args.quick),
+                                      ("--suite", args.suite))
+             if value]
+    if given:
+        raise ArgumentError(f"--report measures nothing: it takes no {', '.join(given)}")
+    written = report.write_report(args.report)
+    say(f"bench --report: wrote {' and '.join(str(p) for p in written)}")
     return 0
 
 

@@ -207,7 +207,7 @@ assert DRAW_COMMAND_DTYPE.itemsize == 20
 _VECTORS = {"f": ("float", "vec"), "i": ("int", "ivec"), "u": ("uint", "uvec")}
 
 
-def _glsl_type(dtype: np.dtype) -> tuple[str, int, int]:
+def glsl_type(dtype: np.dtype) -> tuple[str, int, int]:
     """The GLSL type of one field's dtype, its base alignment and its size (both layouts)."""
     base, shape = (dtype.subdtype if dtype.subdtype is not None else (dtype, ()))
     if base.itemsize != 4 or base.kind not in _VECTORS or base.byteorder == ">":
@@ -235,7 +235,7 @@ def glsl_members(dtype: np.dtype, layout: str, indent: str = "    ") -> str:
         field, at = dtype.fields[name][:2]
         if name.startswith("_pad"):
             continue  # GLSL has no member here: the layout rules must leave the same gap
-        glsl, align, size = _glsl_type(field)
+        glsl, align, size = glsl_type(field)
         expected = _round_up(offset, align)
         if at != expected:
             raise AssertionError(f"{name}: at byte {at}, but {layout} puts it at {expected}")

@@ -56,6 +56,12 @@ EMBREE_HINT = (
 )
 
 
+# What the reference needs of each light kind: whether its rays are parallel (it has no
+# position), and whether a cone bounds what it lights. The reference keeps its own table: it
+# judges the renderer and shares none of its code.
+_KINDS = {"directional": (True, False), "spot": (False, True), "point": (False, False)}
+
+
 @dataclass(frozen=True)
 class Light:
     """The hard-shadow light as the reference needs it.
@@ -74,17 +80,27 @@ class Light:
     range: float | None = None
 
     def __post_init__(self) -> None:
-        if self.kind not in ("directional", "spot", "point"):
+        if self.kind not in _KINDS:
             raise ValueError(f"unknown light kind {self.kind!r}")
-        if self.kind == "directional" and self.direction is None:
-            raise ValueError("a directional light needs a direction")
-        if self.kind in ("spot", "point") and self.position is None:
+        if self.parallel and self.direction is None:
+            raise ValueError(f"a {self.kind} light needs a direction")
+        if not self.parallel and self.position is None:
             raise ValueError(f"a {self.kind} light needs a position")
         if self.range is not None:
-            if self.kind == "directional":
-                raise ValueError("a directional light has no range")
+            if self.parallel:
+                raise ValueError(f"a {self.kind} light has no range")
             if not self.range > 0.0:
                 raise ValueError(f"a light's range must be positive, got {self.range}")
+
+    @property
+    def parallel(self) -> bool:
+        """Whether its rays are parallel: a sun, with a direction and no position."""
+        return _KINDS[self.kind][0]
+
+    @property
+    def coned(self) -> bool:
+        """Whether a cone bounds what it lights (a spot light)."""
+        return _KINDS[self.kind][1]
 
     @classmethod
     def from_mapping(cls, light: Mapping[str, Any]) -> Light:
@@ -110,7 +126,7 @@ class Light:
         )
 
 
-def _as_light(light: Light | Mapping[str, Any] | Any) -> Light:
+def as_light(light: Light | Mapping[str, Any] | Any) -> Light:
     """Accept a ``Light``, a ``[light]``-like mapping, or any object with the same attributes.
 
     The last one lets callers pass a loaded scene's light without this module importing the
@@ -131,7 +147,7 @@ def load_frame(npz_path: str | Path) -> dict[str, Any]:
     array is returned as stored. No pickles are loaded: a dump is data, not code.
     """
     with np.load(npz_path, allow_pickle=False) as data:
-        _check_declared_sizes(data)
+        check_declared_sizes(data)
         frame: dict[str, Any] = {key: data[key] for key in data.files}
     if "names" in frame:
         frame["names"] = [str(name) for name in frame["names"]]
@@ -152,7 +168,7 @@ def _declared(data, key: str) -> tuple[tuple[int, ...], np.dtype]:
     return tuple(int(n) for n in shape), np.dtype(dtype)
 
 
-def _check_declared_sizes(data) -> None:
+def check_declared_sizes(data) -> None:
     """Refuse a dump whose arrays are larger than its own frame size allows, before reading
     any of them: a few megabytes of npz can otherwise unpack into tens of gigabytes."""
     if "size" not in data.files:
@@ -218,7 +234,7 @@ def geometry_from_glb(data: bytes, skip_prefixes: tuple[str, ...] = ()) -> trime
 
 def _to_light(light: Light, position: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unit directions from (N, 3) points toward the light, and the distance to it (inf if none)."""
-    if light.kind == "directional":
+    if light.parallel:
         direction = -np.asarray(light.direction, dtype=np.float64)
         direction = direction / np.linalg.norm(direction)
         return np.broadcast_to(direction, position.shape), np.full(len(position), np.inf)
@@ -310,7 +326,7 @@ def hard_visibility_lights(
 ) -> list[np.ndarray]:
     """:func:`hard_visibility` toward each of ``lights``, through one Embree scene built once."""
     caster = _Caster(mesh)
-    return [_visibility(caster, position, normal, _as_light(light)) for light in lights]
+    return [_visibility(caster, position, normal, as_light(light)) for light in lights]
 
 
 def _visibility(caster: _Caster, position: np.ndarray, normal: np.ndarray,
@@ -366,12 +382,12 @@ def shadow_error(
     method says: 1 - the intersection over union of the two shadow masks. ``mask`` is the (H, W)
     bool image of misclassified pixels (for a diff image).
     """
-    light = _as_light(light)
+    light = as_light(light)
     has_geometry = np.isfinite(position).all(axis=-1) & np.isfinite(normal).all(axis=-1)
     has_geometry &= np.isfinite(lit_reference)
     with np.errstate(invalid="ignore"):
         considered = has_geometry & (_n_dot_l(light, position, normal) > min_ndotl)
-        if light.kind == "spot" and light.cone is not None and light.direction is not None:
+        if light.coned and light.cone is not None and light.direction is not None:
             considered &= _inside_cone(light, position)
         if light.range is not None:
             considered &= _within_range(light, position)

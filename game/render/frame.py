@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from game import transforms
 from game.scene.model import Camera
+from game.shadows.plan import CharacterCounts
 from game.soft.tracer import TraceResult
 
 
@@ -24,6 +25,23 @@ class View:
         aspect = size[0] / size[1]
         return View(transforms.look_at(camera.position, camera.target),
                     transforms.perspective(camera.fov, aspect, camera.near, camera.far), size)
+
+
+def plan_counts(plan, triangles: int, first=None) -> dict:
+    """The frame's counts of maps, triangles and texels drawn from its plan
+    (:class:`~game.shadows.plan.ShadowPlan`); ``first`` is a plan drawn before it in the same
+    frame, whose renders count too."""
+    rendered = len(plan.render_static) + len(plan.render_dynamic)
+    drawn = (*plan.render_static, *plan.render_dynamic)
+    texels = sum(plan.maps[i].viewport ** 2 for i in drawn)
+    again = (*first.render_static, *first.render_dynamic) if first is not None else ()
+    texels += sum(first.maps[i].viewport ** 2 for i in again)
+    return {"maps_rendered": rendered + len(again),
+            "maps_cached": len(plan.maps) - rendered,
+            "maps_total": len(plan.maps), "triangles_to_maps": triangles,
+            "texels_to_maps": texels,
+            "maps_waiting": plan.backlog,
+            "characters": plan.characters}
 
 
 @dataclass
@@ -44,8 +62,7 @@ class Frame:
     gl_objects: dict[str, int] | None = None  # live GL objects by owner, after the frame
     texels_to_maps: int = 0    # depth texels cleared and rendered into maps this frame
     maps_waiting: int = 0      # view-sized clump maps whose new side waits for a later frame
-    # The character maps (ShadowPlan.characters): maps, characters skipped and grouped.
-    characters: dict[str, int] = field(default_factory=dict)
+    characters: CharacterCounts | None = None  # the character maps (ShadowPlan.characters)
     camera_triangles: int = 0  # triangles the camera pass drew (after culling)
     soft: TraceResult | None = None  # the linear light's trace, when the frame asked for one
 

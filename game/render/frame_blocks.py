@@ -18,7 +18,7 @@ from game.gpu.blocks import FRAME_DTYPE, LIGHT_DTYPE, MAP_DTYPE
 from game.render.frame import View
 from game.scene.geometry import PackedGeometry, srgb_to_linear
 from game.scene.model import Light
-from game.shadows.fit import light_rotation_of
+from game.shadows.light_kinds import kind_of
 from game.shadows.lights import LightSpan
 from game.shadows.map_grid import MapGrid
 from game.shadows.plan import (
@@ -59,7 +59,7 @@ def ambient_share(lights: list[Light]) -> float:
     """How bright the sky's ambient light is: that of the brightest directional light (the sun,
     or a dim moon at night), at most 1; a scene lit only by lamps keeps the full ambient."""
     sky = [light.intensity * float(srgb_to_linear(np.asarray(light.color, float)).max())
-           for light in lights if light.kind == "directional"]
+           for light in lights if light.parallel]
     return min(1.0, max(sky)) if sky else 1.0
 
 
@@ -265,7 +265,7 @@ def _light_record(light: Light, span: LightSpan, grid: MapGrid, grid_base: int,
                   first_character_map: int, enabled: bool) -> np.ndarray:
     record = np.zeros(1, LIGHT_DTYPE)
     light_rot = np.eye(4)  # directional lights only; the identity for others
-    rotation = light_rotation_of(light)
+    rotation = kind_of(light).rotation(light)
     if rotation is not None:
         light_rot[:3, :3] = rotation
     record["light_rot"] = light_rot.T

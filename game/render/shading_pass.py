@@ -12,6 +12,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import moderngl
+import numpy as np
 
 from game.gpu import blocks, glsl, resources
 from game.gpu.depth_array import DepthArray
@@ -68,6 +69,22 @@ class ShadingPass:
             self._programs[variant] = (prog, self.buffers.vertex_array(prog, surface=True),
                                        culled)
         return self._programs[variant]
+
+    def each_light(self, target: FrameTarget, array: DepthArray, frame_blocks,
+                   culler: TriangleCuller | None, variant: Variant, lit: np.ndarray,
+                   covered: np.ndarray, n_lights: int) -> np.ndarray:
+        """(H, W, ``n_lights``) visibility of every light, light 0's ``lit`` first: the pass
+        drawn again once per further light, its G-buffer keeping that light's (outside the
+        frame's timings; the picture drawn last is the frame's own)."""
+        out = np.empty((*lit.shape, n_lights), np.float32)
+        out[..., 0] = lit
+        for k in range(1, n_lights):
+            frame_blocks.keep_visibility_of(k)
+            self.draw(target, array, variant, culler, False)
+            out[..., k] = target.read_gbuffer(covered)["lit"]
+        frame_blocks.keep_visibility_of(0)
+        self.draw(target, array, variant, culler, False)
+        return out
 
     def draw(self, target: FrameTarget, array: DepthArray, variant: Variant,
              culler: TriangleCuller | None, culled_only: bool) -> None:

@@ -22,7 +22,9 @@ import numpy as np
 from game.errors import GameError
 from game.gpu import blocks
 from game.gpu.timing import PassTimer
+from game.render import passes
 from game.render.frame import Frame
+from game.render.light_grids import stack_lights
 from game.render.target import FrameTarget
 from game.scene.geometry import PackedGeometry
 from game.scene.model import Scene
@@ -145,6 +147,30 @@ class TracedLighting:
             rounds=sum(part.rounds for *_, part in parts),
             step_budget=min(part.step_budget for *_, part in parts),
             samples_per_dispatch=min(part.samples_per_dispatch for *_, part in parts))
+
+    def relight(self, frame: Frame, target: FrameTarget, geom: PackedGeometry,
+                models: np.ndarray, traced_hard: bool, soft: TraceSettings | None,
+                read: bool) -> bool:
+        """Light ``frame`` again through traced visibility: the hard light's exact one
+        (``traced_hard``, the ``traced`` method; with every light's in the dumps), then the
+        linear light's through ``soft``. Returns whether the frame's picture is now the
+        composite's."""
+        if traced_hard:
+            result = self.light_frame(frame, target, geom, models, None, read)
+            if frame.gbuffer is not None:
+                frame.gbuffer["lit"] = result.visibility
+                if "lit_lights" in frame.gbuffer:
+                    lights = self.scene.lights
+                    frame.gbuffer["lit_lights"] = stack_lights(
+                        result.visibility, len(lights), lambda k: self.trace(
+                            target, geom, models, EXACT_HARD, hard_light(lights[k])).visibility)
+        if soft is not None:
+            gbuffer_ms = frame.ms.get(passes.TOTAL, 0.0)
+            frame.soft = self.light_frame(frame, target, geom, models, soft, read)
+            frame.ms[passes.GBUFFER] = gbuffer_ms
+            if frame.gbuffer is not None:
+                frame.gbuffer["soft"] = frame.soft.visibility
+        return traced_hard or soft is not None
 
     def light_frame(self, frame: Frame, target: FrameTarget, geom: PackedGeometry,
                     models: np.ndarray, soft: TraceSettings | None, read: bool) -> TraceResult:

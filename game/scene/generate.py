@@ -6,11 +6,9 @@ that covers it all. Each block is cut into a grid of lots; a random choice of lo
 cylinder trunk with a sphere or cone crown). Walkers are capsules looping around rectangles of
 blocks, in the streets, so they never walk through a static.
 
-Speed matters here: a 1 M-triangle town must build in a few seconds. Templates (unit box, unit
-cylinder, unit sphere, unit cone) are built once, and every building or tree is made by scaling
-and offsetting template vertices with numpy; trimesh is only used to wrap the final arrays, with
-``process=False``. Every building and every tree stays its own mesh, so that each is its own named
-static object in the scene.
+Speed matters here: a 1 M-triangle town must build in a few seconds, so every building and tree
+is instanced from unit templates with numpy (game/scene/town_shapes.py). Every building and every
+tree stays its own mesh, so that each is its own named static object in the scene.
 
 The table's keys, with their defaults, are :class:`TownParams`; docs/scenes.md documents them.
 """
@@ -18,7 +16,6 @@ The table's keys, with their defaults, are :class:`TownParams`; docs/scenes.md d
 from __future__ import annotations
 
 import difflib
-import functools
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, fields
@@ -28,19 +25,19 @@ import numpy as np
 import trimesh
 
 from game.errors import SceneError
-from game.scene.shapes import capsule_mesh, transform_mesh
-from game.transforms import euler_xyz
+from game.scene.shapes import capsule_mesh
+from game.scene.town_shapes import (
+    BOX_FACES,
+    WINDOW_PITCH_AT_DETAIL_0,
+    boxes,
+    building_mesh,
+    mesh_of,
+    place,
+    templates_for,
+    tree_mesh,
+)
 
-STOREY_HEIGHT = 3.0  # metres
 MIN_STOREYS = 2
-WINDOW_PITCH_AT_DETAIL_0 = 4.0  # metres between window centres; divided by (1 + detail)
-WINDOW_HEIGHT = 1.4  # metres
-WINDOW_SILL_Y = 0.9  # metres above each storey's floor
-WINDOW_PROTRUSION = 0.12  # metres a window frame stands out of the wall
-LEDGE_PROTRUSION = 0.2  # metres a storey ledge or the cornice stands out of the wall
-LEDGE_THICKNESS = 0.25  # metres
-CORNICE_HEIGHT = 0.6  # metres
-ROOF_HOUSING_HEIGHT = 2.5  # metres
 LOT_MARGIN = 0.4  # metres kept free between a building's outermost detail and its lot edge
 FOOTPRINT_FRACTION = (0.55, 0.8)  # of the lot side, per axis
 MIN_LOT_SIDE = 3.0  # metres: room for a small building or tree inside its margins
@@ -48,7 +45,6 @@ MIN_LOT_SIDE = 3.0  # metres: room for a small building or tree inside its margi
 TREE_CROWN_RADIUS = (1.2, 2.6)  # metres, before clamping to the lot
 TREE_TRUNK_HEIGHT = (1.5, 3.0)  # metres
 CONIFER_FRACTION = 0.35  # of trees with a cone crown instead of a sphere
-MAX_CROWN_SUBDIVISIONS = 5  # icosphere subdivisions at the highest detail (20480 triangles)
 
 WALKER_RADIUS = 0.3  # metres
 WALKER_HEIGHT = 1.8  # metres, total
@@ -191,139 +187,6 @@ def town_params(table: Mapping[str, Any],
     return params
 
 
-# --------------------------------------------------------------------------------------------
-# Templates and instancing
-
-
-_UNIT_BOX = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
-_BOX_CORNERS = np.asarray(_UNIT_BOX.vertices, dtype=np.float64) + 0.5  # in [0, 1]^3
-_BOX_FACES = np.asarray(_UNIT_BOX.faces, dtype=np.int64)
-
-
-def boxes(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Vertices (8N, 3) and faces (12N, 3) of N axis-aligned boxes from corners (N, 3)."""
-    lo, hi = np.atleast_2d(lo), np.atleast_2d(hi)
-    vertices = lo[:, None, :] + (hi - lo)[:, None, :] * _BOX_CORNERS[None]
-    faces = _BOX_FACES[None] + 8 * np.arange(len(lo))[:, None, None]
-    return vertices.reshape(-1, 3), faces.reshape(-1, 3)
-
-
-def _mesh(parts: list[tuple[np.ndarray, np.ndarray]]) -> trimesh.Trimesh:
-    """One mesh from (vertices, faces) parts, offsetting the face indices."""
-    offsets = np.cumsum([0] + [len(v) for v, _ in parts[:-1]])
-    vertices = np.concatenate([v for v, _ in parts])
-    faces = np.concatenate([f + o for (_, f), o in zip(parts, offsets, strict=True)])
-    return trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
-
-
-@dataclass(frozen=True)
-class _Templates:
-    """Unit meshes for the trees as (vertices, faces), built once per detail level."""
-
-    trunk: tuple[np.ndarray, np.ndarray]  # radius 1, height 1, along +Y, centred
-    sphere: tuple[np.ndarray, np.ndarray]  # radius 1, centred
-    cone: tuple[np.ndarray, np.ndarray]  # radius 1, height 1, apex up, base at y = 0
-
-
-def _arrays(mesh: trimesh.Trimesh) -> tuple[np.ndarray, np.ndarray]:
-    return np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces, dtype=np.int64)
-
-
-@functools.lru_cache(maxsize=8)
-def _templates(detail: int) -> _Templates:
-    # trimesh builds cylinders and cones along +Z, the cone's base at z = 0.
-    z_to_y = euler_xyz([-90.0, 0.0, 0.0])
-    trunk = trimesh.creation.cylinder(radius=1.0, height=1.0, sections=6 + 2 * detail)
-    sphere = trimesh.creation.icosphere(subdivisions=min(detail + 1, MAX_CROWN_SUBDIVISIONS))
-    cone = trimesh.creation.cone(radius=1.0, height=1.0, sections=8 * (detail + 1))
-    return _Templates(trunk=_arrays(transform_mesh(trunk, z_to_y)), sphere=_arrays(sphere),
-                      cone=_arrays(transform_mesh(cone, z_to_y)))
-
-
-def _place(template: tuple[np.ndarray, np.ndarray], scale: Any,
-           offset: Any) -> tuple[np.ndarray, np.ndarray]:
-    """A template scaled per axis, then moved by ``offset``."""
-    vertices, faces = template
-    return vertices * np.asarray(scale) + np.asarray(offset), faces
-
-
-# --------------------------------------------------------------------------------------------
-# Buildings, trees and walkers
-
-
-def _window_boxes(centre: np.ndarray, half: np.ndarray, axis: int, sign: float, storeys: int,
-                  pitch: float, sills: bool) -> tuple[np.ndarray, np.ndarray]:
-    """Corners (lo, hi) of the window frames (and sills) of the facade facing ``sign * axis``.
-
-    Frames straddle the wall plane, so half of each box is hidden inside the building and the
-    other half stands out by WINDOW_PROTRUSION; no box needs to know which side is outside.
-    """
-    other = 2 - axis  # the facade's horizontal direction: x for a z-facing facade and back
-    span = 2.0 * half[other]
-    columns = max(1, int(span // pitch))
-    width = 0.6 * span / columns
-    u = centre[other] - half[other] + (np.arange(columns) + 0.5) * span / columns
-    y = np.arange(storeys) * STOREY_HEIGHT + WINDOW_SILL_Y
-    uu, yy = (a.ravel() for a in np.meshgrid(u, y))
-    wall = centre[axis] + sign * half[axis]
-    lo, hi = np.empty((len(uu), 3)), np.empty((len(uu), 3))
-    lo[:, other], hi[:, other] = uu - 0.5 * width, uu + 0.5 * width
-    lo[:, 1], hi[:, 1] = yy, yy + WINDOW_HEIGHT
-    lo[:, axis], hi[:, axis] = wall - WINDOW_PROTRUSION, wall + WINDOW_PROTRUSION
-    if not sills:
-        return lo, hi
-    sill_lo, sill_hi = lo.copy(), hi.copy()
-    sill_lo[:, other] -= 0.1
-    sill_hi[:, other] += 0.1
-    sill_lo[:, 1], sill_hi[:, 1] = yy - 0.12, yy
-    sill_lo[:, axis], sill_hi[:, axis] = wall - 2 * WINDOW_PROTRUSION, wall + 2 * WINDOW_PROTRUSION
-    return np.concatenate([lo, sill_lo]), np.concatenate([hi, sill_hi])
-
-
-def _building(rng: np.random.Generator, x: float, z: float, width: float, depth: float,
-              storeys: int, detail: int) -> trimesh.Trimesh:
-    """A box building standing on y = 0 with a cornice, a roof housing, ledges and windows."""
-    height = storeys * STOREY_HEIGHT
-    centre = np.array([x, 0.0, z])
-    half = np.array([0.5 * width, 0.0, 0.5 * depth])
-    p = LEDGE_PROTRUSION
-    lo = [[x - half[0], 0.0, z - half[2]], [x - half[0] - p, height, z - half[2] - p]]
-    hi = [[x + half[0], height, z + half[2]],
-          [x + half[0] + p, height + CORNICE_HEIGHT, z + half[2] + p]]
-    # The roof housing stands on the cornice, somewhere on the roof.
-    hw, hd = 0.5 * width * rng.uniform(0.2, 0.4), 0.5 * depth * rng.uniform(0.2, 0.4)
-    hx = x + rng.uniform(-1.0, 1.0) * (half[0] - hw)
-    hz = z + rng.uniform(-1.0, 1.0) * (half[2] - hd)
-    top = height + CORNICE_HEIGHT
-    lo.append([hx - hw, top, hz - hd])
-    hi.append([hx + hw, top + ROOF_HOUSING_HEIGHT, hz + hd])
-    if detail >= 1:  # a ledge slab through the building between storeys
-        ys = np.arange(1, storeys) * STOREY_HEIGHT
-        for y in ys:
-            lo.append([x - half[0] - p, y - 0.5 * LEDGE_THICKNESS, z - half[2] - p])
-            hi.append([x + half[0] + p, y + 0.5 * LEDGE_THICKNESS, z + half[2] + p])
-    los, his = [np.array(lo)], [np.array(hi)]
-    pitch = WINDOW_PITCH_AT_DETAIL_0 / (1 + detail)
-    for axis in (0, 2):
-        for sign in (-1.0, 1.0):
-            w_lo, w_hi = _window_boxes(centre, half, axis, sign, storeys, pitch, detail >= 2)
-            los.append(w_lo)
-            his.append(w_hi)
-    return _mesh([boxes(np.concatenate(los), np.concatenate(his))])
-
-
-def _tree(templates: _Templates, x: float, z: float, crown: float, trunk: float,
-          conifer: bool) -> trimesh.Trimesh:
-    """A trunk standing on y = 0 with a cone or sphere crown that overlaps its top."""
-    trunk_radius = 0.08 + 0.08 * crown
-    parts = [_place(templates.trunk, (trunk_radius, trunk, trunk_radius), (x, 0.5 * trunk, z))]
-    if conifer:
-        parts.append(_place(templates.cone, (crown, 2.5 * crown, crown), (x, 0.6 * trunk, z)))
-    else:
-        parts.append(_place(templates.sphere, crown, (x, trunk + 0.75 * crown, z)))
-    return _mesh(parts)
-
-
 def triangle_bound(params: TownParams) -> int:
     """An upper bound on the town's static triangles, from the parameters alone: every building
     at the widest footprint and the most storeys, every tree with the larger crown."""
@@ -333,9 +196,9 @@ def triangle_bound(params: TownParams) -> int:
     storeys = params.max_storeys
     per_building = (3 + (storeys - 1 if params.detail >= 1 else 0)
                     + 4 * columns * storeys * (2 if params.detail >= 2 else 1))
-    templates = _templates(params.detail)
+    templates = templates_for(params.detail)
     per_tree = len(templates.trunk[1]) + max(len(templates.sphere[1]), len(templates.cone[1]))
-    per_block = (params.buildings_per_block * len(_BOX_FACES) * per_building
+    per_block = (params.buildings_per_block * len(BOX_FACES) * per_building
                  + params.trees_per_block * per_tree)
     return params.blocks ** 2 * per_block
 
@@ -359,10 +222,10 @@ def generate_town(params: TownParams | Mapping[str, Any]) -> Town:
     pitch = size + street
     centres = (np.arange(n) - 0.5 * (n - 1)) * pitch
     half_town = 0.5 * n * pitch + 0.5 * street  # a full street runs around the outside
-    floor = _mesh([boxes(np.array([-half_town, -FLOOR_THICKNESS, -half_town]),
-                         np.array([half_town, 0.0, half_town]))])
+    floor = mesh_of([boxes(np.array([-half_town, -FLOOR_THICKNESS, -half_town]),
+                           np.array([half_town, 0.0, half_town]))])
 
-    templates = _templates(params.detail)
+    templates = templates_for(params.detail)
     per_block = params.buildings_per_block + params.trees_per_block
     grid = max(1, math.ceil(math.sqrt(per_block)))
     lot = _lot_side(params)
@@ -379,14 +242,14 @@ def generate_town(params: TownParams | Mapping[str, Any]) -> Town:
                     slack = 0.5 * (lot - np.array([width, depth])) - LOT_MARGIN
                     x, z = (lot_x[k], lot_z[k]) + rng.uniform(-1.0, 1.0, 2) * slack
                     storeys = int(rng.integers(MIN_STOREYS, params.max_storeys + 1))
-                    statics.append(_building(rng, x, z, width, depth, storeys, params.detail))
+                    statics.append(building_mesh(rng, x, z, width, depth, storeys, params.detail))
                 else:
                     crown = min(rng.uniform(*TREE_CROWN_RADIUS), 0.5 * lot - LOT_MARGIN)
                     slack = 0.5 * lot - LOT_MARGIN - crown
                     x, z = (lot_x[k], lot_z[k]) + rng.uniform(-1.0, 1.0, 2) * slack
                     trunk = rng.uniform(*TREE_TRUNK_HEIGHT)
                     conifer = bool(rng.random() < CONIFER_FRACTION)
-                    statics.append(_tree(templates, x, z, crown, trunk, conifer))
+                    statics.append(tree_mesh(templates, x, z, crown, trunk, conifer))
 
     walker_mesh = capsule_mesh(WALKER_RADIUS, WALKER_HEIGHT)
     walkers = []
@@ -431,13 +294,13 @@ def _lamps(rng: np.random.Generator, params: TownParams,
                                   bz + normal[1] * reach + tangent[1] * along * size,
                                   *normal))
     chosen = np.sort(rng.choice(len(spots), params.lamps, replace=False))
-    templates = _templates(params.detail)
+    templates = templates_for(params.detail)
     out = []
     for index in chosen:
         x, z, nx, nz = spots[index]
         out_dir = np.array([nx, 0.0, nz])
         base = np.array([x, 0.0, z])
-        post = _place(templates.trunk, (LAMP_POST_RADIUS, LAMP_HEIGHT, LAMP_POST_RADIUS),
+        post = place(templates.trunk, (LAMP_POST_RADIUS, LAMP_HEIGHT, LAMP_POST_RADIUS),
                       base + [0.0, 0.5 * LAMP_HEIGHT, 0.0])
         top = base + [0.0, LAMP_HEIGHT, 0.0]
         end = top + out_dir * LAMP_ARM
@@ -445,7 +308,7 @@ def _lamps(rng: np.random.Generator, params: TownParams,
         arm = boxes(np.minimum(top, end) - half, np.maximum(top, end) + half)
         head = boxes(end - [LAMP_HEAD[0] / 2, LAMP_HEAD[1], LAMP_HEAD[2] / 2],
                      end + [LAMP_HEAD[0] / 2, 0.0, LAMP_HEAD[2] / 2])
-        mesh = _mesh([post, arm, head])
+        mesh = mesh_of([post, arm, head])
         light = end - [0.0, LAMP_HEAD[1] + LAMP_LIGHT_DROP, 0.0]
         out.append((mesh, Lamp(position=light, cone=params.lamp_cone, range=params.lamp_range)))
     return out

@@ -60,10 +60,6 @@ class PackedGeometry:
         """Global object index of character i."""
         return self.n_floors + self.n_statics + i
 
-    def all_static_points(self) -> np.ndarray:
-        """Every static's world-space vertices in one (N, 3) array."""
-        return np.concatenate(self.static_points) if self.static_points else np.zeros((0, 3))
-
     def triangle_count(self, objects) -> int:
         return int(sum(len(self.triangles[o]) for o in objects))
 

@@ -92,6 +92,31 @@ def load_mesh_file(relative: str, base_dir: Path, label: str,
     dropped, in file coordinates, each face's structural part in
     ``face_attributes[FILE_PART]``. ``fail`` raises the scene's one-line error; ``label`` names
     the scene file in warnings."""
+    path, suffix, size = _checked_file(relative, base_dir, fail)
+    source, kwargs = _trimesh_source(path, relative, suffix, size, base_dir, fail)
+    pieces, piece_normals = _read_pieces(source, relative, suffix, kwargs, fail)
+    vertices, faces, parts, colours = _joined(pieces, relative, fail)
+    keep = _nonzero_area(vertices, faces)
+    if not keep.all():
+        if not keep.any():
+            fail(f"every triangle in {relative} has zero area")
+        warnings.warn(f"{label}: {relative}: removed {int((~keep).sum())} "
+                      f"zero-area triangles", stacklevel=2)
+        faces, parts, colours = faces[keep], parts[keep], colours[keep]
+    attributes = {FILE_PART: parts}
+    if np.any(colours >= 0.0):
+        attributes[FILE_COLOUR] = colours
+    normals = np.concatenate(piece_normals)
+    return trimesh.Trimesh(vertices=vertices, faces=faces, process=False,
+                           face_attributes=attributes,
+                           vertex_attributes=({FILE_NORMAL: normals}
+                                              if np.isfinite(normals).any() else {}))
+
+
+def _checked_file(relative: str, base_dir: Path,
+                  fail: Callable[[str], NoReturn]) -> tuple[Path, str, int]:
+    """The mesh file's path, its suffix (lower case) and size, once it is known to be a
+    supported, non-empty file of at most MAX_MESH_FILE_BYTES inside ``base_dir``."""
     path = inside(base_dir, relative, fail)
     suffix = Path(relative).suffix.lower()
     if suffix not in MESH_SUFFIXES:
@@ -110,6 +135,13 @@ def load_mesh_file(relative: str, base_dir: Path, label: str,
     if size > MAX_MESH_FILE_BYTES:
         fail(f"{relative} is {size / 2**20:.0f} MiB, more than the {MAX_MESH_FILE_BYTES // 2**20} "
              "MiB a mesh file may hold")
+    return path, suffix, size
+
+
+def _trimesh_source(path: Path, relative: str, suffix: str, size: int, base_dir: Path,
+                    fail: Callable[[str], NoReturn]) -> tuple[Any, dict[str, Any]]:
+    """What to hand ``trimesh.load`` for the file (its path, or the checked bytes of a glTF or
+    GLB) and the keyword arguments its format needs; a damaged binary STL fails here."""
     kwargs: dict[str, Any] = {}
     source: Any = str(path)
     if suffix in (".glb", ".gltf"):
@@ -135,19 +167,33 @@ def load_mesh_file(relative: str, base_dir: Path, label: str,
         # Materials are not used (flat shading), and an mtllib could name a file outside the folder.
         kwargs["skip_materials"] = True
         kwargs.update(split_objects=True, split_groups=True)  # its parts (game/scene/parts.py)
+    return source, kwargs
+
+
+def _read_pieces(source: Any, relative: str, suffix: str, kwargs: dict[str, Any],
+                 fail: Callable[[str], NoReturn]
+                 ) -> tuple[list[trimesh.Trimesh], list[np.ndarray]]:
+    """The file's meshes placed by its scene graph, with their normals (:func:`_placed_pieces`);
+    whatever trimesh raises on a corrupt file becomes the scene's error."""
     try:
         # As a scene, to keep the file's structure (OBJ objects and material groups, glTF
         # nodes and primitives: game/scene/parts.py), then concatenated here as force="mesh"
         # would, with each face's part recorded.
         loaded = trimesh.load(source, file_type=suffix[1:], force="scene", process=False,
                               **kwargs)
-        pieces, piece_normals = _placed_pieces(loaded)
+        return _placed_pieces(loaded)
     except ImportError:
         # trimesh reaches for optional modules (charset_normalizer, to guess the text encoding
         # of a binary STL whose size does not match its triangle count) when a file is damaged.
         fail(f"cannot read mesh {relative}: damaged or truncated {suffix[1:].upper()} file")
     except Exception as error:  # noqa: BLE001 - trimesh raises anything on a corrupt file
         fail(f"cannot read mesh {relative}: {_one_line(str(error)) or type(error).__name__}")
+
+
+def _joined(pieces: list[trimesh.Trimesh], relative: str, fail: Callable[[str], NoReturn]
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The pieces as one mesh: vertices, faces, each face's piece and base colour; fails on a
+    file without triangles, with face indices out of range or with unusable coordinates."""
     if not pieces:
         fail(f"no triangles in {relative} (not a mesh file?)")
     for piece in pieces:
@@ -169,27 +215,17 @@ def load_mesh_file(relative: str, base_dir: Path, label: str,
         # mixes them with unit coordinates loses every small triangle.
         fail(f"vertex coordinates up to {reach:.3g} in {relative}; at most "
              f"{MAX_FILE_COORDINATE:g}")
+    return vertices, faces, parts, colours
+
+
+def _nonzero_area(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Which faces have an area, measured against the triangle's own size, not the mesh's: a
+    small triangle far from a large one is still a triangle."""
     corners = vertices[faces]
     areas = 0.5 * np.linalg.norm(
         np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
-    # Zero area measured against the triangle's own size, not the mesh's: a small triangle far
-    # from a large one is still a triangle.
     longest = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2).max(axis=1)
-    keep = areas > 1e-12 * longest ** 2
-    if not keep.all():
-        if not keep.any():
-            fail(f"every triangle in {relative} has zero area")
-        warnings.warn(f"{label}: {relative}: removed {int((~keep).sum())} "
-                      f"zero-area triangles", stacklevel=2)
-        faces, parts, colours = faces[keep], parts[keep], colours[keep]
-    attributes = {FILE_PART: parts}
-    if np.any(colours >= 0.0):
-        attributes[FILE_COLOUR] = colours
-    normals = np.concatenate(piece_normals)
-    return trimesh.Trimesh(vertices=vertices, faces=faces, process=False,
-                           face_attributes=attributes,
-                           vertex_attributes=({FILE_NORMAL: normals}
-                                              if np.isfinite(normals).any() else {}))
+    return areas > 1e-12 * longest ** 2
 
 
 def _placed_pieces(loaded: trimesh.Scene) -> tuple[list[trimesh.Trimesh], list[np.ndarray]]:

@@ -51,6 +51,11 @@ class Light:
     intensity: float = 1.0
     range: float | None = None   # spot and point: metres beyond which it lights nothing
 
+    @property
+    def parallel(self) -> bool:
+        """Whether its rays are parallel (a sun or a moon: no position)."""
+        return self.kind == "directional"
+
     def reaches(self, centre: np.ndarray, radius: float) -> bool:
         """Whether any point of the sphere (``centre``, ``radius``) is within the light's range
         (and, for a spot light, its cone)."""

@@ -7,7 +7,7 @@ note, never crash and never drop a shadow. The degradations, in order:
 1. a resolution above GL_MAX_TEXTURE_SIZE is clamped to it;
 2. a budgeted depth array (clumped) over the budget gets coarser layers: the resolution halves
    until the fewest layers it needs fit; the baselines keep the resolution asked for;
-3. the clumped method then shares layers (game/shadows/methods/clumped.py): fewer, larger
+3. the clumped method then shares layers (game/shadows/methods/clumped/): fewer, larger
    clumps; character maps packed into the layers left, the largest halved where they do not
    fit, and merged into shared maps where they outnumber the map records.
 

@@ -3,7 +3,7 @@ shadow of theirs can be seen, grouped where one map costs less than several, and
 the layers of the depth array.
 
 Pure arithmetic on the characters' bounding spheres and the view; the clumped method turns the
-result into map records (game/shadows/methods/clumped.py). Holds no GL object.
+result into map records (game/shadows/methods/clumped/characters.py). Holds no GL object.
 
 - **Need.** A character's shadow lies in its shadow volume: its bounding box swept along the
   light down to the scene's lowest surface. The nearest point of that volume to the camera sets
@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Hashable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -52,14 +52,6 @@ class CrowdMap:
     origin: tuple[int, int] = (0, 0)  # texel offset of its square in that layer
 
 
-@dataclass
-class CrowdPlan:
-    maps: list[CrowdMap] = field(default_factory=list)
-    skipped: int = 0       # characters whose shadow cannot be seen: no map
-    grouped: int = 0       # characters that share a map with another
-    shrunk: int = 0        # maps made coarser than asked, for want of layers
-
-
 def pow2_at_least(x: float, lo: int = 1, hi: int = 1 << 30) -> int:
     """The smallest power of two >= x, then held within [lo, hi]."""
     if not math.isfinite(x) or x >= hi:
@@ -83,16 +75,17 @@ def held_sizes(needed: np.ndarray, last: np.ndarray, lo: int, hi: int) -> np.nda
     return np.where((last > sizes) & (needed > SHRINK_BELOW * last / 2), last, sizes)
 
 
-def shadow_volumes(centres: np.ndarray, radii: np.ndarray, light_kind: str,
-                   direction: np.ndarray | None, eye: np.ndarray | None, ground: float
-                   ) -> tuple[np.ndarray, np.ndarray]:
+def shadow_volumes(centres: np.ndarray, radii: np.ndarray, direction: np.ndarray | None,
+                   eye: np.ndarray | None, ground: float) -> tuple[np.ndarray, np.ndarray]:
     """Per character, 16 points whose convex hull holds its shadow volume down to ``ground``
     (the lowest height anything lies at), and whether the volume is bounded (False where the
-    light's rays through the character do not go down: its shadow may reach anywhere)."""
+    light's rays through the character do not go down: its shadow may reach anywhere). Rays
+    leave a light at ``eye``, or travel along ``direction`` where there is none (parallel
+    light)."""
     n = len(centres)
     corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
     box = centres[:, None, :] + radii[:, None, None] * corners[None]  # (n, 8, 3)
-    if light_kind == "directional":
+    if eye is None:
         d = np.broadcast_to(np.asarray(direction, float), box.shape)
     else:
         d = box - np.asarray(eye, float)
@@ -160,6 +153,11 @@ class CrowdPlanner:
         """The last size of each of ``names`` (0 for one never sized)."""
         return np.array([self._size.get(name, 0) for name in names], np.int64)
 
+    @property
+    def held(self) -> set[Hashable]:
+        """The names whose last size is kept."""
+        return set(self._size)
+
     def forget(self, keep: set[Hashable]) -> None:
         """Drop the sizes of the names not in ``keep`` (characters, or clump maps, that no
         longer exist)."""
@@ -219,7 +217,7 @@ def _merge_by_cost(groups: dict[int, _Group], rects: np.ndarray, texel: np.ndarr
     reach = 0.5 * (rects[:, 2:] - rects[:, :2]).max(axis=1)
     # Candidate pairs: footprints at most one footprint apart, and worth one map as they are
     # (two single maps): a group's union only grows, so few pairs that fail here would pass.
-    i, j, gap = _near_pairs(centre, reach)
+    i, j, gap = near_pairs(centre, reach)
     n = len(rects)
     side = (np.maximum(rects[i, 2:], rects[j, 2:]) - np.minimum(rects[i, :2], rects[j, :2])).max(1)
     need = side / np.minimum(texel[i], texel[j]) + SPARE_TEXELS
@@ -254,7 +252,7 @@ def _merge_by_cost(groups: dict[int, _Group], rects: np.ndarray, texel: np.ndarr
         del groups[rb]
 
 
-def _near_pairs(centre: np.ndarray, reach: np.ndarray
+def near_pairs(centre: np.ndarray, reach: np.ndarray
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The pairs i < j of footprints (centres, half sides) less than twice the larger one's
     half side apart, and their gaps. A sweep along x: pairs further apart along x than any pair

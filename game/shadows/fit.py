@@ -250,12 +250,6 @@ def cube_face_reach(points: np.ndarray, eye: np.ndarray, reach: float | None = N
     return out
 
 
-def light_rotation_of(light) -> np.ndarray | None:
-    """The world-to-light rotation (3, 3) of a directional light; None for spot and point
-    lights, whose maps are perspective."""
-    return transforms.light_rotation(light.direction) if light.kind == "directional" else None
-
-
 def fit_spot(points: np.ndarray, eye: np.ndarray, direction: np.ndarray, cone_deg: float,
              resolution: int) -> MapFit | None:
     """Perspective map of ``points`` for a spot light: aimed along the light and no wider than
@@ -266,32 +260,8 @@ def fit_spot(points: np.ndarray, eye: np.ndarray, direction: np.ndarray, cone_de
                            max_tan=min(MAX_TAN, math.tan(half)))
 
 
-def fits_for_light(points: np.ndarray, light, light_rot: np.ndarray | None,
-                   resolution: int) -> list[MapFit]:
-    """The maps that hold ``points`` for a scene light, as an engine would give one caster
-    set: one orthographic map in ``light_rot`` (directional), one perspective map over the
-    cone (spot), one frustum or, when the casters surround it, the faces of a cube (point).
-    Empty when there are no points, or none a spot light can reach."""
-    if not len(points):
-        return []
-    if light.kind == "directional":
-        return [fit_directional(points, light_rot, resolution)]
-    if light.kind == "spot":
-        fit = fit_spot(points, light.position, light.direction, light.cone, resolution)
-        return [fit] if fit is not None else []
-    if holds_in_one_frustum(points, light.position):
-        fit = fit_perspective(points, light.position, resolution)
-        return [fit] if fit is not None else []
-    return fit_cube_faces(points, light.position, resolution)
-
-
 CUBE_FACES = len(CUBE_AXES)
 """The most maps :func:`fits_for_light` gives one caster set (a point light's cube)."""
-
-
-def layers_for_light(light) -> int:
-    """Layers that :func:`fits_for_light` may need for one caster set."""
-    return CUBE_FACES if light.kind == "point" else 1
 
 
 def deciding_points(points: np.ndarray, light_rot: np.ndarray | None) -> np.ndarray:

@@ -25,12 +25,26 @@ import numpy as np
 from game.scene.geometry import PackedGeometry
 from game.scene.model import Light
 from game.shadows import registry
-from game.shadows.fit import CUBE_FACES
-from game.shadows.method import ShadowMethod
-from game.shadows.plan import MIN_CLUMP_RESOLUTION, ShadowPlan, ShadowSettings, layer_bytes
+from game.shadows.light_kinds import kind_of
+from game.shadows.method import ShadowMethod, SharesBudget, ViewSized
+from game.shadows.plan import (
+    MIN_CLUMP_RESOLUTION,
+    CharacterCounts,
+    ShadowPlan,
+    ShadowSettings,
+    layer_bytes,
+)
 from game.shadows.view_budget import ViewBudget, atlas_shape
 
 MIN_LAMP_RESOLUTION = 128  # the smallest clump maps a lamp's share may make
+
+
+@dataclass(frozen=True)
+class ArrayShape:
+    """What the depth array must hold for a frame's plan."""
+
+    resolution: int  # texels per side of its layers
+    layers: int
 
 
 @dataclass(frozen=True)
@@ -45,7 +59,7 @@ class LightSpan:
 def min_layers(light: Light) -> int:
     """The clump layers a light cannot do without: a cube around a point light, one map for
     others, and one layer that the character maps share."""
-    return (CUBE_FACES if light.kind == "point" else 1) + 1
+    return kind_of(light).max_maps_per_caster + 1
 
 
 def reach_weight(light: Light, scene_radius: float) -> float:
@@ -110,13 +124,12 @@ class LightShadows:
         if n > 1:
             self._pass_on_what_is_left(shares, create, radius, settings.budget_mib)
         self._bases: list[tuple[int, int]] | None = None
-        self._end = 0
         # With view-sized maps, one atlas for every light's clump maps, so that texels go where
         # the view needs them whichever light casts there.
         self.view_budget: ViewBudget | None = None
         self._view_shape: tuple = ()
         if (n > 1 and settings.view_resolution
-                and all(m.shares_view_budget for m in self.methods)):
+                and all(isinstance(m, ViewSized) for m in self.methods)):
             self._share_view_budget()
 
     def _share_view_budget(self) -> None:
@@ -143,7 +156,7 @@ class LightShadows:
 
     def _check_view_budget(self) -> None:
         """Make the shared atlas anew where characters or clumps came or went: asked before
-        the array is sized (:attr:`resolution`, :attr:`layers`)."""
+        the array is sized (:meth:`prepare`)."""
         if self.view_budget is not None and self._view_wants() != self._view_shape:
             self._share_view_budget()
 
@@ -171,11 +184,14 @@ class LightShadows:
         short of theirs, by reach, planned anew with it (``create(k, share)``). Each light keeps
         its limit's layers in the array (reserved_layers), so one that clumps anew, moved,
         never moves another's maps."""
-        short = [k for k, m in enumerate(self.methods) if m.wants_memory]
+        short = [k for k, m in enumerate(self.methods)
+                 if isinstance(m, SharesBudget) and m.wants_memory]
         givers = [k for k in range(len(self.methods)) if k not in short]
         spare = sum(shares[k] - self.methods[k].memory_mib for k in givers)
         for k in givers:
-            self.methods[k].limit_memory(self.methods[k].memory_mib)
+            method = self.methods[k]
+            if isinstance(method, SharesBudget):
+                method.limit_memory(method.memory_mib)
         if not short or spare <= 0:
             return
         weights = {k: reach_weight(self.methods[k].light, radius) for k in short}
@@ -198,36 +214,34 @@ class LightShadows:
         return self._notes + [f"light {k}: {note}" for k, m in enumerate(self.methods)
                               for note in m.notes]
 
-    @property
-    def resolution(self) -> int:
-        """Texels per side of the array's layers: the largest any light's method asks."""
+    def prepare(self) -> ArrayShape:
+        """What the depth array must hold for the next plan: the shared atlas made anew
+        first where characters or clumps came or went."""
         self._check_view_budget()
+        return ArrayShape(self._resolution(), self._places()[1])
+
+    def _resolution(self) -> int:
+        """Texels per side of the array's layers: the largest any light's method asks."""
         return max(m.resolution for m in self.methods)
 
-    def _places(self) -> list[tuple[int, int]]:
-        """Where each light's first layer goes: (array layer, square in it). A light whose
-        layers are smaller than the array's takes squares of array layers, after the previous
-        light's squares of the same size; a layer never holds squares of two sizes."""
+    def _places(self) -> tuple[list[tuple[int, int]], int]:
+        """Where each light's first layer goes: (array layer, square in it), and the layers
+        they take. A light whose layers are smaller than the array's takes squares of array
+        layers, after the previous light's squares of the same size; a layer never holds
+        squares of two sizes."""
         if self.view_budget is not None:  # one atlas: the maps' layers are the array's
-            self._check_view_budget()
-            self._end = self.view_budget.atlas.layers
-            return [(0, 0)] * len(self.methods)
+            return [(0, 0)] * len(self.methods), self.view_budget.atlas.layers
         places, layer, used, size = [], 0, 0, None
+        resolution = self._resolution()
         for method in self.methods:
-            per = (self.resolution // method.resolution) ** 2
+            per = (resolution // method.resolution) ** 2
             if used and (method.resolution != size or used == per):
                 layer, used = layer + 1, 0
             places.append((layer, used))
             size = method.resolution
             squares = used + (method.reserved_layers if len(self.methods) > 1 else method.layers)
             layer, used = layer + squares // per, squares % per
-        self._end = layer + (1 if used else 0)
-        return places
-
-    @property
-    def layers(self) -> int:
-        self._places()
-        return self._end
+        return places, layer + (1 if used else 0)
 
     def mark_rendered_lost(self) -> None:
         for method in self.methods:
@@ -237,13 +251,13 @@ class LightShadows:
     def counts_pixels(self) -> bool:
         """Whether the shading pass should count the pixels that read each map: some light's
         maps are sized by them."""
-        return any(m.counts_pixels for m in self.methods)
+        return any(m.counts_pixels for m in self._view_sized())
 
     def served(self, pixels: list[np.ndarray | None]) -> None:
         """Per map of the last plan counted, light by light, the pixels near its shadow edges
         (None for a light not counted)."""
         for method, own in zip(self.methods, pixels, strict=True):
-            if own is not None:
+            if own is not None and isinstance(method, ViewSized):
                 method.served(own)
 
     @property
@@ -251,18 +265,22 @@ class LightShadows:
         """Whether the last plan placed view-sized maps before any pixels were counted (the
         first frame): the renderer then counts them and has them placed anew at once."""
         shared = self.view_budget is not None and self.view_budget.blind
-        return shared or any(m.placed_blind for m in self.methods)
+        return shared or any(m.placed_blind for m in self._view_sized())
 
     def place_anew(self) -> None:
         """Every view-sized map placed (and drawn) anew on the next plan."""
         if self.view_budget is not None:
             self.view_budget.forget()
-        for method in self.methods:
+        for method in self._view_sized():
             method.place_anew()
+
+    def _view_sized(self) -> list[ViewSized]:
+        return [m for m in self.methods if isinstance(m, ViewSized)]
 
     def plan(self, models: np.ndarray, view=None) -> tuple[ShadowPlan, list[LightSpan]]:
         """This frame's maps of every light in one plan, and each light's span of it."""
-        places = self._places()
+        self._check_view_budget()
+        places = self._places()[0]
         if self._bases is not None and places != self._bases:
             # A light's share of the array moved: what its layers held belongs to another.
             self.mark_rendered_lost()
@@ -272,9 +290,9 @@ class LightShadows:
         plans = [m.plan(models, view) for m in self.methods]
         if len(plans) == 1:
             return plans[0], [LightSpan(0, len(plans[0].maps), 0)]
-        resolution = self.resolution
+        resolution = self._resolution()
         combined = ShadowPlan(resolution=resolution, maps=[],
-                              static_pieces=plans[0].static_pieces, characters={},
+                              static_pieces=plans[0].static_pieces,
                               light_first_maps=[])
         spans = []
         for k, (plan, (base, first_square)) in enumerate(zip(plans, places, strict=True)):
@@ -292,8 +310,9 @@ class LightShadows:
                     pieces=rec.pieces if k == 0 else None))
             combined.render_static += [first + i for i in plan.render_static]
             combined.render_dynamic += [first + i for i in plan.render_dynamic]
-            for key, value in plan.characters.items():
-                combined.characters[key] = combined.characters.get(key, 0) + value
+            if plan.characters is not None:
+                combined.characters = plan.characters + (combined.characters
+                                                         or CharacterCounts())
             combined.backlog += plan.backlog
             spans.append(LightSpan(first, len(plan.maps), base))
             combined.light_first_maps.append(first)

@@ -118,7 +118,7 @@ def build_ortho(fits: list[MapFit], covers: list[np.ndarray | None] | None = Non
     offsets and a filter tap), overlaps the cell. Depth texels outside every caster's rectangle
     are empty, so the map could not shadow anything there.
     """
-    return GridBuilder().build(fits, "directional", None, "on", covers, reach)
+    return GridBuilder().build(fits, None, "on", covers, reach)
 
 
 def octahedral_decode(e: np.ndarray) -> np.ndarray:
@@ -207,7 +207,7 @@ def _octahedral_pairs(fits: list[MapFit], eye: np.ndarray, first: int = 0) -> np
 
 def build_octahedral(fits: list[MapFit], eye: np.ndarray) -> MapGrid:
     """Grid over the directions from a spot or point light at ``eye``."""
-    return GridBuilder().build(fits, "point", eye, "on")
+    return GridBuilder().build(fits, eye, "on")
 
 
 class GridBuilder:
@@ -222,10 +222,11 @@ class GridBuilder:
         self._key = None
         self._keys = np.zeros(0, np.int64)
 
-    def build(self, fits: list[MapFit], light_kind: str, eye: np.ndarray | None,
-              use: str = "auto", covers: list[np.ndarray | None] | None = None,
+    def build(self, fits: list[MapFit], eye: np.ndarray | None, use: str = "auto",
+              covers: list[np.ndarray | None] | None = None,
               reach: float = 0.0, steady: int | None = None) -> MapGrid:
-        """The grid for these maps, or none when a plain loop is cheap enough.
+        """The grid for these maps, or none when a plain loop is cheap enough: over the
+        light space of orthographic maps, or over the directions from a light at ``eye``.
 
         ``use`` is "auto" (a grid above LOOP_MAX_MAPS maps), "on" or "off"; ``covers`` and
         ``reach`` as in :func:`build_ortho`; the first ``steady`` maps (all by default) are
@@ -234,7 +235,7 @@ class GridBuilder:
         if not fits or use == "off" or (use == "auto" and len(fits) <= LOOP_MAX_MAPS):
             return no_grid()
         steady = len(fits) if steady is None else min(steady, len(fits))
-        ortho = light_kind == "directional"
+        ortho = eye is None
         if ortho:
             rects = np.array([f.rect for f in fits[:steady] or fits], float)
             rect, size, mode = _union(rects), _grid_size(len(fits)), GRID_ORTHO
@@ -260,7 +261,7 @@ def _fit_key(fit: MapFit, cover: np.ndarray | None) -> tuple:
             None if cover is None else np.asarray(cover, float).tobytes())
 
 
-def build(fits: list[MapFit], light_kind: str, eye: np.ndarray | None, use: str = "auto",
+def build(fits: list[MapFit], eye: np.ndarray | None, use: str = "auto",
           covers: list[np.ndarray | None] | None = None, reach: float = 0.0) -> MapGrid:
     """The grid for these maps, built afresh (see :meth:`GridBuilder.build`)."""
-    return GridBuilder().build(fits, light_kind, eye, use, covers, reach)
+    return GridBuilder().build(fits, eye, use, covers, reach)

@@ -1,5 +1,10 @@
 """The protocol every hard-shadow method implements: plan the maps of one light, frame by frame.
 
+The core, :class:`ShadowMethod`, is what every method implements. Two optional capabilities are
+protocols of their own, which game/shadows/lights.py checks once per method: sharing the memory
+budget between lights (:class:`SharesBudget`) and clump maps sized by the view's pixel counts
+(:class:`ViewSized`).
+
 A method only plans. It decides which maps exist, what each holds and which must be drawn this
 frame (a :class:`~game.shadows.plan.ShadowPlan`); the render layer owns the GL objects and draws
 what the plan lists. Planning is kept apart from drawing as in Filament, whose
@@ -8,7 +13,6 @@ what the plan lists. Planning is kept apart from drawing as in Filament, whose
 
 from __future__ import annotations
 
-import dataclasses
 from abc import ABC, abstractmethod
 from typing import ClassVar
 
@@ -16,7 +20,10 @@ import numpy as np
 
 from game.scene.geometry import PackedGeometry
 from game.scene.model import Light
+from game.shadows.atlas import Square
+from game.shadows.light_kinds import kind_of
 from game.shadows.plan import ShadowPlan, ShadowSettings, layer_bytes
+from game.shadows.view_budget import ClumpRequest, Placement
 
 # Where the shading pass's visibility of the hard light comes from.
 VISIBILITY_MAPS = "maps"      # the depth maps the method plans
@@ -29,11 +36,29 @@ def bounding_sphere(points: np.ndarray) -> tuple[np.ndarray, float]:
     return centre, float(np.linalg.norm(points - centre, axis=1).max())
 
 
+def reached_statics(geom: PackedGeometry, light: Light) -> list[int]:
+    """The statics a spot or point light's range and cone can reach (all for others)."""
+    if not kind_of(light).limits_reach(light):
+        return list(range(geom.n_statics))
+    return [i for i, p in enumerate(geom.static_points)
+            if len(p) and light.reaches(*bounding_sphere(p))]
+
+
+def reached_characters(geom: PackedGeometry, light: Light, models: np.ndarray) -> np.ndarray:
+    """Per character, whether the light can reach it at its pose in ``models``."""
+    n = geom.n_characters
+    if not kind_of(light).limits_reach(light) or not n:
+        return np.ones(n, bool)
+    centres = np.asarray(models, float)[:, :3, 3]
+    return np.array([light.reaches(centres[i], float(geom.character_radius[i]))
+                     for i in range(n)], bool)
+
+
 class ShadowMethod(ABC):
     """A hard-shadow method: the maps of the scene's light for every frame.
 
     Subclasses set :attr:`name` (the command line's ``--method``) and :attr:`summary`, and
-    register in :mod:`game.shadows.registry`.
+    register in :mod:`game.shadows.registry`. Its properties only read what planning decided.
     """
 
     name: ClassVar[str]
@@ -47,9 +72,6 @@ class ShadowMethod(ABC):
     parameters: ClassVar[tuple[str, ...]] = ()
     # Whether the shadow memory budget bounds the array (else the resolution asked is used).
     budgeted: ClassVar[bool] = False
-    # Whether, with view-sized maps, its lights' maps share one atlas placed by the view's needs
-    # (game/shadows/lights.py): it then has view_requests, place_by_view and share_view_budget.
-    shares_view_budget: ClassVar[bool] = False
 
     def __init__(self, geom: PackedGeometry, light: Light, settings: ShadowSettings,
                  max_layers: int, max_maps: int | None = None):
@@ -72,25 +94,6 @@ class ShadowMethod(ABC):
         return 1
 
     @property
-    def memory_mib(self) -> float:
-        """The depth memory the method's layers take."""
-        return self.layers * layer_bytes(self.resolution) / 2**20
-
-    @property
-    def reserved_layers(self) -> int:
-        """The layers kept for it beside other lights': the most it may take while it runs."""
-        return self.layers
-
-    @property
-    def wants_memory(self) -> bool:
-        """Whether a larger share of the memory budget would give its maps finer texels."""
-        return False
-
-    def limit_memory(self, mib: float) -> None:
-        """Hold any later re-planning to ``mib`` of the budget (what it takes now, or more)."""
-        self.settings = dataclasses.replace(self.settings, budget_mib=mib)
-
-    @property
     @abstractmethod
     def resolution(self) -> int:
         """Texels per side of the array's layers."""
@@ -99,6 +102,16 @@ class ShadowMethod(ABC):
     @abstractmethod
     def layers(self) -> int:
         """Layers the array needs."""
+
+    @property
+    def memory_mib(self) -> float:
+        """The depth memory the method's layers take."""
+        return self.layers * layer_bytes(self.resolution) / 2**20
+
+    @property
+    def reserved_layers(self) -> int:
+        """The layers kept for it beside other lights': the most it may take while it runs."""
+        return self.layers
 
     @abstractmethod
     def plan(self, models: np.ndarray, view=None) -> ShadowPlan:
@@ -113,56 +126,78 @@ class ShadowMethod(ABC):
         """Statics were added, removed or moved (their names in ``changed``).
 
         Returns the clumps whose maps the next frame re-renders. By default the method plans
-        everything anew.
+        every map anew, as for a new light.
         """
-        self._restart(geom)
+        self.geom = geom
+        self.set_light(self.light)
         return []
 
     def update_characters(self, geom: PackedGeometry) -> None:
-        """Characters were added or removed. By default the method plans everything anew."""
-        self._restart(geom)
+        """Characters were added or removed. By default the method plans every map anew."""
+        self.geom = geom
+        self.set_light(self.light)
 
     def mark_rendered_lost(self) -> None:  # noqa: B027 - most methods cache nothing
         """The depth array was re-created: every cached map must be drawn again."""
 
-    @property
-    def counts_pixels(self) -> bool:
-        """Whether its maps are sized by the pixels near their shadow edges
-        (:meth:`served`)."""
-        return False
 
-    def served(self, pixels: np.ndarray) -> None:  # noqa: B027 - most methods size by nothing
+class SharesBudget(ABC):
+    """A method whose share of the lights' memory budget sizes its maps: a light that takes
+    less than its share hands the rest to the lights short of theirs (game/shadows/lights.py).
+    """
+
+    @property
+    @abstractmethod
+    def wants_memory(self) -> bool:
+        """Whether a larger share of the memory budget would give its maps finer texels."""
+
+    @abstractmethod
+    def limit_memory(self, mib: float) -> None:
+        """Hold any later re-planning to ``mib`` of the budget (what it takes now, or more)."""
+
+
+class ViewSized(ABC):
+    """A method whose maps may be sized by the view: by the pixels the shading pass counts near
+    each map's shadow edges, in an atlas of its own or one the lights share."""
+
+    @property
+    @abstractmethod
+    def counts_pixels(self) -> bool:
+        """Whether its maps are sized by the pixels near their shadow edges (:meth:`served`)."""
+
+    @abstractmethod
+    def served(self, pixels: np.ndarray) -> None:
         """Per map of the last plan counted (in the plan's order), the pixels that read it
         within a texel of its shadow edges (shaders/shadow.glsl)."""
 
     @property
+    @abstractmethod
     def placed_blind(self) -> bool:
         """Whether its last plan placed its maps before any pixels were counted."""
-        return False
 
-    def place_anew(self) -> None:  # noqa: B027 - most methods place nothing by the view
+    @abstractmethod
+    def place_anew(self) -> None:
         """Place its maps anew on the next plan, by the pixels counted since."""
 
-    # -- a light's reach ------------------------------------------------------------------
-    def reached_statics(self) -> list[int]:
-        """The statics a spot or point light's range and cone can reach (all for others)."""
-        g, light = self.geom, self.light
-        if light.position is None or (light.range is None and light.kind != "spot"):
-            return list(range(g.n_statics))
-        return [i for i, p in enumerate(g.static_points)
-                if len(p) and light.reaches(*bounding_sphere(p))]
+    @property
+    @abstractmethod
+    def fixed_texels(self) -> int:
+        """The texels its fixed maps would keep: what it brings to a shared atlas."""
 
-    def reached_characters(self, models: np.ndarray) -> np.ndarray:
-        """Per character, whether the light can reach it at its pose in ``models``."""
-        g, light = self.geom, self.light
-        n = g.n_characters
-        if light.position is None or (light.range is None and light.kind != "spot") or not n:
-            return np.ones(n, bool)
-        centres = np.asarray(models, float)[:, :3, 3]
-        return np.array([light.reaches(centres[i], float(g.character_radius[i]))
-                         for i in range(n)], bool)
+    @property
+    @abstractmethod
+    def reserved_sides(self) -> list[int]:
+        """The sides of the squares its character maps keep in a shared atlas."""
 
-    def _restart(self, geom: PackedGeometry) -> None:
-        notes = self.notes
-        self.__init__(geom, self.light, self.settings, self.max_layers, self.max_maps)
-        self.notes = notes + [n for n in self.notes if n not in notes]
+    @abstractmethod
+    def share_view_budget(self, side: int) -> None:
+        """Place its maps in an atlas of ``side``-texel layers that the lights share."""
+
+    @abstractmethod
+    def view_requests(self, view) -> tuple[list[ClumpRequest], set[int]]:
+        """Each map as the shared atlas sees it, and those that must be drawn this frame."""
+
+    @abstractmethod
+    def place_by_view(self, placements: list[Placement], drawn: set[int],
+                      reserved: list[Square]) -> None:
+        """This frame's placements from the shared atlas, handed over before :meth:`plan`."""

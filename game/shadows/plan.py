@@ -110,6 +110,26 @@ class MapRecord:
     origin: tuple[int, int] = (0, 0)
 
 
+@dataclass(frozen=True)
+class CharacterCounts:
+    """A frame's character maps, for the stats: maps drawn, characters skipped (no visible
+    shadow), characters grouped (sharing a map), and maps shrunk for want of layers."""
+
+    maps: int = 0
+    skipped: int = 0
+    grouped: int = 0
+    shrunk: int = 0
+
+    def __add__(self, other: CharacterCounts) -> CharacterCounts:
+        return CharacterCounts(self.maps + other.maps, self.skipped + other.skipped,
+                               self.grouped + other.grouped, self.shrunk + other.shrunk)
+
+    def as_dict(self) -> dict[str, int]:
+        """The counts under the names the stats files and the bench's columns use."""
+        return {"character_maps": self.maps, "characters_skipped": self.skipped,
+                "characters_grouped": self.grouped, "character_maps_shrunk": self.shrunk}
+
+
 @dataclass
 class ShadowPlan:
     resolution: int                  # texels per side of the array's layers
@@ -118,9 +138,8 @@ class ShadowPlan:
     render_dynamic: list[int] = field(default_factory=list)
     # The statics' faces in clump order, for the index buffer (game/scene/geometry.layout).
     static_pieces: list[Piece] | None = None
-    # The character maps of the frame, for the stats: maps, characters skipped (no visible
-    # shadow), characters grouped (sharing a map), maps shrunk for want of layers.
-    characters: dict[str, int] = field(default_factory=dict)
+    # The character maps of the frame (None: the method plans no character maps apart).
+    characters: CharacterCounts | None = None
     backlog: int = 0  # view-sized clump maps whose new side waits for a later frame
     # Each light's first map (game/shadows/lights.py): the maps of light k start at
     # light_first_maps[k].

@@ -2,16 +2,16 @@
 
 With a fixed texel density every clump map has the same side, near the camera or 300 m away. Here
 each frame gives each clump map a power-of-two side between a minimum and the array's layer side,
-from what its owner measures in the view (the clumped method: game/shadows/methods/clumped.py
-``view_requests``): the map's weight, the length of its shadow edges on screen times its need,
-counted in the shading pass of earlier frames (shaders/shadow.glsl). A map misclassifies
-pixels in proportion to its weight over its side; for a fixed sum of squares their total is
-least when each side goes as the cube root of the weight. Before a map is counted its edges are
-taken as long as it is wide on screen, which makes the side go as the need to the power 2/3.
-All are scaled by one factor, the largest for which the sides fit the budget. Sides grow at once
-and shrink only when the need falls well under the smaller side (the characters' hysteresis,
-game/shadows/crowd.py), the sides it holds paid for by the scale, so small camera moves
-re-render nothing.
+from what its owner measures in the view (the clumped method's requests:
+game/shadows/methods/clumped/view_maps.py): the map's weight, the length of its shadow edges on
+screen times its need, counted in the shading pass of earlier frames (shaders/shadow.glsl). A map
+misclassifies pixels in proportion to its weight over its side; for a fixed sum of squares their
+total is least when each side goes as the cube root of the weight. Before a map is counted its
+edges are taken as long as it is wide on screen, which makes the side go as the need to the power
+2/3. All are scaled by one factor, the largest for which the sides fit the budget. Sides grow at
+once and shrink only when the need falls well under the smaller side (the characters' hysteresis,
+game/shadows/crowd.py), the sides it holds paid for by the scale, so small camera moves re-render
+nothing.
 The maps live in squares of the array's layers (game/shadows/atlas.py); a map keeps its square
 while its side stays, and a cached map is drawn again only when its side changes, its clump
 does, or it is moved aside to make room for a larger square. At most ``max_renders`` maps are
@@ -205,7 +205,7 @@ class ViewBudget:
         placed = {k: list(p.squares) for k, p in self.placed.items() if k != own}
         squares, moved = [], set()
         for _ in range(count):
-            found = _free_a_square(atlas, placed, self.reserved, side, budget, done | moved)
+            found = free_a_square(atlas, placed, self.reserved, side, budget, done | moved)
             if found is None:
                 return None, []
             square, keys = found
@@ -246,6 +246,11 @@ class ViewBudget:
         self.backlog = 0
         return [self.placed[r.key] for r in requests]
 
+    @property
+    def held(self) -> set[Hashable]:
+        """The keys whose side the hysteresis holds."""
+        return self._sizes.held
+
     def forget(self) -> None:
         """Every clump is placed anew on the next frame (its squares are given back), its side
         from its weight alone (no hysteresis)."""
@@ -256,7 +261,7 @@ class ViewBudget:
         self._sizes.forget(set())
 
 
-def _free_a_square(atlas: Atlas, placed: dict[Hashable, list[Square]], fixed: list[Square],
+def free_a_square(atlas: Atlas, placed: dict[Hashable, list[Square]], fixed: list[Square],
                    side: int, budget: int, free: set[Hashable]
                    ) -> tuple[Square, set[Hashable]] | None:
     """Free an aligned square of ``side`` in ``atlas`` by moving the smaller squares in it

@@ -89,7 +89,7 @@ EXACT_HARD = TraceSettings(method="grid", samples=1)
 def hard_light(light: Light) -> tuple[int, np.ndarray, np.ndarray]:
     """The tracer's light tuple for the scene's hard light (spot: its cone is shading, not
     visibility, as in the Embree reference)."""
-    if light.kind == "directional":
+    if light.parallel:
         d = -np.asarray(light.direction, np.float64)
         d = d / np.linalg.norm(d)
         return blocks.TRACE_LIGHT_DIRECTIONAL, d, d

@@ -6,13 +6,14 @@ buffers), creates them explicitly and releases them in :meth:`SoftTracer.release
 game/soft/grid.py: the statics' lists are uploaded once, the characters' triangles and lists every
 frame.
 
-The methods (game/soft/methods.py) all live in shaders/trace.comp, picked by ``#define METHOD``.
+The methods (game/soft/methods.py) all live in shaders/trace.comp and the trace_*.glsl files it
+includes, picked by ``#define METHOD``.
+What a trace returns is decoded by game/soft/results.py.
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -30,13 +31,8 @@ from game.soft.grid import (
     SceneGrid,
 )
 from game.soft.methods import METHODS, TraceSettings
+from game.soft.results import TraceResult, decode_results
 
-COUNTERS = ("ray_triangle_tests", "triangle_triangle_tests", "voxels_visited", "candidates",
-            "overflows", "bytes_triangles", "bytes_cells", "bytes_candidates", "dispatches")
-# Memory traffic per point, by what is read: the Triangles buffer, the structure (top table,
-# sub-grid table, leaf offsets and ids), and the candidate state (voxel-cache's table and pool,
-# tri-cache's per-triangle words; read and written). 64-bit counts, kept as two 32-bit words.
-BYTE_COUNTERS = ("bytes_triangles", "bytes_cells", "bytes_candidates")
 TRIANGLE_BYTES = 48       # three vec4 per triangle in the Triangles buffer
 LOCAL_SIZE = 8            # invocations per side of a workgroup; keep in sync with trace.comp
 SCATTER_GROUP = 64        # invocations per workgroup of scatter.comp; keep in sync with it
@@ -46,9 +42,9 @@ DYNAMIC_INTS_PER_TRIANGLE = 8
 RAY_ID_LIMIT = 1 << 31    # tri-cache ids use 31 bits of the state word
 POINTS_PER_ROW = 1024      # trace_points: G-buffer width
 # Mesa llvmpipe stops all loops of a shader invocation after 65535 iterations in all (measured
-# on Mesa 22.3.6; see loop_budget_left in shaders/trace.comp). It runs eight invocations in the
-# lanes of one 256-bit vector, and a loop runs as long as any lane needs it: lanes whose loops
-# diverge add up, so eight points of STEP_BUDGET steps each stay below the limit (the steps
+# on Mesa 22.3.6; see loop_budget_left in shaders/trace_budget.glsl). It runs eight invocations
+# in the lanes of one 256-bit vector, and a loop runs as long as any lane needs it: lanes whose
+# loops diverge add up, so eight points of STEP_BUDGET steps each stay below the limit (the steps
 # count every loop trip a point makes, and at most a few hundred more run before a point can
 # stop). A trace that the probe still finds cut short (wider vectors, say) runs again with half
 # the budget, down to MIN_STEP_BUDGET.
@@ -66,34 +62,6 @@ ANALYTIC_KEPT = 8
 TEXTURE_UNITS = {"u_position": blocks.TEXTURE_UNITS["trace_position"],
                  "u_normal": blocks.TEXTURE_UNITS["trace_normal"],
                  "u_colour": blocks.TEXTURE_UNITS["trace_colour"]}
-
-
-@dataclass
-class TraceResult:
-    """What one trace produced; images have row 0 at the top."""
-
-    visibility: np.ndarray            # (H, W) float32, NaN where no geometry
-    counters: dict[str, np.ndarray]   # per counter (H, W): uint32, the byte counts uint64
-    ms: dict[str, float] = field(default_factory=dict)
-    truncated: int = 0                # points whose work llvmpipe's loop budget cut short
-    # Samples per dispatch of the point that needed the most dispatches (the samples when none
-    # was split; for analytic on a segment, the samples asked for).
-    samples_per_dispatch: int = 0
-    rounds: int = 0                   # dispatches the trace took
-    step_budget: int = 0              # loop iterations each point was given per dispatch
-
-    @property
-    def covered(self) -> np.ndarray:
-        return np.isfinite(self.visibility)
-
-    def means(self) -> dict[str, float]:
-        """Mean of every counter per shaded point, and ``bytes_total``."""
-        n = int(self.covered.sum())
-        out = {k: (float(v[self.covered].sum()) / n if n else 0.0)
-               for k, v in self.counters.items()}
-        if all(k in out for k in BYTE_COUNTERS):
-            out["bytes_total"] = sum(out[k] for k in BYTE_COUNTERS)
-        return out
 
 
 class SoftTracer:
@@ -190,19 +158,7 @@ class SoftTracer:
                settings.mailbox, settings.max_intervals)
         prog = self._programs.get(key)
         if prog is None:
-            defines = {f"METHOD_{name.upper().replace('-', '_')}": method.shader_id
-                       for name, method in METHODS.items()}
-            defines.update(
-                METHOD=METHODS[settings.method].shader_id, MAILBOX_SIZE=settings.mailbox,
-                VC_SLOTS=settings.vc_slots, VC_POOL=settings.vc_pool,
-                MAX_INTERVALS=settings.max_intervals, BIN_PAD_CELLS=BIN_PAD_CELLS,
-                TRIANGLE_BYTES=TRIANGLE_BYTES, VC_BIG_LEAF=VC_BIG_LEAF,
-                ANALYTIC_KEPT=ANALYTIC_KEPT, TWO_LEVEL=settings.structure != "uniform",
-                SUB_DIMS_BITS=SUB_DIMS_BITS,
-                TRACE_LIGHT_SEGMENT=blocks.TRACE_LIGHT_SEGMENT,
-                TRACE_LIGHT_POINT=blocks.TRACE_LIGHT_POINT,
-                TRACE_LIGHT_DIRECTIONAL=blocks.TRACE_LIGHT_DIRECTIONAL)
-            prog = self.ctx.compute_shader(glsl.build("trace.comp", defines))
+            prog = self.ctx.compute_shader(glsl.build("trace.comp", _defines(settings)))
             self._programs[key] = prog
         return prog
 
@@ -214,17 +170,7 @@ class SoftTracer:
         ``POINTS_PER_ROW``) and released before returning. The result's arrays are (P,).
         """
         n = len(points)
-        w = min(max(n, 1), POINTS_PER_ROW)
-        h = (n + w - 1) // w
-        pos = np.zeros((h * w, 4), np.float32)
-        nrm = np.zeros((h * w, 4), np.float32)
-        covered = np.zeros((h * w, 4), np.uint8)
-        pos[:n, :3] = points
-        nrm[:n, :3] = normals
-        covered[:n, 3] = 255
-        textures = [self.ctx.texture((w, h), 4, pos.tobytes(), dtype="f4"),
-                    self.ctx.texture((w, h), 4, nrm.tobytes(), dtype="f4"),
-                    self.ctx.texture((w, h), 4, covered.tobytes())]
+        textures, (w, h) = _points_gbuffer(self.ctx, points, normals)
         try:
             result = self.trace(textures, (w, h), models, settings, light)
         finally:
@@ -344,55 +290,15 @@ class SoftTracer:
         w, h = size
         timer.begin_frame()
         prog = self._program(settings)
-        mode, a, b = light
         with timer.measure("total", wall=True):
             with timer.measure("build", wall=True):
-                self._use_structure(settings.structure)
-                build_ms = self._pending_static_ms
-                self._pending_static_ms = 0.0
-                dynamic_ms = self._upload_characters(models)
-                need = TRACE_RESULT_DTYPE.itemsize * (w * h + 1)
-                if self.results_ssbo.size != need:
-                    self.results_ssbo.orphan(need)
-                if self._ray_id_base + 2 * w * h >= RAY_ID_LIMIT:
-                    self.state_ssbo.clear()
-                    self._ray_id_base = 1
-                self._ray_id_base += w * h
-            self.params_ubo.bind_to_uniform_block(blocks.BINDINGS["TraceParams"])
-            for buf, name in ((self.tri_ssbo, "Triangles"), (self.static_ssbo, "StaticCells"),
-                              (self.dynamic_ssbo, "DynamicCells"), (self.state_ssbo, "TriState"),
-                              (self.results_ssbo, "Results")):
-                buf.bind_to_storage_buffer(blocks.BINDINGS[name])
-            for tex, (name, unit) in zip(textures, TEXTURE_UNITS.items(), strict=True):
-                tex.use(unit)
-                try:
-                    prog[name].value = unit
-                except KeyError:  # the method does not read it; the compiler dropped it
-                    pass
-            # llvmpipe's loop budget (shaders/trace.comp loop_budget_left): rounds of
-            # dispatches, each point resuming where its step budget ran out; a trace that
-            # still cut a point short runs again with half the budget, timed apart.
-            key = (settings.method, settings.structure, settings.samples, settings.vc_slots,
-                   settings.vc_pool, settings.max_intervals)
-            budget = self._budgets.get(key, STEP_BUDGET)
-            discarded = 0.0
-            while True:
-                timer.ms.pop("trace", None)
-                with timer.measure("trace"):
-                    rounds, cut = self._rounds(prog, size, mode, a, b, settings, budget)
-                if not cut or budget <= MIN_STEP_BUDGET:
-                    break
-                discarded += timer.ms["trace"]
-                budget = max(MIN_STEP_BUDGET, budget // 2)
-            # Later frames start from the budget that worked (frames change little).
-            self._budgets[key] = budget
+                build_ms, dynamic_ms = self._prepare(size, models, settings)
+            self._bind(prog, textures)
+            rounds, budget, discarded = self._dispatch(prog, size, light, settings)
             context.unbind_program()
             results = np.frombuffer(
                 self.results_ssbo.read(size=TRACE_RESULT_DTYPE.itemsize * w * h),
                 TRACE_RESULT_DTYPE)
-        raw = results.reshape(h, w)[::-1]
-        vis = raw["visibility"].astype(np.float32)
-        vis = np.where(vis < 0.0, np.nan, vis).astype(np.float32)
         ms = dict(timer.ms)
         ms["build_static"] = build_ms
         ms["build_dynamic"] = dynamic_ms
@@ -400,16 +306,96 @@ class SoftTracer:
         ms["build"] = ms.get("build", 0.0) + build_ms
         ms["total"] = ms.get("total", 0.0) + build_ms
         ms["trace_discarded"] = discarded
-        counters = {}
-        for name in COUNTERS:
-            v = raw[name]
-            if name in BYTE_COUNTERS:
-                v = v[..., 0].astype(np.uint64) + (v[..., 1].astype(np.uint64) << np.uint64(32))
-            counters[name] = np.ascontiguousarray(v)
-        covered = np.isfinite(vis)
-        most = int(counters["dispatches"][covered].max()) if covered.any() else 1
-        exact = not METHODS[settings.method].sampled and mode == blocks.TRACE_LIGHT_SEGMENT
-        per_dispatch = settings.samples if exact else -(-settings.samples // max(1, most))
-        return TraceResult(visibility=vis, counters=counters, ms=ms,
-                           truncated=int(raw["truncated"][covered].sum()),
-                           samples_per_dispatch=per_dispatch, rounds=rounds, step_budget=budget)
+        return decode_results(results.reshape(h, w)[::-1], settings, light[0], ms, rounds, budget)
+
+    def _prepare(self, size: tuple[int, int], models: np.ndarray,
+                 settings: TraceSettings) -> tuple[float, float]:
+        """The structure, the characters and the results buffer made ready for a trace of
+        ``size``; returns the static build ms not yet reported and the characters' build ms."""
+        w, h = size
+        self._use_structure(settings.structure)
+        build_ms = self._pending_static_ms
+        self._pending_static_ms = 0.0
+        dynamic_ms = self._upload_characters(models)
+        need = TRACE_RESULT_DTYPE.itemsize * (w * h + 1)
+        if self.results_ssbo.size != need:
+            self.results_ssbo.orphan(need)
+        if self._ray_id_base + 2 * w * h >= RAY_ID_LIMIT:
+            self.state_ssbo.clear()
+            self._ray_id_base = 1
+        self._ray_id_base += w * h
+        return build_ms, dynamic_ms
+
+    def _bind(self, prog, textures) -> None:
+        """Bind the pass's buffers and the G-buffer's textures for ``prog``."""
+        self.params_ubo.bind_to_uniform_block(blocks.BINDINGS["TraceParams"])
+        for buf, name in ((self.tri_ssbo, "Triangles"), (self.static_ssbo, "StaticCells"),
+                          (self.dynamic_ssbo, "DynamicCells"), (self.state_ssbo, "TriState"),
+                          (self.results_ssbo, "Results")):
+            buf.bind_to_storage_buffer(blocks.BINDINGS[name])
+        for tex, (name, unit) in zip(textures, TEXTURE_UNITS.items(), strict=True):
+            tex.use(unit)
+            try:
+                prog[name].value = unit
+            except KeyError:  # the method does not read it; the compiler dropped it
+                pass
+
+    def _dispatch(self, prog, size: tuple[int, int], light,
+                  settings: TraceSettings) -> tuple[int, int, float]:
+        """Rounds of dispatches, each point resuming where its step budget ran out (llvmpipe's
+        loop budget, shaders/trace_budget.glsl loop_budget_left); a trace that still cut a point
+        short runs again with half the budget, timed apart. Returns the rounds, the budget that
+        worked and the ms of the attempts thrown away."""
+        timer = self.timer
+        mode, a, b = light
+        key = (settings.method, settings.structure, settings.samples, settings.vc_slots,
+               settings.vc_pool, settings.max_intervals)
+        budget = self._budgets.get(key, STEP_BUDGET)
+        discarded = 0.0
+        while True:
+            timer.ms.pop("trace", None)
+            with timer.measure("trace"):
+                rounds, cut = self._rounds(prog, size, mode, a, b, settings, budget)
+            if not cut or budget <= MIN_STEP_BUDGET:
+                break
+            discarded += timer.ms["trace"]
+            budget = max(MIN_STEP_BUDGET, budget // 2)
+        # Later frames start from the budget that worked (frames change little).
+        self._budgets[key] = budget
+        return rounds, budget, discarded
+
+
+def _points_gbuffer(ctx, points: np.ndarray, normals: np.ndarray) -> tuple[list, tuple[int, int]]:
+    """A G-buffer of the points (P, 3) and unit normals (P, 3), ``POINTS_PER_ROW`` to a row: its
+    (position, normal, colour) textures, which the caller releases, and its size."""
+    n = len(points)
+    w = min(max(n, 1), POINTS_PER_ROW)
+    h = (n + w - 1) // w
+    pos = np.zeros((h * w, 4), np.float32)
+    nrm = np.zeros((h * w, 4), np.float32)
+    covered = np.zeros((h * w, 4), np.uint8)
+    pos[:n, :3] = points
+    nrm[:n, :3] = normals
+    covered[:n, 3] = 255
+    textures = [ctx.texture((w, h), 4, pos.tobytes(), dtype="f4"),
+                ctx.texture((w, h), 4, nrm.tobytes(), dtype="f4"),
+                ctx.texture((w, h), 4, covered.tobytes())]
+    return textures, (w, h)
+
+
+def _defines(settings: TraceSettings) -> dict:
+    """The ``#define``s of trace.comp for ``settings``: the method, its sizes and the constants
+    the shader shares with this module."""
+    defines = {f"METHOD_{name.upper().replace('-', '_')}": method.shader_id
+               for name, method in METHODS.items()}
+    defines.update(
+        METHOD=METHODS[settings.method].shader_id, MAILBOX_SIZE=settings.mailbox,
+        VC_SLOTS=settings.vc_slots, VC_POOL=settings.vc_pool,
+        MAX_INTERVALS=settings.max_intervals, BIN_PAD_CELLS=BIN_PAD_CELLS,
+        TRIANGLE_BYTES=TRIANGLE_BYTES, VC_BIG_LEAF=VC_BIG_LEAF,
+        ANALYTIC_KEPT=ANALYTIC_KEPT, TWO_LEVEL=settings.structure != "uniform",
+        SUB_DIMS_BITS=SUB_DIMS_BITS,
+        TRACE_LIGHT_SEGMENT=blocks.TRACE_LIGHT_SEGMENT,
+        TRACE_LIGHT_POINT=blocks.TRACE_LIGHT_POINT,
+        TRACE_LIGHT_DIRECTIONAL=blocks.TRACE_LIGHT_DIRECTIONAL)
+    return defines

@@ -11,7 +11,7 @@ import pytest
 from game.app import dumps
 from game.reference.hard import load_frame
 from game.scene import load_scene
-from tests.conftest import TINY
+from tests.helpers import TINY
 
 H, W = 3, 4
 

@@ -20,8 +20,8 @@ from game.app.window import camera_control, light_editor
 from game.app.window.glfw_setup import KEY_NAMES
 from game.scene import Light, parse_scene
 from game.shadows.plan import KIND_CHARACTER
-from tests.app.test_window import DRIVER, NO_WINDOW, _env
-from tests.conftest import ROOT, SMALL_SIZE, TINY
+from tests.app.window_helpers import DRIVER, NO_WINDOW, window_env
+from tests.helpers import ROOT, SMALL_SIZE, TINY
 
 # Light 1 of the two-light scene: a warm lamp beside the box, whose pool of light ends at its
 # range; the sun, light 0, is dimmed so that the pool shows.
@@ -143,7 +143,8 @@ class Panel:
         self.renderer = Renderer(ctx, self.scene, SMALL_SIZE)
         self.view = View.from_camera(self.scene.camera, SMALL_SIZE)
         self.overlay = Overlay(panel=panel, open_tab="lights")
-        self.selected = 0
+        self.selected_light = 0   # the window state that Changes.apply sets
+        self.paused = False
         self.render()
 
     def render(self) -> np.ndarray:
@@ -157,7 +158,7 @@ class Panel:
         """One overlay frame after ``events`` (calls on imgui's io); its changes applied."""
         from imgui_bundle import imgui
 
-        from game.app.window.overlay import Figures
+        from game.app.window.figures import Figures
 
         imgui.set_current_context(self.overlay.context)
         io = imgui.get_io()
@@ -165,10 +166,8 @@ class Panel:
             event(io)
         figures = Figures.of(self.frame, "cpu-finish", 30.0)
         changes = self.overlay.draw(figures, self.renderer, False, display, 1 / 30,
-                                    selected_light=self.selected)
-        changes.apply(self.renderer)
-        if changes.selected_light is not None:
-            self.selected = changes.selected_light
+                                    selected_light=self.selected_light)
+        changes.apply(self.renderer, self)
         return changes
 
     def click(self, x: float, y: float):
@@ -313,7 +312,7 @@ def test_light_keys_select_nudge_and_switch_a_lamp_in_the_window(tmp_path):
     scene = tmp_path / "two_lights.toml"
     scene.write_text(two_lights())
     result = subprocess.run([sys.executable, str(DRIVER), str(scene), "lights"],
-                            capture_output=True, text=True, timeout=300, env=_env(), cwd=ROOT)
+                            capture_output=True, text=True, timeout=300, env=window_env(), cwd=ROOT)
     if result.returncode == NO_WINDOW:
         pytest.skip(f"no null-platform EGL window here: {result.stderr.strip()}")
     assert result.returncode == 0, result.stderr

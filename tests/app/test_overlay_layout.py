@@ -15,8 +15,8 @@ import sys
 import numpy as np
 import pytest
 
-from tests.app.test_window import DRIVER, NO_WINDOW, _env
-from tests.conftest import ROOT, SMALL_SIZE, TINY
+from tests.app.window_helpers import DRIVER, NO_WINDOW, window_env
+from tests.helpers import ROOT, SMALL_SIZE, TINY
 
 SIZES = [(960, 540), (640, 360), (320, 180), (1920, 1080)]
 # Every pass the panel can list, so that the graph's legend is as tall as it gets.
@@ -41,7 +41,7 @@ def small_frame(gl_session):
 
 
 def _figures(ms: dict[str, float]):
-    from game.app.window.overlay import Figures
+    from game.app.window.figures import Figures
 
     return Figures(ms=dict(ms), clock="cpu-finish", maps_rendered=7, maps_cached=5,
                    triangles_to_maps=3584, maps_per_fragment=0.25, fps=57.1,
@@ -58,7 +58,8 @@ def _drawn(renderer, ms: dict[str, float], size, panel: bool, tab: str = "view")
 
 
 def test_panel_extent_scales_with_the_window_and_keeps_to_a_third():
-    from game.app.window.overlay import PANEL_MARGIN, panel_extent
+    from game.app.window.imgui_layout import PANEL_MARGIN
+    from game.app.window.panel import panel_extent
 
     for size in [*SIZES, (200, 120), (3840, 2160), (1080, 1920)]:
         w, h = panel_extent(size)
@@ -161,7 +162,7 @@ def test_hud_bar_draws_a_segment_per_pass_in_its_colour(ctx):
 def modes():
     """F1 in a real window (tests/app/window_driver.py overlay_modes), as the JSON it printed."""
     result = subprocess.run([sys.executable, str(DRIVER), str(TINY), "overlay-modes"],
-                            capture_output=True, text=True, timeout=300, env=_env(), cwd=ROOT)
+                            capture_output=True, text=True, timeout=300, env=window_env(), cwd=ROOT)
     if result.returncode == NO_WINDOW:
         pytest.skip(f"no null-platform EGL window here: {result.stderr.strip()}")
     assert result.returncode == 0, result.stderr

@@ -12,7 +12,7 @@ import sys
 import pytest
 
 from game.app.progress import REDRAW_S, SHOW_AFTER_S, Progress
-from tests.conftest import COURTYARD, ROOT, TINY
+from tests.helpers import COURTYARD, ROOT, TINY
 
 
 class Terminal:

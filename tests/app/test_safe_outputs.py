@@ -22,8 +22,7 @@ import pytest
 import trimesh
 
 from game.app import frame_log, outputs
-from tests.app.test_outputs import decode_png
-from tests.conftest import ROOT, TINY, stoppable
+from tests.helpers import ROOT, TINY, decode_png, stoppable
 
 
 def start_capture(out: Path, stats: Path) -> subprocess.Popen:
@@ -126,14 +125,14 @@ def test_interrupted_stats_write_keeps_the_old_file(tmp_path, monkeypatch):
     log.write_json(target, {"renderer": "x", "frames": log})
     assert json.loads(target.read_text())["frames"] == [{"frame": k} for k in range(5)]
     before = target.read_bytes()
-    real_line = log._line
+    real_line = log.line
 
     def interrupted(i):
         if i == 3:
             raise KeyboardInterrupt
         return real_line(i)
 
-    monkeypatch.setattr(log, "_line", interrupted)
+    monkeypatch.setattr(log, "line", interrupted)
     with pytest.raises(KeyboardInterrupt):
         log.write_json(target, {"renderer": "y", "frames": log})
     assert target.read_bytes() == before

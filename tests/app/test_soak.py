@@ -18,7 +18,7 @@ import pytest
 from game.gpu import resources
 from game.render.renderer import Renderer, View
 from game.scene import load_scene
-from tests.conftest import ROOT, TINY
+from tests.helpers import ROOT, TINY
 
 SIZE = (64, 36)
 WARM_UP = 100            # frames before memory is compared

@@ -11,8 +11,8 @@ import sys
 import numpy as np
 import pytest
 
-from tests.app.test_window import NO_WINDOW, _env, _read_png, run_game
-from tests.conftest import ROOT, TINY
+from tests.app.window_helpers import NO_WINDOW, run_game, window_env
+from tests.helpers import ROOT, TINY, read_png
 
 DRIVER = ROOT / "tests" / "app" / "soft_window_driver.py"
 SIZE = (320, 180)
@@ -23,7 +23,7 @@ def soft_run(tmp_path_factory):
     """What the driver saw, and the folder of its still frame."""
     out = tmp_path_factory.mktemp("soft_window")
     result = subprocess.run([sys.executable, str(DRIVER), str(TINY), str(out)],
-                            capture_output=True, text=True, timeout=600, env=_env(), cwd=ROOT)
+                            capture_output=True, text=True, timeout=600, env=window_env(), cwd=ROOT)
     if result.returncode == NO_WINDOW:
         pytest.skip(f"no null-platform EGL window here: {result.stderr.strip()}")
     assert result.returncode == 0, result.stderr
@@ -67,7 +67,7 @@ def test_the_window_matches_a_capture_of_every_pixel(soft_run, tmp_path, name, m
     result = run_game("capture", TINY, "--soft", "--time", "0", "--size",
                       f"{SIZE[0]}x{SIZE[1]}", "--out", tmp_path)
     assert result.returncode == 0, result.stderr
-    captured = _read_png(tmp_path / "frame_0000.png").astype(int)
+    captured = read_png(tmp_path / "frame_0000.png").astype(int)
     diff = np.abs(window - captured).max(axis=2)
     # The capture traces every pixel with its own samples; the window, with fewer samples per
     # pass, averages neighbours on the same surface: they differ by noise in the penumbrae.

@@ -9,7 +9,7 @@ import pytest
 
 from game.reference import hard as reference
 from game.scene import load_scene
-from tests.conftest import POINT, ROOT, TINY
+from tests.helpers import POINT, ROOT, TINY
 
 
 def run(*args):
@@ -139,7 +139,7 @@ def test_sweep_writes_csv_json_and_chart(tmp_path):
 
 
 def test_sweep_of_several_scenes_and_structures_sets_rays_per_second_beside_embree(tmp_path):
-    from tests.conftest import COURTYARD
+    from tests.helpers import COURTYARD
 
     result = subprocess.run(
         [sys.executable, "-m", "game.bench.soft_sweep", "--scenes", f"{TINY},{COURTYARD}",

@@ -8,13 +8,9 @@ scripted through the same methods the glfw callbacks call (tests/app/window_driv
 from __future__ import annotations
 
 import json
-import os
 import re
-import struct
 import subprocess
 import sys
-import zlib
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -22,23 +18,8 @@ import pytest
 from game import transforms
 from game.app.window import camera_control
 from game.scene import Camera
-from tests.conftest import ROOT, TINY
-
-DRIVER = ROOT / "tests" / "app" / "window_driver.py"
-NO_WINDOW = 77
-
-
-def _env(**extra) -> dict:
-    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
-    env["PYTHONPATH"] = str(ROOT)
-    env.update(extra)
-    return env
-
-
-def run_game(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "game", *map(str, args)], cwd=cwd or ROOT,
-                          capture_output=True, text=True, timeout=300, env=_env())
-
+from tests.app.window_helpers import DRIVER, NO_WINDOW, run_game, window_env
+from tests.helpers import ROOT, TINY, read_png
 
 # -- the controller, no GL --------------------------------------------------------------------
 CAMERA = Camera(position=np.array([0.0, 2.0, 10.0]), target=np.array([0.0, 1.0, 0.0]))
@@ -110,7 +91,7 @@ def test_command_keys():
 
 
 def test_sun_angles_round_trip():
-    from game.app.window.overlay import sun_angles, sun_direction
+    from game.app.window.light_editor import sun_angles, sun_direction
 
     d = np.array([-0.4, -1.0, -0.3])
     d /= np.linalg.norm(d)
@@ -123,7 +104,7 @@ def test_sun_angles_round_trip():
 def driven():
     """One scripted run of the window (tests/app/window_driver.py), as the JSON it printed."""
     result = subprocess.run([sys.executable, str(DRIVER), str(TINY)], capture_output=True,
-                            text=True, timeout=300, env=_env(), cwd=ROOT)
+                            text=True, timeout=300, env=window_env(), cwd=ROOT)
     if result.returncode == NO_WINDOW:
         pytest.skip(f"no null-platform EGL window here: {result.stderr.strip()}")
     assert result.returncode == 0, result.stderr
@@ -132,7 +113,7 @@ def driven():
 
 def test_the_window_shows_what_its_screenshots_hold(tmp_path):
     result = subprocess.run([sys.executable, str(DRIVER), str(TINY), str(tmp_path)],
-                            capture_output=True, text=True, timeout=300, env=_env(), cwd=ROOT)
+                            capture_output=True, text=True, timeout=300, env=window_env(), cwd=ROOT)
     if result.returncode == NO_WINDOW:
         pytest.skip(f"no null-platform EGL window here: {result.stderr.strip()}")
     assert result.returncode == 0, result.stderr
@@ -216,8 +197,8 @@ def test_screenshot_matches_a_headless_capture_outside_the_overlay(tmp_path):
     result = run_game("capture", TINY, "--frames", "1", "--time", "0.2", "--size", "640x360",
                       "--out", out)
     assert result.returncode == 0, result.stderr
-    window = _read_png(shot)
-    headless = _read_png(out / "frame_0000.png")
+    window = read_png(shot)
+    headless = read_png(out / "frame_0000.png")
     assert window.shape == headless.shape == (360, 640, 3)
     x, y, w, h = play["overlay_rect"]
     outside = np.ones(window.shape[:2], bool)
@@ -235,8 +216,8 @@ def test_capture_overlay_draws_the_panel_into_headless_frames(tmp_path):
         result = run_game("capture", TINY, "--frames", "2", "--size", "640x360", "--out", out,
                           *extra)
         assert result.returncode == 0, result.stderr
-    a = _read_png(plain / "frame_0001.png").astype(int)
-    b = _read_png(over / "frame_0001.png").astype(int)
+    a = read_png(plain / "frame_0001.png").astype(int)
+    b = read_png(over / "frame_0001.png").astype(int)
     # The panel sits at the top left; the right edge of the frame is untouched.
     assert (np.abs(a - b)[20:200, 20:300].max(axis=2) > 8).mean() > 0.2
     np.testing.assert_array_equal(a[:, 420:], b[:, 420:])
@@ -268,7 +249,7 @@ def traced_soft(tmp_path_factory):
     (tests/app/window_driver.py traced_and_soft): what it printed and the folder of its frames."""
     out = tmp_path_factory.mktemp("traced_soft")
     result = subprocess.run([sys.executable, str(DRIVER), str(TINY), str(out), "traced-soft"],
-                            capture_output=True, text=True, timeout=300, env=_env(), cwd=ROOT)
+                            capture_output=True, text=True, timeout=300, env=window_env(), cwd=ROOT)
     if result.returncode == NO_WINDOW:
         pytest.skip(f"no null-platform EGL window here: {result.stderr.strip()}")
     assert result.returncode == 0, result.stderr
@@ -296,7 +277,7 @@ def test_m_cycles_to_traced_and_its_shadows_match_a_headless_traced_capture(trac
     result = run_game("capture", TINY, "--method", "traced", "--time", "0", "--size",
                       "1280x720", "--out", tmp_path)
     assert result.returncode == 0, result.stderr
-    captured = _read_png(tmp_path / "frame_0000.png").astype(int)
+    captured = read_png(tmp_path / "frame_0000.png").astype(int)
     diff = np.abs(window.astype(int) - captured).max(axis=2)
     assert (diff[outside] <= 1).mean() > 0.999, diff[outside].max()
     # ... and not the maps' shadows: the driver's coarse maps shadow other pixels.
@@ -339,26 +320,6 @@ def test_play_soft_needs_a_linear_light(tmp_path):
     assert len(lines) == 1 and "linear_light" in lines[0], result.stderr
 
 
-def _read_png(path: Path) -> np.ndarray:
-    """Decode the PNGs game/app/outputs.py writes (8-bit RGB, filter 0 on every row)."""
-    data = path.read_bytes()
-    assert data[:8] == b"\x89PNG\r\n\x1a\n"
-    pos, idat, size = 8, b"", None
-    while pos < len(data):
-        length = struct.unpack(">I", data[pos:pos + 4])[0]
-        kind, body = data[pos + 4:pos + 8], data[pos + 8:pos + 8 + length]
-        if kind == b"IHDR":
-            size = struct.unpack(">II", body[:8])
-            assert body[8:10] == bytes([8, 2]), "expected 8-bit RGB"
-        elif kind == b"IDAT":
-            idat += body
-        pos += 12 + length
-    w, h = size
-    rows = np.frombuffer(zlib.decompress(idat), np.uint8).reshape(h, 1 + 3 * w)
-    assert not rows[:, 0].any(), "expected filter 0 on every row"
-    return rows[:, 1:].reshape(h, w, 3)
-
-
 # -- the overlay headless, in the session context ----------------------------------------------
 def test_layer_viewer_shows_a_rendered_map_and_the_cache_state(ctx):
     from game.app.window import overlay
@@ -376,8 +337,9 @@ def test_layer_viewer_shows_a_rendered_map_and_the_cache_state(ctx):
             image = hud.draw_over_frame(renderer, frame, 1 / 30)
         plan = renderer.last_plan
         assert plan.render_static == [] and plan.render_dynamic  # statics cached by now
-        assert hud._viewer is not None
-        depth = np.frombuffer(hud._viewer.texture.read(), np.uint8).reshape(256, 256, 4)
+        viewer = hud.full_panel.maps.viewer
+        assert viewer is not None
+        depth = np.frombuffer(viewer.texture.read(), np.uint8).reshape(256, 256, 4)
         grey = depth[..., 0] > 64  # casters drawn (the cleared background is dark blue)
         assert 0.001 < grey.mean() < 0.95
         assert image.shape == (320, 480, 3) and not np.array_equal(image, frame.image)
@@ -396,7 +358,7 @@ def test_render_scale_renders_smaller_and_shows_the_window_size(tmp_path):
     assert result.returncode == 0, result.stderr
     play = json.loads(stats.read_text())
     assert play["size"] == [320, 180] and play["render_size"] == [160, 90]
-    image = _read_png(shot)
+    image = read_png(shot)
     assert image.shape == (180, 320, 3)
     # Scaled up with a linear filter: neighbouring pixels are close, yet the scene is there.
     assert len(np.unique(image.reshape(-1, 3), axis=0)) > 20
@@ -434,8 +396,8 @@ def test_capture_takes_the_cache_debug_view(tmp_path):
     result = run_game("capture", TINY, "--frames", "2", "--size", "160x90", "--debug-view",
                       "cache", "--out", tmp_path)
     assert result.returncode == 0, result.stderr
-    first = _read_png(tmp_path / "frame_0000.png").astype(int)
-    second = _read_png(tmp_path / "frame_0001.png").astype(int)
+    first = read_png(tmp_path / "frame_0000.png").astype(int)
+    second = read_png(tmp_path / "frame_0001.png").astype(int)
 
     def green(rgb):  # pixels whose map came from the cache
         return (rgb[..., 1] > rgb[..., 0] + 40).mean()

@@ -170,8 +170,8 @@ def overlay_modes(scene_path: str) -> None:
                       "bar": [b.name for b in o.bar]}
 
     def f1() -> None:  # as glfw reports it
-        app._on_key(app.window, glfw.KEY_F1, 0, glfw.PRESS, 0)
-        app._on_key(app.window, glfw.KEY_F1, 0, glfw.RELEASE, 0)
+        app.on_key(app.window, glfw.KEY_F1, 0, glfw.PRESS, 0)
+        app.on_key(app.window, glfw.KEY_F1, 0, glfw.RELEASE, 0)
 
     try:
         app.paused = True
@@ -207,10 +207,10 @@ def light_keys(scene_path: str) -> None:
     seen: dict = {"tab": app.overlay.open_tab, "selected": []}
 
     def press(key: int, repeats: int = 0) -> None:  # as glfw reports it
-        app._on_key(app.window, key, 0, glfw.PRESS, 0)
+        app.on_key(app.window, key, 0, glfw.PRESS, 0)
         for _ in range(repeats):
-            app._on_key(app.window, key, 0, glfw.REPEAT, 0)
-        app._on_key(app.window, key, 0, glfw.RELEASE, 0)
+            app.on_key(app.window, key, 0, glfw.REPEAT, 0)
+        app.on_key(app.window, key, 0, glfw.RELEASE, 0)
 
     try:
         app.paused = True

@@ -8,7 +8,7 @@ import sys
 import time
 
 from game.bench import gpu_suite, runner, runs
-from tests.conftest import ROOT
+from tests.helpers import ROOT
 
 
 def test_quick_suite_writes_every_part_with_its_renderer_and_clock(tmp_path):

@@ -16,8 +16,8 @@ from game.scene import floors, parse_scene
 from game.shadows import registry
 from game.shadows.plan import ShadowSettings
 from tests import shadow_check
-from tests.conftest import ACCURACY_SIZE as SIZE
-from tests.conftest import MAX_ERROR
+from tests.helpers import ACCURACY_SIZE as SIZE
+from tests.helpers import MAX_ERROR
 
 # Cases with few shadowed pixels in view (a vertical sun under a small box): a handful of pixels
 # on a shadow's edge is within sampling, not a failure.

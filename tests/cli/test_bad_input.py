@@ -14,37 +14,10 @@ from pathlib import Path
 import pytest
 import trimesh
 
-from game import cli
-from tests.conftest import TINY as TINY_PATH
+from tests.cli.cli_helpers import MESH, expect_scene_error, run_main
+from tests.helpers import TINY as TINY_PATH
 
 TINY = TINY_PATH.read_text()
-MESH = '\n[[static]]\nshape = "mesh"\nfile = "{file}"\n'
-
-
-def run_main(capsys, *args) -> tuple[int, list[str]]:
-    code = cli.main([str(a) for a in args])
-    err = capsys.readouterr().err
-    assert "Traceback" not in err
-    return code, err.strip().splitlines()
-
-
-def expect_scene_error(capsys, tmp_path: Path, text: str, line: int | None, key: str,
-                       *fragments: str) -> str:
-    scene = tmp_path / "bad.toml"
-    scene.write_text(text)
-    code, lines = run_main(capsys, "capture", scene, "--size", "32x18", "--out",
-                           tmp_path / "out")
-    assert code == 1
-    assert len(lines) == 1, lines
-    message = lines[0]
-    assert message.startswith("error: ") and "bad.toml:" in message, message
-    if line is not None:
-        assert f"bad.toml:{line}:" in message, message
-    assert key in message, message
-    for fragment in fragments:
-        assert fragment in message, message
-    assert not (tmp_path / "out").exists()  # nothing written for a bad scene
-    return message
 
 
 def line_of(text: str, needle: str) -> int:

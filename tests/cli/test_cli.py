@@ -2,27 +2,12 @@
 
 import json
 import os
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 
-from tests.conftest import ROOT, TINY
-
-
-def run(*args, cwd=None, env=None):
-    return subprocess.run([sys.executable, "-m", "game", *map(str, args)], cwd=cwd or ROOT,
-                          capture_output=True, text=True, timeout=300, env=env)
-
-
-def assert_one_line_error(result, *fragments):
-    assert result.returncode != 0
-    lines = result.stderr.strip().splitlines()
-    assert len(lines) == 1, result.stderr
-    assert "Traceback" not in result.stderr
-    for fragment in fragments:
-        assert fragment in lines[0], lines[0]
+from tests.cli.cli_helpers import assert_one_line_error, run
+from tests.helpers import TINY
 
 
 @pytest.mark.parametrize("args, fragment", [

@@ -9,8 +9,8 @@ import pytest
 
 from game.reference.hard import Light, shadow_error
 from game.scene import parse_scene
-from tests.cli.test_cli import assert_one_line_error, run
-from tests.conftest import DEFAULT, LOW_SUN, ROOT, TINY
+from tests.cli.cli_helpers import assert_one_line_error, run
+from tests.helpers import DEFAULT, LOW_SUN, ROOT, TINY
 
 
 @pytest.fixture(scope="module")
@@ -87,7 +87,7 @@ def test_the_error_lies_in_0_1_whatever_the_method_says():
 
 
 def test_overlay_is_drawn_on_the_first_frame(tmp_path):
-    from tests.app.test_outputs import decode_png
+    from tests.helpers import decode_png
 
     for name, extra in (("plain", []), ("hud", ["--overlay"])):
         result = run("capture", TINY, "--size", "320x180", "--out", tmp_path / name, *extra)

@@ -1,5 +1,5 @@
 """``verify`` on scenes of several lights: one line per frame per light, and each light's error in
-``--out``, on dumps built by hand (tests/reference/test_score.py); one-light scenes print and
+``--out``, on dumps built by hand (tests/reference/hand_made_dumps.py); one-light scenes print and
 write what they always did."""
 
 from __future__ import annotations
@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from game import cli
-from tests.conftest import TINY
-from tests.reference.test_score import floor_frame, scene_text, true_lit, write_dump
+from tests.helpers import TINY
+from tests.reference.hand_made_dumps import floor_frame, scene_text, true_lit, write_dump
 
 pytest.importorskip("embreex", reason="verify needs embreex (pip install embreex)")
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from game.gpu import blocks, glsl
-from tests.conftest import ROOT
+from tests.helpers import ROOT
 
 OFFSET_QUERIES = ("GL_OFFSET", "GL_TOP_LEVEL_ARRAY_STRIDE", "GL_ARRAY_STRIDE")
 
@@ -51,14 +51,14 @@ def _touch(item, structs: dict) -> str:
     the driver counts the block as active."""
     if item.array is None:
         first = item.dtype.names[0]
-        glsl_type = blocks._glsl_type(item.dtype.fields[first][0])[0]
+        glsl_type = blocks.glsl_type(item.dtype.fields[first][0])[0]
         return f"    sink += {_scalar(glsl_type, f'{item.instance}.{first}')};"
     element, member, _ = item.array
     expr, glsl_type = f"{member}[0]", element
     if element in structs:
         first = structs[element].names[0]
         expr += f".{first}"
-        glsl_type = blocks._glsl_type(structs[element].fields[first][0])[0]
+        glsl_type = blocks.glsl_type(structs[element].fields[first][0])[0]
     if item.access == "writeonly":
         return f"    {expr} = {glsl_type}(0);"
     return f"    sink += {_scalar(glsl_type, expr)};"

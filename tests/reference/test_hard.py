@@ -19,7 +19,7 @@ import trimesh
 from game.reference.hard import (
     NON_CASTER_PREFIXES,
     Light,
-    _as_light,
+    as_light,
     hard_visibility,
     hard_visibility_lights,
     load_frame,
@@ -184,7 +184,7 @@ def test_light_range_is_carried_and_checked() -> None:
     assert light.range == 8.0
     scene_light = SimpleNamespace(kind="spot", direction=np.array([0.0, -1.0, 0.0]),
                                   position=np.array([0.0, 3.0, 0.0]), cone=40.0, range=5.0)
-    reference = _as_light(scene_light)
+    reference = as_light(scene_light)
     assert (reference.range, reference.cone) == (5.0, 40.0)
     with pytest.raises(ValueError, match="directional light has no range"):
         Light("directional", direction=(0.0, -1.0, 0.0), range=3.0)

@@ -9,8 +9,8 @@ import trimesh
 from game import transforms
 from game.render.renderer import Renderer, View
 from game.scene import Body, load_scene, parse_scene
-from tests.conftest import SCENES
-from tests.conftest import SMALL_SIZE as SIZE
+from tests.helpers import SCENES
+from tests.helpers import SMALL_SIZE as SIZE
 
 # A small town with fine detail: at 160x90 most of its triangles fall between pixel centres.
 TOWN = """

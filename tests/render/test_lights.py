@@ -16,7 +16,7 @@ from game.scene.loader import MAX_LIGHTS
 from game.shadows.lights import budget_shares, min_layers, scene_radius
 from game.shadows.plan import CLUMP_RESOLUTION, KIND_CHARACTER, ShadowSettings
 from game.shadows.registry import MAP_METHODS
-from tests.conftest import ASSETS, SCENES
+from tests.helpers import ASSETS, SCENES
 from tests.shadow_check import occluders
 
 LAMPS = SCENES / "lamps.toml"
@@ -171,7 +171,7 @@ def test_characters_that_come_to_a_scene_of_several_lights_get_squares_of_the_sh
         frame = renderer.render(0.0, view)
         plan = renderer.last_plan
         assert plan.render_dynamic
-        assert all(record.layer < renderer.shadows.layers for record in plan.maps)
+        assert all(record.layer < renderer.shadows.prepare().layers for record in plan.maps)
         mesh = occluders(renderer.scene, 0.0)
         for k, light in enumerate(renderer.scene.lights):
             g = frame.gbuffer

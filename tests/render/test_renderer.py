@@ -8,8 +8,8 @@ import pytest
 from game.render.renderer import Renderer, View
 from game.scene import Light, load_scene, parse_scene
 from game.shadows.plan import ShadowSettings
-from tests.conftest import SCENES
-from tests.conftest import SMALL_SIZE as SIZE
+from tests.helpers import SCENES
+from tests.helpers import SMALL_SIZE as SIZE
 
 
 def render(ctx, scene, settings=None, t=0.0, frames=1, gbuffer=True, debug="none"):

@@ -18,8 +18,8 @@ from game import transforms
 from game.render.renderer import Renderer, View
 from game.scene import Body, Character, Light
 from game.shadows.plan import KIND_CHARACTER, ShadowSettings
-from tests.conftest import ACCURACY_SIZE as SIZE
-from tests.conftest import MAX_ERROR
+from tests.helpers import ACCURACY_SIZE as SIZE
+from tests.helpers import MAX_ERROR
 from tests.shadow_check import frame_error, render_and_check
 
 pytest.importorskip("embreex", reason="the Embree reference needs embreex (pip install .[test])")
@@ -120,7 +120,7 @@ def test_removing_a_character_drops_its_map_and_its_shadow(renderer):
     method = renderer.method
     good(renderer)
     array = renderer.shadow_array
-    layers = list(method._char_layers)
+    layers = list(method.characters.layers)
     name = "character_0"
     renderer.remove_character(name)
     after, _ = good(renderer)  # a stale character shadow would be misclassified
@@ -134,7 +134,7 @@ def test_removing_a_character_drops_its_map_and_its_shadow(renderer):
                          path=np.array([[-4.0, 0.9, 4.0], [4.0, 0.9, 4.0]]), speed=1.0,
                          phase=0.0)
     renderer.add_character(newcomer)
-    assert method._char_layers == layers
+    assert method.characters.layers == layers
     good(renderer)
     assert renderer.shadow_array is array
     objects = renderer.gl_objects()
@@ -156,13 +156,13 @@ def test_layers_are_reused_by_new_clumps(ctx, courtyard):
         freed = clump.layer
         for name in [r.geom.names[obj] for obj in clump.objects]:
             r.remove_static(name)
-        assert freed in method._free
+        assert freed in method.pool.free
         good(r)
         # Remove every other static too, then add one far away: it makes a clump again and takes
         # the lowest free layer instead of growing the array.
         for body in list(r.scene.statics):
             r.remove_static(body.name)
-        lowest = min(method._free)
+        lowest = min(method.pool.free)
         r.add_static(box_body("static_far", (6.0, 1.2, -6.0)))
         assert [m.layer for m in method.static_maps] == [lowest]
         assert method.layers == high

@@ -7,7 +7,7 @@ from game.render.renderer import Renderer, View
 from game.scene import parse_scene
 from game.scene.mesh_files import FILE_COLOUR
 from game.transforms import euler_xyz
-from tests.conftest import ACCURACY_SIZE, SMALL_SIZE
+from tests.helpers import ACCURACY_SIZE, SMALL_SIZE
 
 BALL_AND_BOX = """
 [camera]

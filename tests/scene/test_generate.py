@@ -8,7 +8,7 @@ import pytest
 from game.errors import SceneError
 from game.scene import load_scene
 from game.scene.generate import TownParams, generate_town, town_params
-from tests.conftest import ASSETS
+from tests.helpers import ASSETS
 
 SMALL = {"seed": 3, "blocks": 2, "block_size": 30.0, "street_width": 8.0,
          "buildings_per_block": 3, "trees_per_block": 3, "detail": 1, "characters": 6}

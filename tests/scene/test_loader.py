@@ -24,7 +24,7 @@ from game.scene import (
 from game.scene.loader import MAX_LIGHTS
 from game.scene.shapes import transform_mesh
 from game.transforms import euler_xyz
-from tests.conftest import ASSETS
+from tests.helpers import ASSETS
 
 HEAD = """\
 name = "test"

@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 
 from game.scene import load_scene
-from tests.conftest import ASSETS, ROOT
+from tests.helpers import ASSETS, ROOT
 
 FETCH = ASSETS / "fetch_real.py"
 REAL = ASSETS / "real"

@@ -6,42 +6,14 @@ pixels shadowed by the method or the reference, over pixels with N.L > 0.1, at m
 320x180.
 """
 
-from pathlib import Path
-
-import numpy as np
 import pytest
 
-from game.app import capture, outputs
-from game.reference import hard as reference
 from game.scene import load_scene
 from game.shadows.plan import ShadowSettings
-from tests.conftest import ACCURACY_SCENES, MAX_ERROR
-from tests.conftest import ACCURACY_SIZE as SIZE
+from tests.helpers import ACCURACY_SCENES, MAX_ERROR
+from tests.shadow_check import MIN_SHADOWED, capture_errors
 
 pytest.importorskip("embreex", reason="the Embree reference needs embreex (pip install .[test])")
-
-MIN_SHADOWED = 200  # a scene must really have shadows in view for the ratio to mean anything
-
-
-def capture_errors(ctx, scene, settings, out: Path, frames=2, fps=1.5) -> list[dict]:
-    opts = capture.CaptureOptions(out=out, frames=frames, size=SIZE, fps=fps, dump=True,
-                                  settings=settings)
-    capture.run(ctx, scene, opts)
-    errors = []
-    for k in range(frames):
-        frame = reference.load_frame(out / f"frame_{k:04d}.npz")
-        mesh = reference.load_geometry(out / f"frame_{k:04d}.glb")
-        exact = reference.hard_visibility(mesh, frame["position"], frame["normal"],
-                                          scene.light)
-        err = reference.shadow_error(frame["lit"], exact, frame["position"], frame["normal"],
-                                     scene.light)
-        # Saved for a person to look at: red = misclassified, green = lit by the method.
-        diff = np.zeros((*err["mask"].shape, 3), np.uint8)
-        diff[..., 0] = err["mask"] * 255
-        diff[..., 1] = (np.nan_to_num(frame["lit"]) * 110).astype(np.uint8)
-        outputs.write_png(out / f"diff_{k:04d}.png", diff)
-        errors.append(err)
-    return errors
 
 
 @pytest.mark.parametrize("name", list(ACCURACY_SCENES))

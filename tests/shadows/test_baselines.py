@@ -10,7 +10,7 @@ from game.render.renderer import Renderer, View
 from game.scene import Camera, load_scene
 from game.shadows.methods import cascaded
 from game.shadows.plan import ShadowSettings
-from tests.conftest import ACCURACY_SCENES, POINT_AMONG
+from tests.helpers import ACCURACY_SCENES, POINT_AMONG
 
 # csm's cascades are coarser than clumped's maps near the camera, so its bar is a little higher;
 # both bars leave room for llvmpipe versions, and a broken method (a missing caster, a wrong
@@ -22,7 +22,7 @@ MAX_ERROR = {"static-dynamic": 0.05, "csm": 0.06}
 @pytest.mark.parametrize("name", list(ACCURACY_SCENES))
 def test_baseline_matches_the_ray_traced_reference(ctx, method, name, tmp_path):
     pytest.importorskip("embreex")
-    from tests.shadows.test_accuracy import MIN_SHADOWED, capture_errors
+    from tests.shadow_check import MIN_SHADOWED, capture_errors
 
     scene = load_scene(ACCURACY_SCENES[name])
     errors = capture_errors(ctx, scene, ShadowSettings(method=method), tmp_path)
@@ -37,7 +37,7 @@ def test_a_point_light_among_its_casters_gets_the_faces_of_a_cube(ctx, method, t
     """With one frustum from the light, every caster behind it cast nothing (56-78% error);
     an engine gives such a light a cube map. ``single`` is held to the same bar here."""
     pytest.importorskip("embreex")
-    from tests.shadows.test_accuracy import capture_errors
+    from tests.shadow_check import capture_errors
 
     scene = load_scene(POINT_AMONG)
     settings = ShadowSettings(method=method, single_resolution=2048, cascade_resolution=2048)
@@ -58,7 +58,7 @@ def _plan(ctx, scene, settings):
 
 def test_coarse_cascades_score_worse_than_fine_ones(ctx, tmp_path, courtyard):
     pytest.importorskip("embreex")
-    from tests.shadows.test_accuracy import capture_errors
+    from tests.shadow_check import capture_errors
 
     scene = courtyard
     coarse = capture_errors(ctx, scene, ShadowSettings(

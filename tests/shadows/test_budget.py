@@ -17,9 +17,9 @@ from game.render.renderer import Renderer
 from game.scene import parse_scene
 from game.shadows.budget import fit_settings
 from game.shadows.plan import KIND_CHARACTER, ShadowSettings
-from tests.conftest import ACCURACY_SIZE as SIZE
-from tests.conftest import MAX_ERROR, ROOT
-from tests.conftest import TINY as TINY_PATH
+from tests.helpers import ACCURACY_SIZE as SIZE
+from tests.helpers import MAX_ERROR, ROOT
+from tests.helpers import TINY as TINY_PATH
 from tests.shadow_check import render_and_check
 
 TINY = TINY_PATH.read_text()
@@ -136,7 +136,7 @@ def test_characters_beyond_the_layer_limit_get_coarser_maps(ctx):
         drawn = sorted(o for m in plan.maps for o in m.objects
                        if m.kind == KIND_CHARACTER)
         assert drawn == [renderer.geom.character_object(i) for i in range(6)]  # none dropped
-        assert plan.characters["character_maps_shrunk"] >= 2
+        assert plan.characters.shrunk >= 2
         assert frame.maps_total >= 7 and method.layers <= 2  # seven maps in two layers
     finally:
         renderer.release()
@@ -151,7 +151,7 @@ def test_character_maps_take_at_most_half_the_budget(ctx):
     try:
         method = renderer.method
         assert method.layer_limit == 8
-        assert len(method._char_layers) == 4 and method.max_clumps == 4
+        assert len(method.characters.layers) == 4 and method.max_clumps == 4
         assert any("half the budget" in note for note in method.notes)
         check(renderer, 0.5)
     finally:
@@ -212,7 +212,7 @@ def test_clumps_short_of_layers_get_maps_of_half_the_side(ctx):
     try:
         method = renderer.method
         assert method.resolution == 1024
-        assert method._extent_scale > 1.0
+        assert method.members.extent_scale > 1.0
         assert any("four times as many" in note for note in method.notes)
         _, err = render_and_check(renderer, 0.0)
         assert err["shadowed"] >= 100 and err["error"] <= MAX_ERROR, err["error"]
@@ -222,6 +222,6 @@ def test_clumps_short_of_layers_get_maps_of_half_the_side(ctx):
                                                               budget_mib=64 * layer_mib))
     try:
         assert renderer.method.resolution == 2048
-        assert renderer.method._extent_scale == 1.0
+        assert renderer.method.members.extent_scale == 1.0
     finally:
         renderer.release()

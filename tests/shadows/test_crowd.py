@@ -18,8 +18,8 @@ from game.shadows.plan import (
     KIND_CLUMP,
     ShadowSettings,
 )
-from tests.conftest import ACCURACY_SIZE as SIZE
-from tests.conftest import MAX_ERROR, TINY
+from tests.helpers import ACCURACY_SIZE as SIZE
+from tests.helpers import MAX_ERROR, TINY
 from tests.shadow_check import render_and_check
 
 TINY_TEXT = TINY.read_text()
@@ -91,7 +91,7 @@ def test_a_character_is_skipped_only_when_no_point_of_its_shadow_is_in_view():
     centres = np.column_stack([rng.uniform(-60, 60, 300), np.full(300, 0.9),
                                rng.uniform(-60, 60, 300)])
     radii = np.full(300, 0.9)
-    volumes, bounded = crowd.shadow_volumes(centres, radii, "directional", DOWN_SUN, None, 0.0)
+    volumes, bounded = crowd.shadow_volumes(centres, radii, DOWN_SUN, None, 0.0)
     skipped = bounded & crowd.outside_view(volumes, vp)
     assert 50 < skipped.sum() < 290
     for c, r, skip in zip(centres, radii, skipped, strict=True):
@@ -101,7 +101,7 @@ def test_a_character_is_skipped_only_when_no_point_of_its_shadow_is_in_view():
             inside = np.all(np.abs(clip[:, :3]) <= clip[:, 3:4], axis=1) & (clip[:, 3] > 0)
             assert not inside.any(), c
     # A light from below the horizon of the character: its shadow is unbounded, never skipped.
-    _, bounded_up = crowd.shadow_volumes(centres[:3], radii[:3], "directional",
+    _, bounded_up = crowd.shadow_volumes(centres[:3], radii[:3],
                                          np.array([0.0, 0.2, -1.0]), None, 0.0)
     assert not bounded_up.any()
 
@@ -113,7 +113,7 @@ def test_a_shadow_that_reaches_into_view_keeps_its_map():
     low = np.array([0.0, -0.2, -1.0]) / np.linalg.norm([0.0, -0.2, -1.0])
     behind = np.array([[0.0, 0.9, 13.0]])
     for sun, seen in ((low, True), (np.array([0.0, -1.0, 0.0]), False)):
-        volumes, bounded = crowd.shadow_volumes(behind, np.array([0.9]), "directional", sun,
+        volumes, bounded = crowd.shadow_volumes(behind, np.array([0.9]), sun,
                                                 None, 0.0)
         assert bool(~(bounded & crowd.outside_view(volumes, vp))[0]) == seen
 
@@ -140,7 +140,7 @@ def test_the_sweep_finds_every_near_pair_that_comparing_all_pairs_finds():
     for n in (0, 1, 2, 40, 300):
         centre = rng.uniform(-30, 30, (n, 2))
         reach = rng.uniform(0.2, 3.0, n)
-        i, j, gap = crowd._near_pairs(centre, reach)
+        i, j, gap = crowd.near_pairs(centre, reach)
         apart = np.linalg.norm(centre[:, None] - centre[None], axis=2)
         every = apart - reach[:, None] - reach[None]
         want = {(a, b) for a in range(n) for b in range(a + 1, n)
@@ -210,7 +210,7 @@ def test_walkers_that_meet_and_part_cast_their_shadows_in_and_out_of_a_group(ctx
         for t in np.linspace(0.0, 7.0, 15):
             frame, err = render_and_check(renderer, float(t))
             assert err["error"] <= MAX_ERROR, (t, err["error"], err["misclassified"])
-            grouped.append(frame.characters["characters_grouped"])
+            grouped.append(frame.characters.grouped)
             drawn = sorted(o for m in renderer.last_plan.maps for o in m.objects
                            if m.kind == KIND_CHARACTER)
             assert drawn == [renderer.geom.character_object(i) for i in range(3)], t
@@ -230,8 +230,8 @@ def test_a_character_whose_shadow_cannot_be_seen_gets_no_map_and_changes_no_pixe
         finally:
             renderer.release()
     with_far, without = frames
-    assert with_far.characters["characters_skipped"] == 1
-    assert with_far.characters["character_maps"] == without.characters["character_maps"] == 1
+    assert with_far.characters.skipped == 1
+    assert with_far.characters.maps == without.characters.maps == 1
     assert np.array_equal(with_far.gbuffer["lit"], without.gbuffer["lit"], equal_nan=True)
     assert np.array_equal(with_far.image, without.image)
 

@@ -13,7 +13,7 @@ from game import transforms
 from game.render.renderer import Renderer
 from game.scene import load_scene
 from game.shadows.plan import ShadowSettings
-from tests.conftest import ACCURACY_SIZE, MAX_ERROR
+from tests.helpers import ACCURACY_SIZE, MAX_ERROR
 from tests.shadow_check import render_and_check
 
 pytest.importorskip("embreex", reason="the Embree reference needs embreex (pip install .[test])")
@@ -62,7 +62,7 @@ def write_level(folder: Path, as_parts: bool) -> Path:
 
 
 def test_a_level_in_one_file_gets_many_maps_and_the_accuracy_of_separate_files(ctx, tmp_path):
-    from tests.shadows.test_accuracy import capture_errors
+    from tests.shadow_check import capture_errors
 
     results = {}
     for as_parts in (False, True):
@@ -112,7 +112,7 @@ def test_a_long_thin_caster_over_compact_clumps_does_not_leak(ctx, tmp_path):
     """A 56 m beam 4 cm thick over a row of boxes. Clumped alone it took a map of its own, 5.5 cm
     a texel, and its shadow broke up on the boxes and the ground (7.9% error against Embree);
     its long faces are now drawn into the boxes' clump maps, at their texels."""
-    from tests.shadows.test_accuracy import capture_errors
+    from tests.shadow_check import capture_errors
 
     text = ('name = "beam"\n[camera]\nposition = [-1.0, 7.0, 6.0]\ntarget = [1.0, 3.0, 0.0]\n'
             'fov = 50.0\n[light]\nkind = "directional"\ndirection = [0.15, -1.0, 0.1]\n'

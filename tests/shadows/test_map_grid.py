@@ -36,9 +36,9 @@ def test_few_maps_use_no_grid_and_many_use_one():
     rot = transforms.light_rotation(np.array([0.0, -1.0, 0.0]))
     fits = [fit_directional(np.array([[x, 0, 0], [x + 1, 1, 1]], float), rot, 64)
             for x in range(20)]
-    assert map_grid.build(fits[:map_grid.LOOP_MAX_MAPS], "directional", None).mode == GRID_NONE
-    assert map_grid.build(fits, "directional", None).mode == GRID_ORTHO
-    assert map_grid.build(fits[:3], "directional", None, use="on").mode == GRID_ORTHO
+    assert map_grid.build(fits[:map_grid.LOOP_MAX_MAPS], None).mode == GRID_NONE
+    assert map_grid.build(fits, None).mode == GRID_ORTHO
+    assert map_grid.build(fits[:3], None, use="on").mode == GRID_ORTHO
 
 
 def test_ortho_grid_lists_every_map_that_holds_a_point():
@@ -102,8 +102,8 @@ def test_moving_maps_outside_the_steady_ones_are_found_and_steady_cells_are_kept
         centres = rng.uniform(-40, 40, (6, 3))
         moving = fits_at(centres, 1.0)
         fits = steady + moving
-        grid = builder.build(fits, "directional", None, steady=len(steady))
-        fresh = map_grid.GridBuilder().build(fits, "directional", None, steady=len(steady))
+        grid = builder.build(fits, None, steady=len(steady))
+        fresh = map_grid.GridBuilder().build(fits, None, steady=len(steady))
         assert np.array_equal(grid.data, fresh.data) and np.array_equal(grid.rect, fresh.rect)
         points = np.concatenate([rng.uniform(-45, 45, (1500, 3)),
                                  np.repeat(centres, 200, axis=0) + rng.normal(0, 2, (1200, 3))])
@@ -117,6 +117,6 @@ def test_moving_maps_outside_the_steady_ones_are_found_and_steady_cells_are_kept
         assert outside > 50  # points held by moving maps beyond the steady rectangle
     # A steady map that changes is placed again.
     steady[0] = fits_at([[30.0, 0.0, 30.0]], 1.0)[0]
-    grid = builder.build(steady + moving, "directional", None, steady=len(steady))
-    fresh = map_grid.GridBuilder().build(steady + moving, "directional", None, steady=len(steady))
+    grid = builder.build(steady + moving, None, steady=len(steady))
+    fresh = map_grid.GridBuilder().build(steady + moving, None, steady=len(steady))
     assert np.array_equal(grid.data, fresh.data)

@@ -16,8 +16,8 @@ import pytest
 from game.render.renderer import Renderer
 from game.scene import Body, Character, Light, load_scene, parse_scene, reference_scene_path
 from game.shadows.plan import TEXELS_PER_METRE, ShadowSettings
-from tests.conftest import ACCURACY_SIZE as SIZE
-from tests.conftest import MAX_ERROR, POINT, TINY
+from tests.helpers import ACCURACY_SIZE as SIZE
+from tests.helpers import MAX_ERROR, POINT, TINY
 from tests.shadow_check import render_and_check
 
 pytest.importorskip("embreex", reason="the Embree reference needs embreex (pip install .[test])")

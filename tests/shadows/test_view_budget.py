@@ -16,10 +16,10 @@ from game.shadows.plan import KIND_CHARACTER, ShadowSettings
 from game.shadows.view_budget import (
     ClumpRequest,
     ViewBudget,
-    _free_a_square,
     atlas_shape,
+    free_a_square,
 )
-from tests.conftest import ASSETS, COURTYARD
+from tests.helpers import ASSETS, COURTYARD
 from tests.shadow_check import frame_error
 
 
@@ -205,13 +205,13 @@ def test_moving_maps_aside_never_moves_the_character_maps_squares():
     placed = {k: [squares[k]] for k in range(1, 16)}
     for k in (1, 4, 2, 3, 7):  # leave one map in (0, 0) and one, map 6, in (512, 0)
         atlas.give(placed.pop(k)[0])
-    found = _free_a_square(atlas, placed, fixed, 512, 8, set())
+    found = free_a_square(atlas, placed, fixed, 512, 8, set())
     assert found is not None
     square, moved = found
     assert square == Square(0, 512, 0, 512) and moved == {6}
     assert not any(_overlap(placed[6][0], other) for other in (square, *fixed))
     # The other two 512 squares hold four maps each: more than the free texels can take.
-    assert _free_a_square(atlas, placed, fixed, 512, 8, set()) is None
+    assert free_a_square(atlas, placed, fixed, 512, 8, set()) is None
 
 
 def test_sides_follow_the_weights_the_counts_give():
@@ -275,7 +275,7 @@ def test_a_clump_that_goes_takes_its_hysteresis_with_it_and_an_empty_atlas_is_sm
     budget = ViewBudget(layers=1, resolution=2048, min_side=128, reserved=[], max_renders=64)
     budget.place(_requests([500.0, 500.0]), set())
     budget.place(_requests([500.0]), set())
-    assert set(budget._sizes._size) == {"clump_0"}
+    assert budget.held == {"clump_0"}
     assert atlas_shape(0, 128, 4096) == (1, 128)
 
 
@@ -346,7 +346,7 @@ def test_counted_weights_survive_scene_edits_and_a_still_camera_settles_again(ct
         for _ in range(3 * COUNT_EVERY):
             renderer.render(0.0, view)
             plan = renderer.last_plan
-            assert all(rec.layer < renderer.shadows.layers for rec in plan.maps)
+            assert all(rec.layer < renderer.shadows.prepare().layers for rec in plan.maps)
         assert renderer.last_plan.render_static == []
     finally:
         renderer.release()

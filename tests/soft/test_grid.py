@@ -1,4 +1,4 @@
-"""The tracer's grid: conservative binning (no GL)."""
+"""The tracer's acceleration structures, uniform and two-level, and the scene's grid (no GL)."""
 
 
 import numpy as np
@@ -6,45 +6,13 @@ import pytest
 
 from game.scene import geometry, load_scene
 from game.soft import grid as trace_grid
-from tests.conftest import SCENES
-
-
-def _cells_of_points(spec, pts):
-    c = np.floor((pts - spec.origin) / spec.cell).astype(int)
-    c = np.clip(c, 0, spec.dims - 1)
-    return c[:, 0] + spec.dims[0] * (c[:, 1] + spec.dims[1] * c[:, 2])
+from game.soft.binning import cell_pairs
+from tests.helpers import SCENES
 
 
 def _random_triangles(rng, n, scale):
     centres = rng.uniform(-10, 10, (n, 1, 3))
     return centres + rng.normal(0, scale, (n, 3, 3))
-
-
-@pytest.mark.parametrize("scale", [0.05, 1.0, 6.0])
-def test_every_point_of_a_triangle_lies_in_a_listed_cell(scale):
-    rng = np.random.default_rng(1)
-    tris = _random_triangles(rng, 300, scale)
-    spec = trace_grid.grid_spec(tris.reshape(-1, 3).min(0), tris.reshape(-1, 3).max(0), 300)
-    lists = trace_grid.bin_triangles(spec, tris)
-    listed = [set() for _ in tris]
-    for cell in range(spec.n_cells):
-        for tri in lists.ids[lists.offsets[cell]:lists.offsets[cell + 1]]:
-            listed[tri].add(cell)
-    w = rng.dirichlet([1, 1, 1], 400)
-    # Edges and corners too: the points most likely to fall on a cell boundary.
-    w = np.vstack([w, np.eye(3), [[0.5, 0.5, 0], [0, 0.5, 0.5], [0.5, 0, 0.5]]])
-    for i, tri in enumerate(tris):
-        cells = _cells_of_points(spec, w @ tri)
-        assert set(cells.tolist()) <= listed[i]
-
-
-def test_binning_is_tighter_than_the_bounding_box():
-    # A long diagonal sliver spans many cells of its box but touches few of them.
-    tri = np.array([[[0.0, 0.0, 0.0], [10.0, 10.0, 10.0], [10.1, 10.0, 10.0]]])
-    spec = trace_grid.grid_spec(np.zeros(3), np.full(3, 10.1), 500)
-    lists = trace_grid.bin_triangles(spec, tri)
-    box_cells = int(np.prod(spec.dims))
-    assert 0 < len(lists.ids) < box_cells / 10
 
 
 def test_scene_grid_covers_characters_everywhere_on_their_path():
@@ -91,7 +59,7 @@ def test_two_level_subdivides_the_dense_cells_and_lists_every_point(monkeypatch)
     uniform = trace_grid.uniform_structure(lower, upper, len(tris), 2.0)
     assert structure.n_subgrids > 0
     # Only cells holding more than SUBDIVIDE_ABOVE triangles are subdivided.
-    counts = np.bincount(trace_grid._cell_pairs(structure.spec, tris)[0],
+    counts = np.bincount(cell_pairs(structure.spec, tris)[0],
                          minlength=structure.spec.n_cells)
     subdivided = structure.sub_of >= 0
     assert (counts[subdivided] > trace_grid.SUBDIVIDE_ABOVE).all()

@@ -13,15 +13,15 @@ from game.scene import geometry, parse_scene
 from game.soft import grid as trace_grid
 from game.soft import tracer as soft_tracer
 from game.soft.grid import STRUCTURES
+from game.soft.results import BYTE_COUNTERS
 from game.soft.tracer import (
-    BYTE_COUNTERS,
     RAY_OFFSET_DISTANCE,
     RAY_OFFSET_SCENE,
     TRIANGLE_BYTES,
     SoftTracer,
     TraceSettings,
 )
-from tests.conftest import ASSETS
+from tests.helpers import ASSETS
 
 SIZE = (96, 54)
 ACCELERATED = ("grid", "tri-cache", "voxel-cache")

@@ -20,12 +20,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 from imgui_bundle import imgui
 
+from game.app.window.changes import Changes
 from game.scene.model import Light
 from game.shadows.lights import LightSpan
 from game.shadows.plan import ShadowPlan
 
-if TYPE_CHECKING:  # the overlay imports this module
-    from game.app.window.overlay import Changes
+if TYPE_CHECKING:
     from game.render.renderer import Renderer
 
 # What a drag moves, per kind of light.
@@ -91,7 +91,7 @@ def nudged(light: Light, command: str, yaw: float, step: float = 1.0) -> Light |
     (degrees, 0 looking down -Z).
     """
     right, up, away = NUDGES[command]
-    if light.kind == "directional":
+    if light.parallel:
         if right == 0 and away == 0:
             return None
         azimuth, elevation = sun_angles(light.direction)

@@ -40,16 +40,24 @@ import glfw
 import numpy as np
 
 from game.app import interrupts, outputs
-from game.app.window import light_editor
-from game.app.window.camera_control import FAST_FACTOR, LIGHT_KEYS, REPEATING_KEYS
-from game.app.window.glfw_setup import KEY_NAMES, open_window
-from game.app.window.overlay import Figures, Overlay, SoftFigures
+from game.app.window.figures import (
+    OVERLAY,
+    PRESENT,
+    WINDOW_PASSES,
+    Figures,
+    SoftFigures,
+    stats_entry,
+)
+from game.app.window.glfw_setup import open_window
+from game.app.window.overlay import Overlay
 from game.app.window.present import Presenter
+from game.app.window.window_input import WindowInput
 from game.errors import GameError
 from game.gpu import context
+from game.render.frame import Frame
+from game.render.passes import DRAWING_PASSES, TOTAL
 from game.render.renderer import Renderer, View
 from game.scene import Scene
-from game.shadows import registry
 from game.shadows.plan import ShadowSettings
 from game.soft.tracer import TraceSettings
 from game.soft.upsample import Upsampling
@@ -89,7 +97,7 @@ class PlayOptions:
         default_factory=lambda: ShadowSettings(pcf=True))
 
 
-class Walkaround:
+class Walkaround(WindowInput):
     """One window, its context, a renderer and an overlay; :meth:`close` releases them all."""
 
     def __init__(self, scene: Scene, opts: PlayOptions):
@@ -125,7 +133,7 @@ class Walkaround:
         self.render_scale = opts.render_scale
         self.presenter = Presenter(self.ctx, opts.antialias)
         # Our callbacks first: the imgui backend chains to the ones installed before it.
-        glfw.set_key_callback(self.window, self._on_key)
+        glfw.set_key_callback(self.window, self.on_key)
         glfw.set_mouse_button_callback(self.window, self._on_mouse_button)
         glfw.set_cursor_pos_callback(self.window, self._on_cursor)
         glfw.set_window_focus_callback(self.window, self._on_focus)
@@ -150,76 +158,19 @@ class Walkaround:
         self._window_ms: dict[str, float] = {}
         self._good_settings: ShadowSettings | None = None
 
-    # -- input --------------------------------------------------------------------------------
-    def _on_key(self, window, key, scancode, action, mods) -> None:
-        name = KEY_NAMES.get(key, "")
-        if action == glfw.REPEAT and name not in REPEATING_KEYS:
-            return
-        self.key(name, action != glfw.RELEASE)  # a held light key nudges again on each repeat
-
-    def key(self, name: str, pressed: bool) -> None:
-        """A key by name (camera_control's names) went down or up."""
-        if pressed and self.overlay is not None and self.overlay.wants_keyboard:
-            return
-        command = self.controller.key(name, pressed)
-        if command == "quit":
-            self.quit = True
-        elif command == "pause":
-            self.paused = not self.paused
-        elif command == "screenshot":
-            self._screenshot_next = True
-        elif command == "next_method":
-            self.next_method()
-        elif command == "toggle_panel" and self.overlay is not None:
-            self.overlay.toggle_panel()
-        elif command == "capture_cursor":
-            mode = glfw.CURSOR_DISABLED if self.controller.captured else glfw.CURSOR_NORMAL
-            glfw.set_input_mode(self.window, glfw.CURSOR, mode)
-        elif command in LIGHT_KEYS.values():
-            self.light_key(command)
-
-    def light_key(self, command: str) -> None:
-        """A light key: select the previous or next light, switch the selected one off or on,
-        or nudge it (Shift: :data:`FAST_FACTOR` times as far); the renderer plans and draws
-        that light's maps anew only when it moved."""
-        lights, k = self.renderer.scene.lights, self.selected_light
-        if command in ("light_previous", "light_next"):
-            self.selected_light = (k + (1 if command == "light_next" else -1)) % len(lights)
-        elif command == "light_switch":
-            self.renderer.lights_on[k] = not self.renderer.lights_on[k]
-        else:
-            step = FAST_FACTOR if "shift" in self.controller.held else 1.0
-            light = light_editor.nudged(lights[k], command, self.controller.camera.yaw, step)
-            if light is not None:
-                self.renderer.set_light(light, k)
-
-    def _on_mouse_button(self, window, button, action, mods) -> None:
-        if button != glfw.MOUSE_BUTTON_RIGHT:
-            return
-        if action == glfw.PRESS and self.overlay is not None and self.overlay.wants_mouse:
-            return
-        self.controller.mouse_button(action == glfw.PRESS)
-
-    def _on_focus(self, window, focused) -> None:
-        if not focused:  # keys released elsewhere never reach us
-            self.controller.release_all()
-
-    def _on_cursor(self, window, x, y) -> None:
-        self.controller.mouse_move(x, y)
-
-    def next_method(self) -> None:
-        methods = list(registry.METHODS)
-        current = self.renderer.settings.method
-        following = methods[(methods.index(current) + 1) % len(methods)] \
-            if current in methods else methods[0]
-        self.renderer.set_settings(dataclasses.replace(self.renderer.settings,
-                                                       method=following))
-
     def set_soft(self, on: bool) -> None:
         """Soft shadows of the linear light on or off, from the next frame."""
         if on and self.scene.linear_light is None:
             raise GameError("soft shadows: the scene has no [linear_light]")
         self.soft = on
+
+    def set_soft_trace(self, divisor: int | None = None, samples: int | None = None) -> None:
+        """The soft trace from the next frame: one pixel in ``divisor`` x ``divisor``, and
+        ``samples`` per point (None: as it is)."""
+        if divisor is not None:
+            self.upsampling = dataclasses.replace(self.upsampling, divisor=divisor)
+        if samples is not None:
+            self.soft_settings = dataclasses.replace(self.soft_settings, samples=samples)
 
     def _soft_settings(self) -> TraceSettings | None:
         """Soft shadows light the frame by the linear light, replacing the hard method's
@@ -257,6 +208,35 @@ class Walkaround:
         self.controller.update(dt)
         if not self.paused:  # with fixed steps frame k shows k * dt, as capture's frames do
             self.scene_time += dt
+        frame = self._render(size)
+        figures = self._figures(frame)
+        last = self.opts.frames is not None and self.frames + 1 >= self.opts.frames
+        shot = self._screenshot_next or (last and self.opts.screenshot is not None)
+        screen = self._present(size, shot)
+        if self.overlay is not None:
+            self._draw_overlay(figures, size)
+        timer = self.renderer.timer
+        if self.canvas is not screen:
+            with timer.measure(PRESENT, wall=True):
+                self.ctx.copy_framebuffer(screen, self.canvas)
+        self._window_ms = {k: timer.ms[k] for k in WINDOW_PASSES if k in timer.ms}
+        figures.ms.update(self._window_ms)
+        self.last_figures = figures
+        if self.keep_stats:
+            self.frame_stats.append(stats_entry(self.frames, self.scene_time, frame, figures,
+                                                self.renderer.settings.method, self.soft))
+        self.frames += 1
+        if shot:
+            self._save_screenshot(size, self.opts.screenshot if last else None)
+        glfw.swap_buffers(self.window)
+        return True
+
+    def _render(self, size: tuple[int, int]) -> Frame:
+        """The scene's frame for a window of ``size``, into the renderer's own target.
+
+        Settings the GL cannot take (too many texels) are undone, with the overlay saying why,
+        and the frame rendered again with the last settings that rendered.
+        """
         self.renderer.set_gbuffer(self.soft)
         self.renderer.resize(self.render_size(size))
         view = self.view(size)
@@ -267,7 +247,7 @@ class Walkaround:
         try:
             frame = self.renderer.render(self.scene_time, view, read=read,
                                          soft=self._soft_settings())
-        except GameError as exc:  # settings the GL cannot take (too many texels): undo them
+        except GameError as exc:
             if self._good_settings is None or self.overlay is None:
                 raise
             self.renderer.set_settings(self._good_settings)
@@ -276,25 +256,33 @@ class Walkaround:
             frame = self.renderer.render(self.scene_time, view, read=read,
                                          soft=self._soft_settings())
         self._good_settings = self.renderer.settings
+        return frame
+
+    def _figures(self, frame: Frame) -> Figures:
+        """What the overlay says about ``frame``, with the last frame's window passes."""
         if frame.maps_per_fragment is not None:
             self._mpf = frame.maps_per_fragment
         fps = (len(self._frame_times) / sum(self._frame_times)
                if self._frame_times and sum(self._frame_times) > 0 else None)
         figures = Figures.of(frame, self.renderer.timer.clock, fps, self._mpf)
-        figures.soft = self._soft_figures(frame)
-        figures.ms.update(self._window_ms)  # the panel shows the last frame's window passes
-        timer = self.renderer.timer
-        # Scene, then overlay, into a canvas that is shown in the window, by the route that
-        # was cheapest on llvmpipe: a full-size frame without FXAA is copied into the
-        # presenter's colour-only canvas and blitted to the window (a blit straight from a
-        # target with a depth attachment, or a textured draw, cost more); a frame that is drawn
-        # anyway (scaled, or anti-aliased) is drawn straight into the window. A frame saved as a
-        # screenshot always goes through the readable canvas, so the file holds what the window
-        # shows.
-        last = self.opts.frames is not None and self.frames + 1 >= self.opts.frames
-        shot = self._screenshot_next or (last and self.opts.screenshot is not None)
+        figures.soft = SoftFigures.of(frame, self.renderer.traced.reduced_state,
+                                      self.soft_settings.samples)
+        figures.ms.update(self._window_ms)
+        return figures
+
+    def _present(self, size: tuple[int, int], shot: bool):
+        """Show the scene's frame in a canvas, which the overlay then draws over; returns the
+        window's framebuffer (:attr:`canvas` is it, or the presenter's target).
+
+        The route is the one that was cheapest on llvmpipe: a full-size frame without FXAA is
+        copied into the presenter's colour-only canvas and later blitted to the window (a blit
+        straight from a target with a depth attachment, or a textured draw, cost more); a frame
+        that is drawn anyway (scaled, or anti-aliased) is drawn straight into the window. A frame
+        saved as a screenshot (``shot``) always goes through the readable canvas, so the file
+        holds what the window shows.
+        """
         screen = self.ctx.detect_framebuffer(0)
-        with timer.measure("present", wall=True):
+        with self.renderer.timer.measure(PRESENT, wall=True):
             framebuffer, texture = self.renderer.display
             if shot or (self.renderer.size == size and not self.presenter.antialias):
                 self.presenter.resize(size)
@@ -303,79 +291,23 @@ class Walkaround:
             else:
                 self.presenter.draw(texture, screen, size)
                 self.canvas = screen
-        if self.overlay is not None:
-            with timer.measure("overlay", wall=True):
-                changes = self.overlay.draw(figures, self.renderer, self.paused, size,
-                                            render_scale=self.render_scale, soft=self.soft,
-                                            selected_light=self.selected_light)
-                self.canvas.use()
-                self.overlay.render()
-            if changes.paused is not None:
-                self.paused = changes.paused
-            if changes.render_scale is not None:
-                self.render_scale = changes.render_scale
-            if changes.soft is not None:
-                self.set_soft(changes.soft)
-            if changes.soft_divisor is not None:
-                self.upsampling = dataclasses.replace(self.upsampling,
-                                                      divisor=changes.soft_divisor)
-            if changes.soft_samples is not None:
-                self.soft_settings = dataclasses.replace(self.soft_settings,
-                                                         samples=changes.soft_samples)
-            if changes.selected_light is not None:
-                self.selected_light = changes.selected_light
-            try:
-                changes.apply(self.renderer)
-            except (GameError, ValueError) as exc:  # a setting the planner refuses: undo it
-                if self._good_settings is not None:
-                    self.renderer.set_settings(self._good_settings)
-                self.overlay.message = str(exc)
-        if self.canvas is not screen:
-            with timer.measure("present", wall=True):
-                self.ctx.copy_framebuffer(screen, self.canvas)
-        self._window_ms = {k: timer.ms[k] for k in ("present", "overlay") if k in timer.ms}
-        figures.ms.update(self._window_ms)
-        self.last_figures = figures
-        if self.keep_stats:
-            self.frame_stats.append(self._stats_entry(frame, figures))
-        self.frames += 1
-        if shot:
-            self._save_screenshot(size, self.opts.screenshot if last else None)
-        glfw.swap_buffers(self.window)
-        return True
+        return screen
 
-    def _soft_figures(self, frame) -> SoftFigures | None:
-        """What the overlay says about this frame's soft trace (None: soft shadows off)."""
-        state = self.renderer.traced.reduced_state
-        if frame.soft is None or state is None:
-            return None
-        if state.converged:
-            note = f"still: converged, {state.rounds} rounds of every pixel; nothing traced"
-        elif state.round or state.phase > 1:
-            note = (f"still: {state.phase}/{state.phases} of round {state.round + 1} of "
-                    f"{state.rounds}" + (", every pixel its own" if state.full else ""))
-        else:
-            note = "moving: upsampled from this frame's trace"
-        return SoftFigures(size=state.size, divisor=state.divisor,
-                           samples=self.soft_settings.samples,
-                           ms=frame.ms.get("soft_total", 0.0), state=note)
-
-    def _stats_entry(self, frame, figures: Figures) -> dict:
-        ms = {name: round(value, 4) for name, value in figures.ms.items()}
-        mpf = frame.maps_per_fragment
-        return {"frame": self.frames, "time": self.scene_time, "ms": ms, **ms,
-                "maps_rendered": frame.maps_rendered, "maps_cached": frame.maps_cached,
-                "maps_total": frame.maps_total, "triangles_to_maps": frame.triangles_to_maps,
-                "maps_per_fragment": None if mpf is None else round(mpf, 5),
-                "method": self.renderer.settings.method, "soft": self.soft,
-                **self._soft_stats(figures.soft)}
-
-    @staticmethod
-    def _soft_stats(trace: SoftFigures | None) -> dict:
-        """The stats file's word on the soft trace: its size (columns, rows) and samples."""
-        if trace is None:
-            return {}
-        return {"soft_trace_size": list(trace.size), "soft_samples": trace.samples}
+    def _draw_overlay(self, figures: Figures, size: tuple[int, int]) -> None:
+        """The overlay over the canvas, then what the user changed in it applied; a change
+        the renderer refuses is undone, with the overlay saying why."""
+        with self.renderer.timer.measure(OVERLAY, wall=True):
+            changes = self.overlay.draw(figures, self.renderer, self.paused, size,
+                                        render_scale=self.render_scale, soft=self.soft,
+                                        selected_light=self.selected_light)
+            self.canvas.use()
+            self.overlay.render()
+        try:
+            changes.apply(self.renderer, self)
+        except (GameError, ValueError) as exc:
+            if self._good_settings is not None:
+                self.renderer.set_settings(self._good_settings)
+            self.overlay.message = str(exc)
 
     def read_screen(self, size: tuple[int, int]) -> np.ndarray:
         """What the window shows now, (H, W, 3) uint8 with row 0 at the top."""
@@ -478,9 +410,7 @@ def play(scene: Scene, opts: PlayOptions) -> dict:
 def summary(stats: dict) -> str:
     """One line: the frame rate and median ms per pass over the frames after the first."""
     frames = stats["frames"][1:] or stats["frames"]
-    names = [n for n in ("shadow_static", "shadow_dynamic", "cull", "shade", "traced_trace",
-                         "soft_build", "soft_trace", "soft_upsample", "composite", "total",
-                         "present", "overlay")
+    names = [n for n in (*DRAWING_PASSES, TOTAL, *WINDOW_PASSES)
              if any(n in f["ms"] for f in frames)]
     med = {n: float(np.median([f["ms"].get(n, 0.0) for f in frames])) for n in names}
     fps = f"{stats['fps']:.1f} fps" if stats["fps"] else "fps -"

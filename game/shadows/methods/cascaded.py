@@ -21,10 +21,9 @@ from game.shadows.fit import (
     MapFit,
     deciding_points,
     fit_squares,
-    fits_for_light,
-    layers_for_light,
 )
-from game.shadows.method import ShadowMethod
+from game.shadows.light_kinds import fits_for_light, kind_of
+from game.shadows.method import ShadowMethod, reached_characters, reached_statics
 from game.shadows.plan import (
     KIND_ALL,
     KIND_CASCADE,
@@ -106,17 +105,12 @@ class CascadedShadows(ShadowMethod):
     def __init__(self, geom: PackedGeometry, light: Light, settings: ShadowSettings,
                  max_layers: int, max_maps: int | None = None):
         super().__init__(geom, light, settings, max_layers, max_maps)
-        bounds = (geom.positions.min(axis=0), geom.positions.max(axis=0)) if len(
-            geom.positions) else (np.zeros(3), np.zeros(3))
-        self._corners = np.array([[x, y, z] for x in (bounds[0][0], bounds[1][0])
-                                  for y in (bounds[0][1], bounds[1][1])
-                                  for z in (bounds[0][2], bounds[1][2])], float)
         self.set_light(light)
 
     @property
     def layers(self) -> int:
-        return (self.settings.cascades if self.light.kind == "directional"
-                else layers_for_light(self.light))
+        kind = kind_of(self.light)
+        return self.settings.cascades if kind.orthographic else kind.max_maps_per_caster
 
     @property
     def resolution(self) -> int:
@@ -125,14 +119,18 @@ class CascadedShadows(ShadowMethod):
     def set_light(self, light: Light) -> None:
         self.light = light
         g = self.geom
-        if light.kind != "directional":
-            note = (f"csm: cascades need a directional light; for this {light.kind} light it "
-                    "draws the maps of single at cascade_resolution "
-                    + ("(one over the cone)" if light.kind == "spot"
-                       else "(one frustum, or a cube's faces around the light)"))
-            self.note(note)
+        # The scene's bounds, which the cascades' far distance reaches to.
+        bounds = (g.positions.min(axis=0), g.positions.max(axis=0)) if len(
+            g.positions) else (np.zeros(3), np.zeros(3))
+        self._corners = np.array([[x, y, z] for x in (bounds[0][0], bounds[1][0])
+                                  for y in (bounds[0][1], bounds[1][1])
+                                  for z in (bounds[0][2], bounds[1][2])], float)
+        kind = kind_of(light)
+        if not kind.orthographic:
+            self.note(f"csm: cascades need a directional light; for this {light.kind} light it "
+                      f"draws the maps of single at cascade_resolution ({kind.engine_maps})")
             self._light_rot = None
-            self._statics = self.reached_statics()
+            self._statics = reached_statics(g, light)
             points = [g.static_points[i] for i in self._statics]
             self._static_points = deciding_points(
                 np.concatenate(points) if points else np.zeros((0, 3)), None)
@@ -157,8 +155,8 @@ class CascadedShadows(ShadowMethod):
         character_points = [transforms.transform_points(models[i], g.character_points[i])
                             for i in range(g.n_characters)]
         character_objects = [g.character_object(i) for i in range(g.n_characters)]
-        if self.light.kind != "directional":
-            reached = np.flatnonzero(self.reached_characters(models))
+        if not kind_of(self.light).orthographic:
+            reached = np.flatnonzero(reached_characters(self.geom, self.light, models))
             points = np.concatenate([self._static_points,
                                      *(character_points[i] for i in reached)])
             fits = fits_for_light(points, self.light, None, res)

@@ -9,8 +9,9 @@ import numpy as np
 from game import transforms
 from game.scene.geometry import PackedGeometry
 from game.scene.model import Light
-from game.shadows.fit import deciding_points, fits_for_light, layers_for_light, light_rotation_of
-from game.shadows.method import ShadowMethod
+from game.shadows.fit import deciding_points
+from game.shadows.light_kinds import fits_for_light, kind_of
+from game.shadows.method import ShadowMethod, reached_characters, reached_statics
 from game.shadows.plan import KIND_ALL, MapRecord, ShadowPlan, ShadowSettings, map_names
 
 
@@ -29,7 +30,7 @@ class SingleShadows(ShadowMethod):
 
     @property
     def layers(self) -> int:
-        return layers_for_light(self.light)
+        return kind_of(self.light).max_maps_per_caster
 
     @property
     def resolution(self) -> int:
@@ -38,8 +39,8 @@ class SingleShadows(ShadowMethod):
     def set_light(self, light: Light) -> None:
         """Keep only the statics' extreme points for this light; refitting is then cheap."""
         self.light = light
-        self._light_rot = light_rotation_of(light)
-        self._statics = self.reached_statics()
+        self._light_rot = kind_of(light).rotation(light)
+        self._statics = reached_statics(self.geom, light)
         points = [self.geom.static_points[i] for i in self._statics]
         self._static_points = deciding_points(
             np.concatenate(points) if points else np.zeros((0, 3)), self._light_rot)
@@ -55,7 +56,7 @@ class SingleShadows(ShadowMethod):
 
     def plan(self, models: np.ndarray, view=None) -> ShadowPlan:
         res = self.settings.single_resolution
-        characters = np.flatnonzero(self.reached_characters(models))
+        characters = np.flatnonzero(reached_characters(self.geom, self.light, models))
         parts = [self._static_points] + [
             transforms.transform_points(models[i], self.geom.character_points[i])
             for i in characters]

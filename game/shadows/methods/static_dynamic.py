@@ -12,8 +12,8 @@ import numpy as np
 from game import transforms
 from game.scene.geometry import PackedGeometry
 from game.scene.model import Light
-from game.shadows.fit import fits_for_light, layers_for_light, light_rotation_of
-from game.shadows.method import ShadowMethod
+from game.shadows.light_kinds import fits_for_light, kind_of
+from game.shadows.method import ShadowMethod, reached_characters, reached_statics
 from game.shadows.plan import (
     KIND_ALL,
     KIND_CLUMP,
@@ -49,7 +49,7 @@ class StaticDynamicShadows(ShadowMethod):
 
     @property
     def layers(self) -> int:
-        return self._first_character_layer + layers_for_light(self.light)
+        return self._first_character_layer + kind_of(self.light).max_maps_per_caster
 
     @property
     def resolution(self) -> int:
@@ -58,8 +58,8 @@ class StaticDynamicShadows(ShadowMethod):
     def set_light(self, light: Light) -> None:
         """A new light refits (and re-renders) the static map."""
         self.light = light
-        self._light_rot = light_rotation_of(light)
-        statics = self.reached_statics()
+        self._light_rot = kind_of(light).rotation(light)
+        statics = reached_statics(self.geom, light)
         points = [self.geom.static_points[i] for i in statics]
         fits = fits_for_light(np.concatenate(points) if points else np.zeros((0, 3)), light,
                               self._light_rot, self.resolution)
@@ -77,7 +77,7 @@ class StaticDynamicShadows(ShadowMethod):
         maps = list(self._static)
         render_static = list(range(len(maps))) if self._static_dirty else []
         render_dynamic = []
-        characters = np.flatnonzero(self.reached_characters(models))
+        characters = np.flatnonzero(reached_characters(self.geom, self.light, models))
         if len(characters):
             points = np.concatenate([
                 transforms.transform_points(models[i], self.geom.character_points[i])

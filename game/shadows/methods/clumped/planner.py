@@ -1,0 +1,249 @@
+"""``clumped``: the multi-map method of "Some Ideas on Shadow Algorithms".
+
+Cached maps of clumps of statics and tight character maps drawn every frame, in one depth
+array; floors are in no map. This facade holds one light's parts, a concept each:
+
+- :mod:`.layers`: the pool of array layers and the limit the budget sets;
+- :mod:`.units`, :mod:`.statics`: what the clumps are made of, and the clump policy;
+- :mod:`.clump_maps`, :mod:`.characters`: the clumps' maps, and the walkers' of each frame;
+- :mod:`.view_maps`: the clump maps sized by the view (``view_resolution``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from game.scene.geometry import PackedGeometry
+from game.scene.model import Light
+from game.shadows import clumping
+from game.shadows.atlas import Square
+from game.shadows.method import ShadowMethod, SharesBudget, ViewSized
+from game.shadows.methods.clumped.characters import CharacterMaps
+from game.shadows.methods.clumped.clump_maps import ClumpMaps
+from game.shadows.methods.clumped.context import LightContext
+from game.shadows.methods.clumped.layers import LayerPool
+from game.shadows.methods.clumped.statics import ClumpMembers
+from game.shadows.methods.clumped.view_maps import ViewSizedMaps
+from game.shadows.plan import (
+    MIN_SHORT_RESOLUTION,
+    MapRecord,
+    ShadowPlan,
+    ShadowSettings,
+    layer_bytes,
+)
+from game.shadows.view_budget import ClumpRequest, Placement
+
+
+def _in_context(name: str) -> property:
+    """An attribute of the method that is the field ``name`` of its :class:`LightContext`."""
+    return property(lambda self: getattr(self.ctx, name),
+                    lambda self, value: setattr(self.ctx, name, value))
+
+
+class ClumpedShadows(ShadowMethod, SharesBudget, ViewSized):
+    """The multi-map method: cached clump maps plus per-character maps in one array.
+
+    The clumps follow the texel-density target within the layers the budget and the GL allow;
+    past them the clumps grow coarser and ``notes`` says so. Character maps get coarser or are
+    merged when layers or records run short (degrade, never drop a shadow). A static edited at
+    run time re-renders only the clump maps it leaves or joins (:meth:`update_statics`).
+    """
+
+    name = "clumped"
+    summary = ("one cached map per clump of statics and tight character maps sized for the view, "
+               "in one depth array")
+    resolution_fields = ("clump_resolution", "character_resolution")
+    parameters = ("clumping", "clump_count", "texels_per_metre", "clump_resolution",
+                  "character_resolution", "character_texels_per_pixel", "view_resolution",
+                  "max_clump_resolution")
+    budgeted = True
+
+    @classmethod
+    def min_layers(cls, settings: ShadowSettings, n_characters: int) -> int:
+        return 1 + min(n_characters, 1)  # one clump and one (shared) character map
+
+    def __init__(self, geom: PackedGeometry, light: Light, settings: ShadowSettings,
+                 max_layers: int, max_maps: int | None = None):
+        if settings.view_resolution:
+            # The atlas's squares have power-of-two sides: the fixed maps whose texels it holds
+            # too, no larger than asked, so that it keeps to the budget.
+            side = settings.clump_resolution
+            settings = dataclasses.replace(settings, clump_resolution=1 << (side.bit_length() - 1))
+        self.ctx = LightContext.of(geom, light, settings)
+        super().__init__(geom, light, settings, max_layers, max_maps)
+        self.pool, self.members, self.maps, self.characters, self.view = self._parts()
+        side = settings.clump_resolution
+        if (self.members.short and settings.clump_count is None
+                and side // 2 >= MIN_SHORT_RESOLUTION):
+            # Short of layers, maps of a quarter of the texels, four times as many, hug the
+            # statics closer and leave less of the budget on empty ground between them.
+            self.notes = []
+            self.settings = dataclasses.replace(settings, clump_resolution=side // 2)
+            self.pool, self.members, self.maps, self.characters, self.view = self._parts()
+            self.note(f"the clumps at {settings.texels_per_metre:g} texels/m do not fit the "
+                      f"{settings.budget_mib:g} MiB budget in maps of {side}^2: the clump "
+                      f"maps are {side // 2}^2, four times as many")
+
+    def _parts(self) -> tuple[LayerPool, ClumpMembers, ClumpMaps, CharacterMaps, ViewSizedMaps]:
+        """The parts planned from the settings: the character maps' layers first, then the
+        clumps in what is left."""
+        s, ctx = self.settings, self.ctx
+        pool = LayerPool(s.budget_mib, s.clump_resolution, self.max_layers)
+        members = ClumpMembers(ctx, pool)
+        maps = ClumpMaps(ctx, members)
+        characters = CharacterMaps(ctx, pool)
+        view = ViewSizedMaps(ctx, maps, characters)
+        characters.assign(clump_layers=0)
+        members.build(max(1, pool.limit - len(characters.layers)))
+        maps.rebuild()
+        view.reindex()
+        view.make_budget()
+        return pool, members, maps, characters, view
+
+    # What the method protocol holds lives in the context, so that the parts read the same.
+    geom = _in_context("geom")
+    settings = _in_context("settings")
+    notes = _in_context("notes")
+    light = property(lambda self: self.ctx.light,
+                     lambda self, light: self.ctx.set_light(light))  # its kind and rotation too
+
+    # -- what the array holds -----------------------------------------------------------------
+    @property
+    def static_maps(self) -> list[MapRecord]:
+        return self.maps.records
+
+    @property
+    def clumps(self) -> list[clumping.Clump]:
+        return self.maps.clumps
+
+    @property
+    def layer_limit(self) -> int:
+        return self.pool.limit
+
+    @property
+    def max_clumps(self) -> int:
+        return max(1, self.pool.limit - len(self.characters.layers))
+
+    @property
+    def resolution(self) -> int:
+        if self.view.shared_side is not None:
+            return self.view.shared_side
+        if self.view.budget is not None:
+            return self.view.budget.atlas.resolution
+        return self.settings.clump_resolution
+
+    @property
+    def layers(self) -> int:
+        if self.view.budget is not None:
+            return self.view.budget.atlas.layers
+        return self.pool.fixed
+
+    @property
+    def reserved_layers(self) -> int:
+        # A light moved or edited may clump anew into more or fewer layers, up to the limit.
+        if self.view.budget is not None:
+            return self.layers
+        return max(self.layers, self.pool.limit)
+
+    @property
+    def memory_mib(self) -> float:
+        # The fixed maps' layers: view-sized maps take as many texels.
+        return self.pool.fixed * layer_bytes(self.settings.clump_resolution) / 2**20
+
+    # -- the budget shared between lights -----------------------------------------------------
+    @property
+    def wants_memory(self) -> bool:
+        # Short of the budget's layers, not the GL's, and without room for one more clump's
+        # maps: a lamp whose clumps all surround it ends in one cube, whatever it is given.
+        pool = self.pool
+        return (self.members.short and pool.budget_layers < self.max_layers
+                and pool.fixed + self.ctx.kind.max_maps_per_caster > pool.limit)
+
+    def limit_memory(self, mib: float) -> None:
+        self.settings = dataclasses.replace(self.settings, budget_mib=mib)
+        self.pool.hold_to(mib, self.settings.clump_resolution)
+
+    # -- view-sized maps ------------------------------------------------------------------------
+    @property
+    def fixed_texels(self) -> int:
+        return max(self.pool.fixed, self.pool.limit) * self.settings.clump_resolution ** 2
+
+    def share_view_budget(self, side: int) -> None:
+        self.view.share(side)
+
+    def view_requests(self, view) -> tuple[list[ClumpRequest], set[int]]:
+        return self.view.requests(view)
+
+    def place_by_view(self, placements: list[Placement], drawn: set[int],
+                      reserved: list[Square]) -> None:
+        self.view.place_by_view(placements, drawn, reserved)
+
+    counts_pixels = property(lambda self: self.view.counts_pixels)
+    placed_blind = property(lambda self: self.view.placed_blind)
+    reserved_sides = property(lambda self: self.view.reserved_sides)
+
+    def served(self, pixels: np.ndarray) -> None:
+        self.view.served(pixels)
+
+    def place_anew(self) -> None:
+        self.view.place_anew()
+
+    # -- changes --------------------------------------------------------------------------------
+    def set_light(self, light: Light) -> None:
+        """A new light invalidates every clump map (and light-space clumps themselves)."""
+        self.light = light
+        self.members.build(self.max_clumps)
+        self._clumps_changed()
+
+    def _clumps_changed(self) -> None:
+        self.maps.rebuild()
+        self.view.reindex()
+        self.view.make_budget()
+
+    def update_statics(self, geom: PackedGeometry, changed: set[str]) -> list[int]:
+        """Statics were added, removed or moved (their names in ``changed``): only the clumps
+        they leave or join are drawn again (:meth:`ClumpMembers.update`), whose indices this
+        returns."""
+        self.geom = geom
+        self.ctx.set_light(self.light)
+        self.members.update(changed)
+        self._clumps_changed()
+        return sorted(self.members.dirty)
+
+    def update_characters(self, geom: PackedGeometry) -> None:
+        """Characters were added or removed: free and hand out their layers."""
+        self.geom = geom
+        self.characters.forget()
+        self.characters.assign(sum(len(ls) for ls in self.members.layers))
+        if self.view.budget is not None:  # the characters' squares change: place all anew
+            self.view.budget = None
+            self.view.make_budget()
+            self.members.mark_all()
+
+    def mark_rendered_lost(self) -> None:
+        """The array was re-created (resized): every cached layer must be drawn again."""
+        self.members.mark_all()
+
+    # -- a frame --------------------------------------------------------------------------------
+    def plan(self, models: np.ndarray, view=None) -> ShadowPlan:
+        """The maps for this frame; ``models`` are the characters' (n, 4, 4) matrices."""
+        maps = list(self.maps.records)
+        placed = self.view.place(maps, view)
+        if placed is None:
+            render_static = sorted(i for k in self.members.dirty
+                                   for i in self.maps.of_clump.get(k, []))
+            backlog = 0
+        else:
+            render_static, backlog = placed
+        render_dynamic: list[int] = []
+        counts = self.characters.plan(models, view, maps, render_dynamic,
+                                      self.max_maps - len(maps), self.maps.density,
+                                      self.view.reserved_squares)
+        self.members.dirty = set()
+        self.view.remember(maps)
+        return ShadowPlan(resolution=self.resolution, maps=maps,
+                          render_static=render_static, render_dynamic=render_dynamic,
+                          static_pieces=self.maps.pieces, characters=counts,
+                          backlog=backlog)

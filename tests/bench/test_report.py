@@ -1,0 +1,144 @@
+"""The results page generated from recorded runs (game/bench/report.py), on a tiny fake run: its
+tables, headers and figures, the README's block, and one-line errors for a bad run folder. No GL."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from game.bench.report import BEGIN, END, write_report
+from game.bench.rows import write_rows
+from game.errors import GameError
+from tests.cli.cli_helpers import assert_one_line_error, run
+
+RECORD = {"command": "python -m game bench --scenes courtyard --repeat 3 --out docs/runs/fake",
+          "renderer": "llvmpipe (LLVM 15.0.6, 256 bits)", "version": "4.5 (Core Profile)",
+          "date": "2026-01-02 03:04 UTC", "commit": "0123456789abcdef", "dirty": False}
+README = f"# A project\n\nWords before.\n\n{BEGIN}\nold figures\n{END}\n\nWords after.\n"
+
+
+def row(method: str, params: str, total: float, error: float, **more) -> dict:
+    """One bench CSV row of the courtyard at 320x180; every pass but the total is fixed."""
+    return {"run": f"courtyard|{method}|{params}|320x180", "scene": "courtyard", "group": "main",
+            "method": method, "clumping": more.pop("clumping", "light"), "clump_count": "",
+            "single_resolution": more.pop("single_resolution", 4096), "width": 320,
+            "height": 180, "total_ms_median": total, "total_ms_p95": total * 1.5,
+            "shadow_static_ms_median": 0.5, "shadow_dynamic_ms_median": 1.5,
+            "cull_ms_median": 2.0, "shade_ms_median": 3.0, "error": error,
+            "maps_rendered": 7, "maps_total": 10 if method == "clumped" else 1,
+            "shadow_memory_mib": 64, "status": "ok", **more}
+
+
+ROWS = [
+    row("clumped", "defaults", 10.0, 0.002, repeats=3, total_ms_spread=0.125,
+        static_texels_per_metre=145.2),
+    row("clumped", "clumping=world", 12.0, 0.004, clumping="world", repeats=3,
+        total_ms_spread=0.25, static_texels_per_metre=107.9),
+    row("single", "defaults", 30.0, 0.005, repeats=3, total_ms_spread=0.05),
+    row("single", "single_resolution=1024", 8.0, 0.02, single_resolution=1024, repeats=3,
+        total_ms_spread=0.05),
+]
+
+
+@pytest.fixture
+def root(tmp_path):
+    """A checkout with one recorded run, ``docs/runs/fake``, and a README with a figure block."""
+    folder = tmp_path / "docs" / "runs" / "fake"
+    folder.mkdir(parents=True)
+    write_rows(folder / "bench.csv", ROWS)
+    (folder / "run.json").write_text(json.dumps(RECORD))
+    (tmp_path / "README.md").write_text(README)
+    return tmp_path
+
+
+def test_each_table_is_headed_by_its_run(root):
+    write_report(root)
+    text = (root / "docs" / "results.md").read_text()
+    head = ("Run [`fake`](runs/fake/run.json): `python -m game bench --scenes courtyard "
+            "--repeat 3 --out docs/runs/fake`; llvmpipe (LLVM 15.0.6, 256 bits), OpenGL 4.5 "
+            "(Core Profile); 2026-01-02 03:04 UTC; code `0123456789`.")
+    # Question 1, question 2, and the run's own table: three tables, each under the header.
+    assert text.count(head) == 3
+    assert text.index("## Question 1") < text.index("## Question 2") < text.index(
+        "## Every recorded run")
+
+
+def test_the_figures_are_the_runs_medians_and_their_ratios(root):
+    write_report(root)
+    text = (root / "docs" / "results.md").read_text()
+    # Q1: world / light, the frame with the spread of its three repeats.
+    assert ("| courtyard | 320x180 | defaults | 12.0 (25%) / 10.0 (12%) | 2.00 / 2.00 "
+            "| 0.40% / 0.20% | 108 / 145 |") in text
+    assert "error: world lower in 0 of 1, light in 1; frame: world lower in 0 of 1, light in 1" \
+        in text
+    # Q2: frame over clumped's, shadow maps (static + dynamic) and camera (cull + shade).
+    assert "| `single` | defaults | 1 | 7 | 64 | 30.0 (5%) | 2.00 | 5.00 | 0.50% | 3.00 |" in text
+    assert ("| `single` | single_resolution=1024 | 1 | 7 | 64 | 8.00 (5%) | 2.00 | 5.00 | 2.00% "
+            "| 0.80 |") in text
+    assert "frame: clumped lower in 1 of 2, `single` in 1; error: clumped lower in 2 of 2" in text
+
+
+def test_the_readme_block_is_replaced_and_the_rest_kept(root):
+    write_report(root)
+    text = (root / "README.md").read_text()
+    assert text.startswith("# A project\n\nWords before.\n\n" + BEGIN)
+    assert text.endswith(END + "\n\nWords after.\n")
+    assert "old figures" not in text
+    assert ("| courtyard | 320x180 | 10.0, 0.20% | 30.0, 0.50% | 0.33 "
+            "| [fake](docs/runs/fake/run.json) |") in text
+
+
+def test_a_second_report_writes_the_same_bytes(root):
+    write_report(root)
+    first = [(root / p).read_bytes() for p in ("README.md", "docs/results.md")]
+    write_report(root)
+    assert [(root / p).read_bytes() for p in ("README.md", "docs/results.md")] == first
+
+
+def test_a_readme_without_the_block_is_refused_and_nothing_written(root):
+    (root / "README.md").write_text("# A project\n")
+    with pytest.raises(GameError, match="figures:begin"):
+        write_report(root)
+    assert not (root / "docs" / "results.md").exists()
+
+
+@pytest.mark.parametrize("damage, fragment", [
+    (lambda f: (f / "run.json").unlink(), "no run.json"),
+    (lambda f: (f / "run.json").write_text("{not json"), "not a run record"),
+    (lambda f: (f / "run.json").write_text('{"command": "x"}'), "no renderer, version, date"),
+    (lambda f: (f / "bench.csv").write_text("garbage,here\n1,2\n"), "not a bench CSV"),
+    (lambda f: (f / "bench.csv").unlink(), "no bench.csv"),
+])
+def test_a_bad_run_folder_gets_one_line(root, damage, fragment):
+    damage(root / "docs" / "runs" / "fake")
+    result = run("bench", "--report", root)
+    assert_one_line_error(result, "fake", fragment)
+    assert (root / "README.md").read_text() == README
+
+
+def test_no_runs_gets_one_line(tmp_path):
+    assert_one_line_error(run("bench", "--report", tmp_path), "no recorded runs")
+
+
+def test_the_bench_records_what_the_report_reads(root):
+    from game.bench.report import load_run
+    from game.bench.runner import write_run_record
+
+    folder = root / "docs" / "runs" / "fake"
+    write_run_record(folder, "python -m game bench --out x", {"renderer": "r", "version": "v"})
+    record = load_run(folder).record
+    assert record["command"] == "python -m game bench --out x"
+    assert (record["renderer"], record["version"]) == ("r", "v")
+    assert record["date"].endswith(" UTC")
+    assert "commit" not in record  # a folder outside any checkout
+
+
+def test_the_run_record_names_the_checkouts_commit():
+    from game.bench.runner import git_commit
+    from tests.helpers import ROOT
+
+    if not (ROOT / ".git").exists():
+        pytest.skip("not a git checkout")
+    code = git_commit(ROOT / "docs")
+    assert len(code["commit"]) == 40 and isinstance(code["dirty"], bool)
