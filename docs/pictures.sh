@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# The README's pictures, made again with the command line: the built-in scene's hard shadows,
-# its map debug view, and the soft shadows of its linear light. Run it from
-# anywhere: `bash docs/pictures.sh`. It prints how many maps the debug view shows (from the
+# Every picture of the docs, made again with the command line: the built-in scene's hard
+# shadows, its map debug view and the soft shadows of its linear light (the README), and the
+# walkaround window with its HUD, its panel and soft shadows (docs/window.md; the window runs on
+# GLFW's null platform, so no display is needed). Run it from anywhere: `bash docs/pictures.sh`. It prints how many maps the debug view shows (from the
 # capture's stats), so that the caption can say what the picture holds.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -29,4 +30,12 @@ PY
 # with 32 samples per point, at 480x270 to stay quick on a CPU renderer.
 python -m game trace --size 480x270 --samples 32 --time 3 --out "$work/soft"
 cp "$work/soft/frame_0000.png" "$images/soft_default.png"
-echo "wrote $images/default.png, $images/default_maps.png and $images/soft_default.png"
+
+# The window: its HUD, the full panel (F1), and soft shadows, after the frames it takes to settle.
+python -m game play --platform null --frames 120 --fps 30 --screenshot "$images/window.png"
+python -m game play --platform null --frames 120 --fps 30 --panel \
+    --screenshot "$images/window_panel.png"
+python -m game play --soft --platform null --frames 60 --fps 30 \
+    --screenshot "$images/soft_window.png"
+echo "wrote $images/default.png, default_maps.png, soft_default.png, window.png," \
+    "window_panel.png and soft_window.png"

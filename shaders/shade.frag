@@ -11,7 +11,8 @@ in vec3 v_normal;
 flat in int v_object;
 flat in vec3 v_colour;
 
-layout(location = 0) out vec4 out_color;     // rgb shown; a = (1 + maps read) / 255
+layout(location = 0) out vec4 out_color;     // rgb shown; a = (1 + maps read) / 255, or with
+                                             // COUNT_CANDIDATES (1 + map records considered) / 255
 #if GBUFFER
 layout(location = 1) out vec4 out_position;  // xyz world position; w object index
 layout(location = 2) out vec4 out_normal;    // xyz geometric normal, facing the camera; w vis.
@@ -87,6 +88,9 @@ void main() {
     colour = (used < 0 ? vec3(0.5) : state) * (0.55 + 0.45 * shown);
 #endif
     out_color = vec4(colour, float(1 + sampled) / 255.0);
+#if COUNT_CANDIDATES
+    out_color.a = float(1 + min(g_candidates, 254)) / 255.0;
+#endif
 #if GBUFFER
     out_position = vec4(v_world, float(v_object));
     out_normal = vec4(g, kept);

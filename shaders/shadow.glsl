@@ -25,6 +25,12 @@ bool g_on_edge;  // set by lookup(): the 2 x 2 texels around the sample do not a
 layout(early_fragment_tests) in;
 #endif
 
+// COUNT_CANDIDATES (a #define) counts the map records a fragment considers, sampled or not: what
+// finding its maps costs (the frame's map_candidates_per_fragment; shaders/shade.frag writes it).
+#if COUNT_CANDIDATES
+int g_candidates = 0;
+#endif
+
 // KIND_CASCADE (a #define from game/shadows/plan.py) marks csm cascades. They are listed
 // finest first, and the first one that holds the fragment decides (coarser ones would only add
 // their larger error under the minimum). KIND_FALLBACK marks clumped's coarse maps of long faces,
@@ -146,6 +152,9 @@ struct Receiver {
 
 void consider(LightRecord light, int i, Receiver r, inout float vis, inout int sampled,
               inout int used, inout int held) {
+#if COUNT_CANDIDATES
+    g_candidates += 1;
+#endif
     if (u_maps[i].kind == KIND_FALLBACK && held > 0) {
         return;
     }

@@ -40,6 +40,8 @@ def frame_stats(index: int, t: float, frame: Frame) -> dict:
             "texels_to_maps": frame.texels_to_maps, "maps_waiting": frame.maps_waiting,
             "camera_triangles": frame.camera_triangles, **characters,
             "maps_per_fragment": round(frame.maps_per_fragment, 5),
+            **({} if frame.map_candidates is None else {
+                "map_candidates_per_fragment": round(frame.map_candidates_per_fragment, 5)}),
             **headless.resource_stats(frame)}
 
 
@@ -56,6 +58,7 @@ def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
                         gbuffer=opts.dump or opts.soft is not None, clock=opts.clock,
                         cull=opts.cull)
     renderer.debug_view = opts.debug_view
+    renderer.count_candidates = opts.stats is not None
     hud = _overlay() if opts.overlay else None
     view = View.from_camera(scene.camera, opts.size)
     report = progress.Progress("capture", opts.frames)

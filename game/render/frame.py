@@ -65,6 +65,17 @@ class Frame:
     characters: CharacterCounts | None = None  # the character maps (ShadowPlan.characters)
     camera_triangles: int = 0  # triangles the camera pass drew (after culling)
     soft: TraceResult | None = None  # the linear light's trace, when the frame asked for one
+    # (H, W) int: map records each pixel considered, read or not (Renderer.count_candidates).
+    map_candidates: np.ndarray | None = None
+
+    @property
+    def map_candidates_per_fragment(self) -> float | None:
+        """The map records a covered pixel considered, on average: what finding its maps
+        costs, where :attr:`maps_per_fragment` counts only the maps it read."""
+        if self.covered is None or self.map_candidates is None:
+            return None
+        n = int(self.covered.sum())
+        return float(self.map_candidates[self.covered].sum()) / n if n else 0.0
 
     @property
     def maps_per_fragment(self) -> float | None:

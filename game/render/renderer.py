@@ -58,6 +58,7 @@ class Renderer(SceneEdits):
         self.last_plan: ShadowPlan | None = None  # for the overlay's map list
         self.last_spans: list[LightSpan] = []       # each light's maps in it
         self.counts = PixelCounts()
+        self.count_candidates = False  # read frames count the map records each pixel considered
         self.grids = [map_grid.GridBuilder() for _ in scene.lights]
         self.lights_on = [True] * len(scene.lights)  # the window switches lights off
         self._gbuffer_asked = gbuffer  # dumps and soft shadows; the traced method needs it too
@@ -217,6 +218,8 @@ class Renderer(SceneEdits):
             rgba = self.target.read_colour()
             covered = rgba[..., 3] > 0
             gbuffer = self.target.read_gbuffer(covered) if self.target.gbuffer else None
+        candidates = (self.shading.candidates(self.target, self.shadow_pass.array, self.culler)
+                      if self.count_candidates else None)
         if gbuffer is not None and len(self.scene.lights) > 1:
             variant = Variant.of(True, self.scene.lights, self.settings.pcf, blocks.GRID_NONE,
                                  blocks.DEBUG_VIEWS[self.debug_view])
@@ -228,11 +231,11 @@ class Renderer(SceneEdits):
             maps_sampled=np.maximum(rgba[..., 3].astype(np.int32) - 1, 0),
             ms=dict(self.timer.ms), gbuffer=gbuffer, gl_objects=self.gl_objects(),
             camera_triangles=(self.culler.kept() if culled
-                              else len(self.buffers.layout.indices) // 3), **counts)
+                              else len(self.buffers.layout.indices) // 3),
+            map_candidates=candidates, **counts)
 
     def trace(self, t: float, settings: TraceSettings, light=None) -> TraceResult:
-        """Trace over the last frame's G-buffer: ``light`` is a tracer light tuple, by default
-        the scene's linear light. The frame's picture is left as it was."""
+        """Trace ``light`` (default: the linear light) over the last frame's G-buffer."""
         return self.traced.trace(self.target, self.geom, self.models(t), settings, light)
 
     # -- what it holds ----------------------------------------------------------------------

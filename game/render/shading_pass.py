@@ -33,6 +33,8 @@ class Variant(NamedTuple):
     debug_view: int     # blocks.DEBUG_VIEWS
     many_lights: bool = False  # lights, kinds and grids read from the Lights block
     count_pixels: bool = False  # each map's pixels near its shadow edges, counted (FrameBlocks)
+    # The colour's alpha holds the map records each pixel considered, not the maps it read.
+    count_candidates: bool = False
 
     @classmethod
     def of(cls, gbuffer: bool, lights: list, pcf: bool, grid_mode: int,
@@ -54,6 +56,7 @@ class ShadingPass:
         self.buffers = buffers
         self.defines = defines
         self._programs: dict[Variant, tuple] = {}
+        self.last: tuple[Variant, bool] | None = None  # the last draw's variant, culled_only
 
     def _program(self, variant: Variant, culler: TriangleCuller | None) -> tuple:
         """(program, vertex array over every triangle, vertex array over the culled ones)."""
@@ -61,7 +64,8 @@ class ShadingPass:
             defines = {**self.defines, "GBUFFER": variant.gbuffer, "LIGHT_KIND": variant.light_kind,
                        "PCF": variant.pcf, "GRID": variant.grid_mode,
                        "DEBUG_VIEW": variant.debug_view, "MANY_LIGHTS": variant.many_lights,
-                       "COUNT_PIXELS": variant.count_pixels}
+                       "COUNT_PIXELS": variant.count_pixels,
+                       "COUNT_CANDIDATES": variant.count_candidates}
             prog = self.ctx.program(vertex_shader=glsl.build("shade.vert", self.defines),
                                     fragment_shader=glsl.build("shade.frag", defines))
             culled = (None if culler is None
@@ -69,6 +73,16 @@ class ShadingPass:
             self._programs[variant] = (prog, self.buffers.vertex_array(prog, surface=True),
                                        culled)
         return self._programs[variant]
+
+    def candidates(self, target: FrameTarget, array: DepthArray,
+                   culler: TriangleCuller | None) -> np.ndarray:
+        """(H, W) map records each pixel considered in the last draw: it is drawn again
+        (outside the frame's timings) with the records counted in the colour's alpha, which
+        alone differs."""
+        variant, culled_only = self.last
+        self.draw(target, array, variant._replace(count_pixels=False, count_candidates=True),
+                  culler, culled_only)
+        return np.maximum(target.read_colour()[..., 3].astype(np.int32) - 1, 0)
 
     def each_light(self, target: FrameTarget, array: DepthArray, frame_blocks,
                    culler: TriangleCuller | None, variant: Variant, lit: np.ndarray,
@@ -92,6 +106,7 @@ class ShadingPass:
         culler's last run kept; otherwise closed volumes with back faces culled, then the open
         meshes."""
         prog, vao, culled = self._program(variant, culler)
+        self.last = (variant, culled_only)
         target.begin()
         self.ctx.enable(moderngl.DEPTH_TEST)
         array.bind(SHADOW_UNIT)

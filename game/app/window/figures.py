@@ -82,18 +82,25 @@ class Figures:
     characters: CharacterCounts | None = None  # the character maps (ShadowPlan.characters)
     soft: SoftFigures | None = None   # the window's soft trace, when soft shadows are on
     maps_waiting: int = 0             # view-sized clump maps whose new side waits
+    map_candidates_per_fragment: float | None = None  # records considered, read or not
 
     @staticmethod
     def of(frame: Frame, clock: str, fps: float | None,
-           maps_per_fragment: float | None = None) -> Figures:
+           maps_per_fragment: float | None = None,
+           map_candidates_per_fragment: float | None = None) -> Figures:
+        """``frame``'s figures; the per-fragment counts of the last frame read back where
+        ``frame`` was not."""
         mpf = frame.maps_per_fragment
+        candidates = frame.map_candidates_per_fragment
         return Figures(ms={k: v for k, v in frame.ms.items() if shown_pass(k)},
                        clock=clock, maps_rendered=frame.maps_rendered,
                        maps_cached=frame.maps_cached,
                        triangles_to_maps=frame.triangles_to_maps,
                        maps_per_fragment=mpf if mpf is not None else maps_per_fragment, fps=fps,
                        texels_to_maps=frame.texels_to_maps, characters=frame.characters,
-                       maps_waiting=frame.maps_waiting)
+                       maps_waiting=frame.maps_waiting,
+                       map_candidates_per_fragment=(candidates if candidates is not None
+                                                    else map_candidates_per_fragment))
 
 
 class PassHistory:
@@ -150,6 +157,8 @@ def stats_entry(index: int, time: float, frame: Frame, figures: Figures, method:
             "maps_rendered": frame.maps_rendered, "maps_cached": frame.maps_cached,
             "maps_total": frame.maps_total, "triangles_to_maps": frame.triangles_to_maps,
             "maps_per_fragment": None if mpf is None else round(mpf, 5),
+            **({} if frame.map_candidates is None else {
+                "map_candidates_per_fragment": round(frame.map_candidates_per_fragment, 5)}),
             "method": method, "soft": soft,
             **({} if trace is None else {"soft_trace_size": list(trace.size),
                                          "soft_samples": trace.samples})}

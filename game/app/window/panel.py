@@ -256,6 +256,8 @@ def draw_figures(f: Figures, names: list[str]) -> None:
         imgui.text_wrapped(f"character maps {c.maps}: skipped {c.skipped}, grouped "
                            f"{c.grouped}, shrunk {c.shrunk}")
     imgui.text_wrapped(f"maps per fragment {mpf}")
+    if f.map_candidates_per_fragment is not None:
+        imgui.text_wrapped(f"map candidates per fragment {f.map_candidates_per_fragment:.3f}")
 
 
 def draw_soft(trace: SoftFigures) -> None:

@@ -130,6 +130,7 @@ class Walkaround(WindowInput):
             glfw.terminate()
             raise
         self.renderer.debug_view = opts.debug_view
+        self.renderer.count_candidates = True  # on the frames read back, outside their timings
         self.render_scale = opts.render_scale
         self.presenter = Presenter(self.ctx, opts.antialias)
         # Our callbacks first: the imgui backend chains to the ones installed before it.
@@ -155,6 +156,7 @@ class Walkaround(WindowInput):
         self.keep_stats = opts.frames is not None or opts.stats is not None
         self._frame_times: deque[float] = deque(maxlen=FPS_WINDOW_FRAMES)
         self._mpf: float | None = None
+        self._candidates: float | None = None  # map records per fragment, when last read
         self._window_ms: dict[str, float] = {}
         self._good_settings: ShadowSettings | None = None
 
@@ -262,9 +264,10 @@ class Walkaround(WindowInput):
         """What the overlay says about ``frame``, with the last frame's window passes."""
         if frame.maps_per_fragment is not None:
             self._mpf = frame.maps_per_fragment
+            self._candidates = frame.map_candidates_per_fragment
         fps = (len(self._frame_times) / sum(self._frame_times)
                if self._frame_times and sum(self._frame_times) > 0 else None)
-        figures = Figures.of(frame, self.renderer.timer.clock, fps, self._mpf)
+        figures = Figures.of(frame, self.renderer.timer.clock, fps, self._mpf, self._candidates)
         figures.soft = SoftFigures.of(frame, self.renderer.traced.reduced_state,
                                       self.soft_settings.samples)
         figures.ms.update(self._window_ms)
