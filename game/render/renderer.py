@@ -123,8 +123,7 @@ class Renderer(SceneEdits):
         self.shadows.methods[index].set_light(light)
 
     def set_gbuffer(self, on: bool) -> None:
-        """Keep the G-buffer (the tracer reads it) or drop it (it costs fill on llvmpipe); the
-        traced method keeps it regardless."""
+        """Keep the G-buffer (the tracer reads it; the traced method always) or drop it."""
         self._gbuffer_asked = on
         self.target.remake(self.size, self._gbuffer_needed())
 
