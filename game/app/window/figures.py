@@ -27,11 +27,13 @@ HIDDEN_PASSES = (READBACK, GBUFFER)
 HIDDEN_SUFFIXES = ("_total", "_build_static", "_build_dynamic", "_trace_discarded")
 HISTORY_FRAMES = 300               # frames in the rolling graph
 # One colour per pass, the same in the graph and in the HUD's bar: DRAWING_PASSES, "total" and
-# WINDOW_PASSES in turn (Tableau 10 and two more); any other pass takes the next one round.
+# WINDOW_PASSES in turn (Tableau 10 and three more, one for each of them); any other pass
+# takes the next one round.
 PASS_COLOURS = tuple(imgui.ImVec4(((c >> 16) & 255) / 255, ((c >> 8) & 255) / 255,
                                   (c & 255) / 255, 1.0)
                      for c in (0x4E79A7, 0xF28E2B, 0xE15759, 0x76B7B2, 0x59A14F, 0xEDC948,
-                               0xB07AA1, 0xFF9DA7, 0x9C755F, 0xBAB0AC, 0xD37295, 0x8CD17D))
+                               0xB07AA1, 0xFF9DA7, 0x9C755F, 0xBAB0AC, 0xD37295, 0x8CD17D,
+                               0x17BECF))
 
 
 def shown_pass(name: str) -> bool:
