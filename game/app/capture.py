@@ -45,6 +45,14 @@ def frame_stats(index: int, t: float, frame: Frame) -> dict:
             **headless.resource_stats(frame)}
 
 
+def _view_notes(opts: CaptureOptions) -> list[str]:
+    """What a debug view cannot show in this capture."""
+    if opts.debug_view == "cache" and opts.frames == 1:
+        return ["--debug-view cache: the first frame draws every map, so it is all red (drawn "
+                "this frame); capture two frames or more to see the cached maps in green"]
+    return []
+
+
 def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
     """Render ``opts.frames`` frames and write them; returns the stats document.
 
@@ -88,7 +96,7 @@ def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
             "static_triangles": renderer.geom.triangle_count(
                 range(renderer.geom.first_static, renderer.geom.first_character)),
             "characters": renderer.geom.n_characters,
-            "notes": renderer.notes + floors.floor_warnings(scene),
+            "notes": renderer.notes + floors.floor_warnings(scene) + _view_notes(opts),
             "interrupted": interrupted,
             "frames": frames,
         }
