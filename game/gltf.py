@@ -21,11 +21,17 @@ CHUNK_JSON = 0x4E4F534A
 CHUNK_BIN = 0x004E4942
 MAX_JSON_BYTES = 64 * 2**20      # a glTF's JSON part; real ones are far smaller
 MAX_JSON_DEPTH = 64              # nesting of the JSON, so the parser cannot recurse too deep
-# An accessor with no buffer view is all zeros, which the reader allocates: at most this much.
+# Accessors with no buffer view are all zeros, which the reader allocates: at most this much
+# in all.
 MAX_ZERO_ACCESSOR_BYTES = 64 * 2**20
 # Parts that trimesh would decode or resolve but that the geometry does not need.
 UNUSED = ("images", "textures", "samplers", "materials")
 BASE_COLOUR_COMPONENTS = 4    # a material's baseColorFactor: linear RGBA
+# The node tree is walked once, each node at most once; these bound that walk and the scene
+# graph trimesh builds from it (it finds each mesh's transform by its path to the root).
+MAX_NODES = 16_384
+MAX_NODE_DEPTH = 128
+INDEX_TYPES = (5121, 5123, 5125)   # unsigned byte, short and int: the only index types
 
 
 class GltfError(ValueError):
@@ -97,43 +103,65 @@ def split_glb(data: bytes) -> tuple[dict, bytes]:
     return document, binary
 
 
-def check_uris(document: dict, base: Path | None = None, root: Path | None = None) -> list[Path]:
+def check_uris(document: dict, base: Path | None = None,
+               root: Path | None = None) -> list[tuple[str, Path, int]]:
     """Every buffer and image URI must be data, or a relative path from ``base`` (the file's
     folder) that stays inside ``root`` (the scene's folder); with no ``base``, only embedded
-    data is allowed. Declared buffer sizes must be whole numbers.
+    data is allowed. Declared buffer sizes must be whole numbers, and embedded data must hold
+    what its buffer declares.
 
-    Returns the outside files the buffers name (images are never read).
+    Returns the outside files the buffers name (images are never read): each URI as written,
+    its path and the bytes its buffer declares.
     """
     files = []
     for section in ("buffers", "images"):
         entries = document.get(section, [])
         if not isinstance(entries, list):
             raise GltfError(f"'{section}' is not a list")
-        for entry in entries:
+        for number, entry in enumerate(entries):
             if not isinstance(entry, dict):
                 raise GltfError(f"an entry of '{section}' is not an object")
+            declared = entry.get("byteLength", 0) if section == "buffers" else 0
+            if not isinstance(declared, int) or isinstance(declared, bool) or declared < 0:
+                raise GltfError("a buffer's byteLength is not a whole number")
             uri = entry.get("uri")
-            if uri is None or (isinstance(uri, str) and uri.startswith("data:")):
+            if isinstance(uri, str) and uri.startswith("data:"):
+                held = _data_uri_bytes(uri)
+                if declared > held:
+                    raise GltfError(f"buffer {number} declares {declared:,} bytes; its data "
+                                    f"holds {held:,}")
                 continue
-            if not isinstance(uri, str):
-                raise GltfError(f"a {section} URI is not a string")
-            if base is None:
-                raise GltfError(f"names an outside file ({section} URI {uri!r}); only embedded "
-                                "data is read here")
-            target = Path(unquote(uri))
-            if "://" in uri or target.is_absolute() or uri.startswith(("/", "\\")):
-                raise GltfError(f"{section} URI must be a relative file name: {uri!r}")
-            inside = (root or base).resolve()
-            full = (base / target).resolve()
-            if not full.is_relative_to(inside):
-                raise GltfError(f"{section} URI leaves the scene's folder: {uri!r}")
+            if uri is None:
+                continue
+            full = _uri_path(section, uri, base, root)
             if section == "buffers":
-                files.append(full)
-    for entry in document.get("buffers", []):
-        size = entry.get("byteLength", 0)
-        if not isinstance(size, int) or size < 0:
-            raise GltfError("a buffer's byteLength is not a whole number")
+                files.append((uri, full, declared))
     return files
+
+
+def _data_uri_bytes(uri: str) -> int:
+    """How many bytes a data URI holds, from its text (nothing is decoded)."""
+    head, _, payload = uri.partition(",")
+    if head.endswith(";base64"):
+        payload = payload.strip()
+        return len(payload) * 3 // 4 - len(payload) + len(payload.rstrip("="))
+    return len(unquote(payload).encode("utf-8", "surrogateescape"))
+
+
+def _uri_path(section: str, uri, base: Path | None, root: Path | None) -> Path:
+    """The file a URI names, if it stays inside the scene's folder."""
+    if not isinstance(uri, str):
+        raise GltfError(f"a {section} URI is not a string")
+    if base is None:
+        raise GltfError(f"names an outside file ({section} URI {uri!r}); only embedded "
+                        "data is read here")
+    target = Path(unquote(uri))
+    if "://" in uri or target.is_absolute() or uri.startswith(("/", "\\")):
+        raise GltfError(f"{section} URI must be a relative file name: {uri!r}")
+    full = (base / target).resolve()
+    if not full.is_relative_to((root or base).resolve()):
+        raise GltfError(f"{section} URI leaves the scene's folder: {uri!r}")
+    return full
 
 
 def check_accessors(document: dict, binary_length: int | None = None) -> None:
@@ -158,9 +186,15 @@ def check_accessors(document: dict, binary_length: int | None = None) -> None:
             declared = min(declared, binary_length)
         if offset + length > declared:
             raise GltfError("a buffer view runs past the end of its buffer")
+        stride = view.get("byteStride")
+        if stride is not None and not (isinstance(stride, int) and 4 <= stride <= 252
+                                       and stride % 4 == 0):
+            raise GltfError(f"a buffer view's byteStride {stride!r} is not allowed (glTF "
+                            "allows 4 to 252, in steps of 4)")
     accessors = document.get("accessors", [])
     if not isinstance(accessors, list):
         raise GltfError("'accessors' is not a list")
+    zeros = 0
     for accessor in accessors:
         if not isinstance(accessor, dict):
             raise GltfError("an accessor is not an object")
@@ -172,6 +206,10 @@ def check_accessors(document: dict, binary_length: int | None = None) -> None:
         if view is None:  # all zeros, made by the reader: bound what it would allocate
             if count * width[0] * width[1] > MAX_ZERO_ACCESSOR_BYTES:
                 raise GltfError(f"an accessor without data declares {count:,} elements")
+            zeros += count * width[0] * width[1]
+            if zeros > MAX_ZERO_ACCESSOR_BYTES:
+                raise GltfError(f"its accessors without data declare more than "
+                                f"{MAX_ZERO_ACCESSOR_BYTES // 2**20} MiB in all")
             continue
         if not isinstance(view, int) or not 0 <= view < len(views):
             raise GltfError("an accessor names a buffer view that does not exist")
@@ -185,6 +223,98 @@ def check_accessors(document: dict, binary_length: int | None = None) -> None:
         if count and need > views[view]["byteLength"]:
             raise GltfError(f"an accessor declares {count:,} elements, more than its buffer "
                             "view holds")
+
+
+def _index(value, items: list, what: str) -> int:
+    if not isinstance(value, int) or isinstance(value, bool) or not 0 <= value < len(items):
+        raise GltfError(f"{what} {value!r} is not one of the file's {len(items)}")
+    return value
+
+
+def _mesh_cost(mesh, accessors: list) -> tuple[int, int, int]:
+    """The triangles, vertices and primitives one placement of ``mesh`` adds; its index
+    accessors must be unsigned integers."""
+    triangles = vertices = 0
+    primitives = mesh.get("primitives", []) if isinstance(mesh, dict) else None
+    if not isinstance(primitives, list):
+        raise GltfError("a mesh's 'primitives' is not a list")
+    for primitive in primitives:
+        if not isinstance(primitive, dict) or not isinstance(primitive.get("attributes"), dict):
+            raise GltfError("a mesh primitive has no attributes")
+        position = primitive["attributes"].get("POSITION")
+        count = 0 if position is None else \
+            accessors[_index(position, accessors, "a POSITION accessor")]["count"]
+        vertices += count
+        if "indices" in primitive:
+            accessor = accessors[_index(primitive["indices"], accessors, "an indices accessor")]
+            if accessor.get("componentType") not in INDEX_TYPES or accessor["type"] != "SCALAR":
+                raise GltfError(f"a primitive's indices (accessor {primitive['indices']}) must "
+                                "be unsigned integers, one a vertex")
+            count = accessor["count"]
+        mode = primitive.get("mode", 4)
+        triangles += count // 3 if mode == 4 else max(count - 2, 0) if mode in (5, 6) else 0
+    return triangles, vertices, len(primitives)
+
+
+def check_tree(document: dict, count_nodes: bool = True) -> tuple[int, int, int]:
+    """The triangles, vertices and mesh primitives the file's scene draws, each mesh counted
+    once for every node that places it, after checking its scene index, every mesh and the
+    node tree: at most :data:`MAX_NODES` nodes (with ``count_nodes``), nested at most
+    :data:`MAX_NODE_DEPTH` deep, each node in one place. The tree is walked once, in time
+    linear in its nodes."""
+    nodes, meshes = document.get("nodes", []), document.get("meshes", [])
+    scenes, accessors = document.get("scenes", []), document.get("accessors", [])
+    for name, value in (("nodes", nodes), ("meshes", meshes), ("scenes", scenes)):
+        if not isinstance(value, list):
+            raise GltfError(f"'{name}' is not a list")
+    if count_nodes and len(nodes) > MAX_NODES:
+        raise GltfError(f"it has {len(nodes):,} nodes, more than the {MAX_NODES:,} a glTF "
+                        "may have")
+    if "scene" in document or scenes:
+        scene = document.get("scene", 0)
+        if not isinstance(scene, int) or isinstance(scene, bool) \
+                or not 0 <= scene < len(scenes):
+            raise GltfError(f"'scene' is {scene!r}, but the file has {len(scenes)} scenes")
+    roots = scenes[document.get("scene", 0)].get("nodes", []) if scenes else []
+    if not isinstance(roots, list):
+        raise GltfError("a scene's 'nodes' is not a list")
+    costs = [_mesh_cost(mesh, accessors) for mesh in meshes]   # every mesh: trimesh reads all
+    placed = bytearray(len(nodes))
+    drawn = [0, 0, 0]
+    stack = [(root, 1) for root in reversed(roots)]
+    while stack:
+        index, depth = stack.pop()
+        index = _index(index, nodes, "a node")
+        if placed[index]:
+            raise GltfError(f"node {index} has more than one parent (glTF nodes form trees)")
+        if depth > MAX_NODE_DEPTH:
+            raise GltfError(f"its nodes nest deeper than {MAX_NODE_DEPTH} levels")
+        placed[index] = 1
+        node = nodes[index]
+        if "mesh" in node:
+            mesh = _index(node["mesh"], meshes, "a node's mesh")
+            drawn = [total + cost for total, cost in zip(drawn, costs[mesh], strict=True)]
+        children = node.get("children", [])
+        if not isinstance(children, list):
+            raise GltfError(f"node {index}'s 'children' is not a list")
+        stack.extend((child, depth + 1) for child in reversed(children))
+    return drawn[0], drawn[1], drawn[2]
+
+
+def _check_drawn(document: dict, most: int | None) -> None:
+    """The tree is sound and, with ``most`` (a scene's mesh file), has at most
+    :data:`MAX_NODES` nodes and draws at most ``most`` triangles and vertices. A dump's GLB
+    holds a node for each object of its scene, however many; flat, they load in linear time."""
+    triangles, vertices, pieces = check_tree(document, count_nodes=most is not None)
+    if most is not None and pieces > MAX_NODES:
+        # trimesh makes a scene-graph node and a copy of the mesh for each placed primitive
+        raise GltfError(f"its nodes place {pieces:,} mesh primitives, more than the "
+                        f"{MAX_NODES:,} a glTF may place")
+    if most is not None:
+        for count, what in ((triangles, "triangles"), (vertices, "vertices")):
+            if count > most:
+                raise GltfError(f"its nodes draw {count:,} {what}, counting every placement of "
+                                f"a mesh; more than the {most:,} a mesh file may draw")
 
 
 def base_colour(material) -> list[float] | None:
@@ -250,18 +380,23 @@ def _checked(check, *args):
         raise GltfError(f"malformed glTF fields ({type(error).__name__}: {error})") from None
 
 
-def safe_glb(data: bytes, base: Path | None = None, root: Path | None = None) -> bytes:
-    """GLB bytes ready for trimesh: URIs checked (see :func:`check_uris`), unused parts out."""
+def safe_glb(data: bytes, base: Path | None = None, root: Path | None = None,
+             most: int | None = None) -> bytes:
+    """GLB bytes ready for trimesh: URIs checked (see :func:`check_uris`), the node tree
+    checked (with ``most``, what it draws: :func:`check_tree`), unused parts out."""
     document, binary = split_glb(data)
     _checked(check_uris, document, base, root)
     _checked(check_accessors, document, len(binary))
+    _checked(_check_drawn, document, most)
     return join_glb(_checked(geometry_only, document), binary)
 
 
-def safe_gltf(data: bytes, base: Path, root: Path) -> tuple[bytes, list[Path]]:
-    """A .gltf's JSON ready for trimesh, its URIs checked as for :func:`safe_glb`, and the
-    buffer files it will read."""
+def safe_gltf(data: bytes, base: Path, root: Path, most: int | None = None
+              ) -> tuple[bytes, list[tuple[str, Path, int]]]:
+    """A .gltf's JSON ready for trimesh, checked as for :func:`safe_glb`, and the buffer
+    files it will read (:func:`check_uris`)."""
     document = _parse_json(data)
     files = _checked(check_uris, document, base, root)
     _checked(check_accessors, document)
+    _checked(_check_drawn, document, most)
     return json.dumps(_checked(geometry_only, document)).encode(), files

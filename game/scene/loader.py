@@ -72,6 +72,9 @@ LIGHT_KEYS: dict[str, tuple[str, ...]] = {   # besides kind, color and intensity
 # Every light's maps share one depth array and one shadow budget; the shading pass's light
 # records are a uniform block.
 MAX_LIGHTS = 64
+# Each character gets its own shadow map and walks every frame: as many as a [generate] town
+# may have walkers (game/scene/generate.py), checked before any of them is built.
+MAX_CHARACTERS = 4096
 LINEAR_LIGHT_KEYS = ("a", "b")
 BODY_KEYS = ("shape", "position", "rotation", "scale", "color")
 CHARACTER_KEYS = ("shape", "path", "speed", "phase", "rotation", "scale", "color")
@@ -347,8 +350,12 @@ def parse_scene(text: str, source: Path | None = None, base_dir: Path | None = N
     floors = [_parse_body(ctx, "floor", i, d) for i, d in enumerate(_entries(ctx, data, "floor"))]
     statics = [_parse_body(ctx, "static", i, d)
                for i, d in enumerate(_entries(ctx, data, "static"))]
-    characters = [_parse_character(ctx, i, d)
-                  for i, d in enumerate(_entries(ctx, data, "character"))]
+    written = _entries(ctx, data, "character")
+    if len(written) > MAX_CHARACTERS:
+        ctx.fail("character", MAX_CHARACTERS, None,
+                 f"at most {MAX_CHARACTERS:,} characters, got {len(written):,} (a [generate] "
+                 "town's walkers are counted apart)")
+    characters = [_parse_character(ctx, i, d) for i, d in enumerate(written)]
     if "generate" in data:
         _add_generated(ctx, data["generate"], floors, statics, characters, lights)
     return Scene(name=name, source=source, camera=camera, lights=lights, linear_light=linear_light,

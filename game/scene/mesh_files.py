@@ -7,7 +7,9 @@ every file a glTF or GLB names by URI (game/gltf.py, whatever trimesh itself wou
 from __future__ import annotations
 
 import io
+import os
 import re
+import stat
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -17,10 +19,14 @@ import numpy as np
 import trimesh
 
 from game import gltf
+from game.scene.parts import MAX_PARTS, obj_part_count
 
 MESH_SUFFIXES = (".obj", ".stl", ".ply", ".glb", ".gltf")
 MAX_MESH_FILE_BYTES = 512 * 2**20  # one mesh file (with a glTF's buffer files)
 MAX_FILE_COORDINATE = 1e9  # a vertex coordinate in the file's own units, before its scale
+# What one mesh file may draw, counting every placement of a glTF mesh by its nodes: as much as
+# the largest generated town (game/scene/generate.py), checked before anything is allocated.
+MAX_INSTANCED_TRIANGLES = 16_000_000
 FILE_PART = "file_part"
 """The face attribute that holds each face's part of the file's own structure (an index)."""
 FILE_COLOUR = "file_colour"
@@ -60,6 +66,49 @@ def inside(base_dir: Path, relative: str, fail: Callable[[str], NoReturn]) -> Pa
     if not full.is_relative_to(root):
         fail(f"path resolves outside the scene's folder (through a symlink): {relative}")
     return full
+
+
+def regular_file(path: Path, shown: str, fail: Callable[[str], NoReturn]) -> Path:
+    """``path`` (already resolved inside the scene's folder) if it is a regular file; every file
+    a scene or a glTF names passes here before it is opened. A FIFO would block the read for
+    good, and a device or a folder never gives a mesh."""
+    try:
+        mode = path.stat().st_mode
+    except FileNotFoundError:
+        fail(f"file not found: {shown}")
+    except OSError as error:
+        fail(f"cannot open {shown}: {error.strerror or error}")
+    if not stat.S_ISREG(mode):
+        kind = ("a folder" if stat.S_ISDIR(mode) else "a FIFO" if stat.S_ISFIFO(mode)
+                else "a device or socket")
+        fail(f"{shown}: not a regular file ({kind})")
+    return path
+
+
+class CheckedFiles(trimesh.resolvers.Resolver):
+    """What trimesh may read for a glTF: the buffer files already checked, by their URI as
+    the file writes it, and nothing else (trimesh's own resolver would stop at the glTF's
+    folder, which is narrower than the scene's, and open whatever it is given)."""
+
+    def __init__(self, files: dict[str, Path]):
+        self.files = files
+
+    def get(self, key: str) -> bytes:
+        # Opened without blocking and checked again, in case the file was swapped since.
+        handle = os.open(self.files[key], os.O_RDONLY | os.O_NONBLOCK)
+        with os.fdopen(handle, "rb") as buffer:
+            if not stat.S_ISREG(os.fstat(handle).st_mode):
+                raise OSError(f"{key}: not a regular file")
+            return buffer.read()
+
+    def keys(self):
+        return self.files.keys()
+
+    def write(self, name: str, data) -> None:
+        raise OSError("mesh files are only read")
+
+    def namespaced(self, namespace: str) -> CheckedFiles:
+        return self
 
 
 def binary_stl_damage(head: bytes, size: int) -> str | None:
@@ -122,8 +171,7 @@ def _checked_file(relative: str, base_dir: Path,
     if suffix not in MESH_SUFFIXES:
         fail(f"unsupported mesh format '{suffix or relative}' "
              f"(expected {', '.join(MESH_SUFFIXES)})")
-    if not path.is_file():
-        fail(f"file not found: {relative}" if not path.exists() else f"not a file: {relative}")
+    regular_file(path, relative, fail)
     try:
         with path.open("rb") as probe:
             empty = not probe.read(1)
@@ -141,33 +189,56 @@ def _checked_file(relative: str, base_dir: Path,
 def _trimesh_source(path: Path, relative: str, suffix: str, size: int, base_dir: Path,
                     fail: Callable[[str], NoReturn]) -> tuple[Any, dict[str, Any]]:
     """What to hand ``trimesh.load`` for the file (its path, or the checked bytes of a glTF or
-    GLB) and the keyword arguments its format needs; a damaged binary STL fails here."""
+    GLB) and the keyword arguments its format needs; a damaged binary STL, or an OBJ of more
+    groups than a mesh may have parts, fails here."""
     kwargs: dict[str, Any] = {}
     source: Any = str(path)
     if suffix in (".glb", ".gltf"):
-        # Read here, URIs checked and images left out, before trimesh sees any of it.
-        try:
-            if suffix == ".glb":
-                source = io.BytesIO(gltf.safe_glb(path.read_bytes(), path.parent, base_dir))
-            else:
-                text, buffers = gltf.safe_gltf(path.read_bytes(), path.parent, base_dir)
-                if sum(p.stat().st_size for p in buffers if p.is_file()) > MAX_MESH_FILE_BYTES:
-                    fail(f"the buffers of {relative} hold more than "
-                         f"{MAX_MESH_FILE_BYTES // 2**20} MiB")
-                source = io.BytesIO(text)
-                kwargs["resolver"] = trimesh.resolvers.FilePathResolver(path)
-        except gltf.GltfError as error:
-            fail(f"cannot read mesh {relative}: {error}")
-    elif suffix == ".stl":
+        return _gltf_source(path, relative, suffix, base_dir, fail)
+    if suffix == ".stl":
         with path.open("rb") as stl:
             damage = binary_stl_damage(stl.read(84), size)
         if damage:
             fail(f"cannot read mesh {relative}: {damage}")
     elif suffix == ".obj":
+        # trimesh splits the file by these before any limit could apply, in time and memory
+        # that grow with their number: counted first, in one streaming pass.
+        parts = obj_part_count(path, MAX_PARTS)
+        if parts > MAX_PARTS:
+            fail(f"{relative} has more than {MAX_PARTS:,} objects and groups with faces (o, g "
+                 f"and usemtl); a mesh file may have at most {MAX_PARTS:,} parts")
         # Materials are not used (flat shading), and an mtllib could name a file outside the folder.
         kwargs["skip_materials"] = True
         kwargs.update(split_objects=True, split_groups=True)  # its parts (game/scene/parts.py)
     return source, kwargs
+
+
+def _gltf_source(path: Path, relative: str, suffix: str, base_dir: Path,
+                 fail: Callable[[str], NoReturn]) -> tuple[Any, dict[str, Any]]:
+    """A glTF or GLB read here, URIs, node tree and sizes checked and images left out, before
+    trimesh sees any of it; trimesh reads its buffer files through :class:`CheckedFiles`."""
+    try:
+        if suffix == ".glb":
+            text = gltf.safe_glb(path.read_bytes(), path.parent, base_dir,
+                                 MAX_INSTANCED_TRIANGLES)
+            buffers = gltf.check_uris(gltf.split_glb(text)[0], path.parent, base_dir)
+        else:
+            text, buffers = gltf.safe_gltf(path.read_bytes(), path.parent, base_dir,
+                                           MAX_INSTANCED_TRIANGLES)
+    except gltf.GltfError as error:
+        fail(f"cannot read mesh {relative}: {error}")
+    files, total = {}, 0
+    for uri, full, declared in buffers:
+        shown = full.relative_to(base_dir.resolve()).as_posix()
+        size = regular_file(full, shown, fail).stat().st_size
+        if size < declared:
+            fail(f"cannot read mesh {relative}: its buffer file {shown} holds {size:,} bytes; "
+                 f"the buffer declares {declared:,}")
+        total += size
+        files[uri] = full
+    if total > MAX_MESH_FILE_BYTES:
+        fail(f"the buffers of {relative} hold more than {MAX_MESH_FILE_BYTES // 2**20} MiB")
+    return io.BytesIO(text), {"resolver": CheckedFiles(files)}
 
 
 def _read_pieces(source: Any, relative: str, suffix: str, kwargs: dict[str, Any],

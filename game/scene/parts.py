@@ -12,11 +12,19 @@ works on stays bounded whatever the file holds.
 
 from __future__ import annotations
 
+import re
+from pathlib import Path
+
 import numpy as np
 
 MAX_PARTS = 4096
 """Most parts one mesh is split into: the clumping handles tens of thousands of objects, and
 one entry must leave room for the rest of the level."""
+
+OBJ_SCAN_BYTES = 16 * 2**20
+"""How much of an OBJ file :func:`obj_part_count` holds at a time."""
+_OBJ_STATEMENT = re.compile(rb"^[ \t]*(o|g|usemtl)(?:[ \t]+([^\n]*))?$", re.M)
+_OBJ_FACE = re.compile(rb"^[ \t]*f[ \t]", re.M)
 
 WELD_SHARE = 1e-6
 """Corners closer than this share of the mesh's largest extent are one corner."""
@@ -104,3 +112,29 @@ def mesh_parts(vertices: np.ndarray, faces: np.ndarray, file_parts: np.ndarray |
     np.add.at(sums, components, centroids)
     centres = sums / np.bincount(components, minlength=n)[:, None]
     return median_groups(centres, limit)[components]
+
+
+def obj_part_count(path: Path, limit: int) -> int:
+    """How many parts trimesh would split an OBJ file into, by object (``o``), group (``g``)
+    and material (``usemtl``): the distinct (object, group, material) names that hold faces.
+    One streaming pass over the file, stopping once the count passes ``limit``."""
+    current: dict[bytes, bytes | None] = {b"o": None, b"g": None, b"usemtl": None}
+    seen: set[tuple] = set()
+    carry = b""
+    with path.open("rb") as obj:
+        while len(seen) <= limit:
+            block = obj.read(OBJ_SCAN_BYTES)
+            text = carry + block
+            cut = text.rfind(b"\n") + 1 if block else len(text)
+            text, carry = text[:cut], text[cut:]
+            start = 0
+            for statement in _OBJ_STATEMENT.finditer(text):
+                if _OBJ_FACE.search(text, start, statement.start()):
+                    seen.add(tuple(current.values()))
+                current[statement.group(1)] = (statement.group(2) or b"").strip()
+                start = statement.end()
+            if _OBJ_FACE.search(text, start):
+                seen.add(tuple(current.values()))
+            if not block:
+                break
+    return len(seen)

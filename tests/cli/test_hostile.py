@@ -523,3 +523,236 @@ def test_sigterm_while_the_modules_load_is_the_same_one_line(sig, status, line):
     _, err = proc.communicate(timeout=60)
     if proc.returncode != 0:  # 0: it had finished already on a fast machine
         assert proc.returncode == status and err.strip().splitlines() == [line], err
+
+
+# -- files a glTF names, node trees, instancing, OBJ groups and crowds -----------------------
+
+def gltf_scene(folder: Path, name: str, document: dict, binary: bytes = b"") -> str:
+    """Write ``document`` (with ``binary`` for a GLB) as ``name`` inside ``folder``."""
+    target = folder / name
+    target.parent.mkdir(parents=True, exist_ok=True)
+    if name.endswith(".glb"):
+        target.write_bytes(gltf.join_glb(document, binary))
+    else:
+        target.write_text(json.dumps(document))
+    return mesh_scene(folder, name)
+
+
+def one_triangle() -> tuple[dict, bytes]:
+    """The document and binary data of :func:`glb_with` without extras."""
+    document, binary = gltf.split_glb(glb_with({}))
+    return document, binary
+
+
+@pytest.mark.parametrize("special", ["fifo", "folder"])
+def test_a_gltf_buffer_that_is_not_a_regular_file_is_refused_not_opened(tmp_path, special):
+    folder = tmp_path / "scene"
+    folder.mkdir()
+    if special == "fifo":
+        os.mkfifo(folder / "m.bin")  # opening it for reading would wait for a writer for good
+    else:
+        (folder / "m.bin").mkdir()
+    document, _ = one_triangle()
+    document["buffers"] = [{"uri": "m.bin", "byteLength": 48}]
+    (folder / "s.toml").write_text(gltf_scene(folder, "m.gltf", document))
+    result = subprocess.run([sys.executable, "-m", "game", "capture", str(folder / "s.toml"),
+                             "--size", "16x9", "--out", str(tmp_path / "o")], cwd=ROOT,
+                            capture_output=True, text=True, timeout=60)
+    assert result.returncode == 1, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "static[2].file" in lines[0], lines
+    assert "m.bin: not a regular file" in lines[0], lines
+
+
+def test_a_mesh_file_that_is_a_fifo_is_refused_not_opened(capsys, tmp_path):
+    folder = tmp_path / "scene"
+    folder.mkdir()
+    os.mkfifo(folder / "m.obj")
+    expect_scene_error(capsys, folder, mesh_scene(folder, "m.obj"), None, "static[2].file",
+                       "m.obj: not a regular file")
+
+
+def chain_of_nodes(count: int) -> dict:
+    document, _ = one_triangle()
+    document["nodes"] = [{"mesh": 0, "children": [i + 1]} for i in range(count - 1)]
+    document["nodes"].append({"mesh": 0})
+    return document
+
+
+def test_a_deep_chain_of_glb_nodes_is_refused_at_once(capsys, tmp_path):
+    folder = tmp_path / "scene"
+    folder.mkdir()
+    _, binary = one_triangle()
+    start = time.perf_counter()
+    expect_scene_error(capsys, folder, gltf_scene(folder, "m.glb", chain_of_nodes(5000), binary),
+                       None, "static[2].file", "nodes nest deeper than",
+                       str(gltf.MAX_NODE_DEPTH))
+    assert time.perf_counter() - start < 10
+
+
+def test_glb_node_count_and_node_cycles_are_one_line(capsys, tmp_path):
+    folder = tmp_path / "scene"
+    folder.mkdir()
+    document, binary = one_triangle()
+    count = gltf.MAX_NODES + 1
+    document["nodes"] = [{} for _ in range(count)]
+    expect_scene_error(capsys, folder, gltf_scene(folder, "many.glb", document, binary), None,
+                       "static[2].file", f"{count:,} nodes", f"{gltf.MAX_NODES:,}")
+    document["nodes"] = [{"mesh": 0, "children": [1]}, {"children": [0]}]
+    expect_scene_error(capsys, folder, gltf_scene(folder, "loop.glb", document, binary), None,
+                       "static[2].file", "node 0 has more than one parent")
+
+
+def test_a_glb_within_the_node_limits_loads(tmp_path):
+    from game.scene import load_scene
+
+    folder = tmp_path / "scene"
+    folder.mkdir()
+    _, binary = one_triangle()
+    text = gltf_scene(folder, "m.glb", chain_of_nodes(gltf.MAX_NODE_DEPTH), binary)
+    (folder / "s.toml").write_text(text)
+    assert len(load_scene(folder / "s.toml").statics[2].mesh.faces) == gltf.MAX_NODE_DEPTH
+
+
+def test_a_gltf_instancing_bomb_is_refused_before_anything_is_allocated(capsys, tmp_path,
+                                                                          monkeypatch):
+    from game.scene.mesh_files import MAX_INSTANCED_TRIANGLES
+
+    folder = tmp_path / "scene"
+    folder.mkdir()
+    document, binary = one_triangle()
+    triangles = 30_000   # indices into the same three corners: 360 kB that draw 30,000 triangles
+    indices = np.tile(np.array([0, 1, 2], np.uint32), triangles).tobytes()
+    nodes = MAX_INSTANCED_TRIANGLES // triangles + 1
+    document["accessors"][1]["count"] = 3 * triangles
+    document["bufferViews"][1]["byteLength"] = len(indices)
+    document["buffers"][0]["byteLength"] = 36 + len(indices)
+    document["nodes"] = [{"mesh": 0, "translation": [i, 0, 0]} for i in range(nodes)]
+    document["scenes"] = [{"nodes": list(range(nodes))}]
+    monkeypatch.setattr(trimesh, "load", lambda *a, **k: pytest.fail("trimesh got the file"))
+    expect_scene_error(capsys, folder, gltf_scene(folder, "m.glb", document,
+                                                  binary[:36] + indices),
+                       None, "static[2].file", f"{nodes * triangles:,} triangles",
+                       f"{MAX_INSTANCED_TRIANGLES:,}")
+
+
+def data_uri_declaring_more() -> dict:
+    import base64
+
+    document, binary = one_triangle()
+    uri = "data:application/octet-stream;base64," + base64.b64encode(binary).decode()
+    document["buffers"] = [{"uri": uri, "byteLength": 10**9}]
+    document["bufferViews"][1]["byteLength"] = 1000   # inside what the buffer declares
+    return document
+
+
+def float_indices() -> dict:
+    document, _ = one_triangle()
+    document["accessors"][1]["componentType"] = 5126
+    document["bufferViews"][1]["byteStride"] = 1
+    return document
+
+
+def scene_five() -> dict:
+    document, _ = one_triangle()
+    document.update(scene=5, scenes=[])
+    return document
+
+
+@pytest.mark.parametrize("make, fragment", [
+    (data_uri_declaring_more, "buffer 0 declares 1,000,000,000 bytes; its data holds 48"),
+    (float_indices, "byteStride 1"),
+    (scene_five, "'scene' is 5, but the file has 0 scenes"),
+])
+def test_gltf_problems_are_named_in_the_projects_words(capsys, tmp_path, make, fragment):
+    folder = tmp_path / "scene"
+    folder.mkdir()
+    _, binary = one_triangle()
+    document = make()
+    message = expect_scene_error(capsys, folder, gltf_scene(folder, "m.glb", document, binary),
+                                 None, "static[2].file", "cannot read mesh m.glb", fragment)
+    assert "Error" not in message and "index out of range" not in message
+
+
+def test_float_indices_are_named(capsys, tmp_path):
+    folder = tmp_path / "scene"
+    folder.mkdir()
+    document, binary = one_triangle()
+    document["accessors"][1]["componentType"] = 5126
+    expect_scene_error(capsys, folder, gltf_scene(folder, "m.glb", document, binary), None,
+                       "static[2].file", "indices", "unsigned")
+
+
+def test_a_gltf_buffer_in_a_parent_folder_inside_the_scene_folder_loads(capsys, tmp_path):
+    from game.scene import load_scene
+
+    folder = tmp_path / "scene"
+    folder.mkdir()
+    document, binary = one_triangle()
+    (folder / "m.bin").write_bytes(binary)
+    document["buffers"] = [{"uri": "../m.bin", "byteLength": len(binary)}]
+    (folder / "s.toml").write_text(gltf_scene(folder, "sub/m.gltf", document))
+    assert len(load_scene(folder / "s.toml").statics[2].mesh.faces) == 1
+    (tmp_path / "x.bin").write_bytes(binary)
+    document["buffers"] = [{"uri": "../../x.bin", "byteLength": len(binary)}]
+    expect_scene_error(capsys, folder, gltf_scene(folder, "sub/m.gltf", document), None,
+                       "static[2].file", "leaves the scene's folder")
+
+
+@pytest.mark.parametrize("keyword", ["g", "o", "usemtl"])
+def test_an_obj_with_more_groups_than_parts_is_refused_while_read(capsys, tmp_path,
+                                                                    monkeypatch, keyword):
+    from game.scene.parts import MAX_PARTS
+
+    folder = tmp_path / "scene"
+    folder.mkdir()
+    count = MAX_PARTS + 1
+    with open(folder / "m.obj", "w") as obj:
+        obj.write("v 0 0 0\nv 1 0 0\nv 0 1 0\n")
+        obj.writelines(f"{keyword} part{i}\nf 1 2 3\n" for i in range(count))
+    monkeypatch.setattr(trimesh, "load", lambda *a, **k: pytest.fail("trimesh got the file"))
+    expect_scene_error(capsys, folder, mesh_scene(folder, "m.obj"), None, "static[2].file",
+                       f"more than {MAX_PARTS:,}")
+
+
+def test_obj_groups_that_repeat_a_name_or_hold_no_faces_are_not_counted_twice(tmp_path):
+    from game.scene import load_scene
+    from game.scene.parts import MAX_PARTS
+
+    folder = tmp_path / "scene"
+    folder.mkdir()
+    with open(folder / "m.obj", "w") as obj:
+        obj.write("v 0 0 0\nv 1 0 0\nv 0 1 0\n")
+        obj.writelines(f"o empty{i}\ng same\nf 1 2 3\n" for i in range(3))
+        obj.writelines("g same\r\nf 1 2 3\n" for _ in range(MAX_PARTS + 1))
+    (folder / "s.toml").write_text(mesh_scene(folder, "m.obj"))
+    assert len(load_scene(folder / "s.toml").statics[2].mesh.faces) == MAX_PARTS + 4
+
+
+def test_hand_written_characters_past_the_limit_are_refused_at_once(capsys, tmp_path):
+    from game.scene.loader import MAX_CHARACTERS
+
+    walker = ('\n[[character]]\nshape = "capsule"\nradius = 0.3\nheight = 1.8\n'
+              'path = [[-3.0, 0.9, -3.0], [3.0, 0.9, -3.0]]\n')
+    start = time.perf_counter()
+    expect_scene_error(capsys, tmp_path, TINY + walker * MAX_CHARACTERS, None,
+                       f"character[{MAX_CHARACTERS}]", f"at most {MAX_CHARACTERS:,} characters")
+    assert time.perf_counter() - start < 10
+
+
+def test_glb_primitives_placed_past_the_limit_and_zero_accessors_in_all(capsys, tmp_path):
+    folder = tmp_path / "scene"
+    folder.mkdir()
+    document, binary = one_triangle()
+    primitive = document["meshes"][0]["primitives"][0]
+    document["meshes"][0]["primitives"] = [primitive, primitive]
+    nodes = gltf.MAX_NODES // 2 + 1
+    document["nodes"] = [{"mesh": 0} for _ in range(nodes)]
+    document["scenes"] = [{"nodes": list(range(nodes))}]
+    expect_scene_error(capsys, folder, gltf_scene(folder, "prims.glb", document, binary), None,
+                       "static[2].file", f"{2 * nodes:,} mesh primitives")
+    document, binary = one_triangle()
+    each = gltf.MAX_ZERO_ACCESSOR_BYTES // 12 * 2 // 3   # two thirds of the limit, twice
+    document["accessors"] += [{"componentType": 5126, "count": each, "type": "VEC3"}] * 2
+    expect_scene_error(capsys, folder, gltf_scene(folder, "zeros.glb", document, binary), None,
+                       "static[2].file", "without data declare more than 64 MiB in all")

@@ -662,7 +662,7 @@ def test_non_mesh_files(tmp_path):
     expect_mesh_error(tmp_path, "text.obj", "no triangles")
     expect_mesh_error(tmp_path, "junk.glb", "cannot read mesh")
     expect_mesh_error(tmp_path, "junk.ply", "cannot read mesh")
-    expect_mesh_error(tmp_path, "folder.obj", "not a file")
+    expect_mesh_error(tmp_path, "folder.obj", "folder.obj: not a regular file (a folder)")
 
 
 def test_bad_mesh_contents(tmp_path):
