@@ -13,7 +13,7 @@ import secrets
 import stat
 import struct
 import zlib
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import BinaryIO
@@ -21,6 +21,45 @@ from typing import BinaryIO
 import numpy as np
 
 from game.app import interrupts
+from game.errors import GameError
+
+
+class WriteError(GameError, OSError):
+    """A file that could not be written (a full disk, a quota, a read-only folder), named in
+    its one-line message. Still an OSError, for code that handles failed writes as such."""
+
+
+def _write_error(path: Path, error: OSError) -> WriteError:
+    if isinstance(error, WriteError):
+        return error
+    # Errors from writing to a file descriptor (ENOSPC, EDQUOT, EIO) carry no file name; the
+    # temp file's name would mean nothing to the user: name the file being written.
+    return WriteError(f"{path}: cannot write: {error.strerror or error}")
+
+
+_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a pipe"), (stat.S_ISCHR, "a device"),
+          (stat.S_ISBLK, "a device"), (stat.S_ISSOCK, "a socket"))
+
+
+def check_paths(files: Sequence[Path] = (), folders: Sequence[Path] = ()) -> None:
+    """Refuse, before any work, an output that is in the way: one of ``files`` (to be written,
+    or read back and rewritten) that exists and is not a regular file, or one of ``folders``
+    that exists and is not a folder. A run would otherwise fail only once its work is done, or
+    wait for good on a pipe it reads."""
+    for path, want_dir in [(f, False) for f in files] + [(d, True) for d in folders]:
+        try:
+            mode = os.stat(path).st_mode
+        except FileNotFoundError:
+            continue
+        except OSError as error:  # a file where a folder on the way should be, a loop of links
+            raise WriteError(f"{path}: cannot be written: {error.strerror}") from None
+        if want_dir and not stat.S_ISDIR(mode):
+            raise WriteError(f"{path}: exists and is not a folder; move it away or choose "
+                             "another --out")
+        if not want_dir and not stat.S_ISREG(mode):
+            kind = next((word for test, word in _KINDS if test(mode)), "something else")
+            raise WriteError(f"{path}: {kind}, not a regular file; move it away or choose "
+                             "another --out")
 
 
 def _umask() -> int:
@@ -53,7 +92,10 @@ def together():
         yield
         with interrupts.deferred():
             for tmp, path in _group:
-                os.replace(tmp, path)
+                try:
+                    os.replace(tmp, path)
+                except OSError as error:
+                    raise _write_error(path, error) from None
     except BaseException:
         for tmp, _path in _group:
             tmp.unlink(missing_ok=True)
@@ -138,6 +180,9 @@ def atomic_file(path: str | Path):
                 _group.append((tmp, path))
             else:
                 os.replace(tmp, path)
+    except OSError as error:
+        Path(tmp).unlink(missing_ok=True)
+        raise _write_error(path, error) from None
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from game import transforms
-from game.app import dumps
+from game.app import dumps, outputs
 from game.bench.runs import (
     ERROR_SPACING_S,
     FLICKER_DEG,
@@ -301,7 +301,10 @@ def run_one(ctx, bscene: BenchScene, scene: Scene, spec: RunSpec, opts: BenchOpt
             row.update(_score(ctx, scene, spec, opts, Path(tmp)))
         row["status"] = "ok"
     except FAILURES as exc:
-        row["status"] = f"failed: {type(exc).__name__}: {str(exc).splitlines()[0][:200]}"
+        if isinstance(exc, outputs.WriteError):  # a full disk fails every run after it too
+            raise
+        first = str(exc).splitlines()[0][:200] if str(exc) else ""
+        row["status"] = f"failed: {type(exc).__name__}: {first}"
     error = ctx.error
     if error != "GL_NO_ERROR":
         row["status"] = f"failed: {error}" if row.get("status") == "ok" else row["status"]

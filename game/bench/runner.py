@@ -35,6 +35,7 @@ def run(opts: BenchOptions, ctx=None, command: str = "") -> dict:
     (game/bench/report.py).
     """
 
+    check_outputs(opts.out)
     opts.out.mkdir(parents=True, exist_ok=True)
     (opts.out / "scenes").mkdir(exist_ok=True)
     clean(opts.out)
@@ -77,6 +78,9 @@ def run(opts: BenchOptions, ctx=None, command: str = "") -> dict:
                 rows.append(row)
                 write_rows(csv_path, rows)
                 bar.update(1)
+        except BaseException:
+            bar.leave = False  # wiped from the terminal: a stopped run ends on its one line
+            raise
         finally:
             bar.close()
     finally:
@@ -85,8 +89,45 @@ def run(opts: BenchOptions, ctx=None, command: str = "") -> dict:
     written = charts.write_all(rows, opts.out / "charts", log=opts.log)
     summary = acceptance(rows)
     outputs.write_json(opts.out / "summary.json", summary)
+    planned = {s.run_id(opts.size) for _, s in runs}
+    failed = [(r["run"], str(r["status"])) for r in rows
+              if r["run"] in planned and str(r.get("status", "")).startswith("failed")]
     return {"csv": str(csv_path), "rows": len(rows), "charts": [str(p) for p in written],
-            "summary": summary}
+            "summary": summary, "runs": len(runs), "failed": failed}
+
+
+def check_outputs(out: Path) -> None:
+    """Refuse at once, before any run, an output of the bench that is in the way: bench.csv
+    (read back to resume, then rewritten), run.json, summary.json or a chart that is not a
+    regular file, and charts/ or scenes/ that are not folders."""
+    charts_folder = out / "charts"
+    charts_in_way = sorted(charts_folder.glob("*.png")) + sorted(charts_folder.glob("*.svg")) \
+        if charts_folder.is_dir() else []
+    outputs.check_paths(
+        files=[out / "bench.csv", out / "run.json", out / "summary.json", *charts_in_way],
+        folders=[out, charts_folder, out / "scenes"])
+
+
+def check_suite_outputs(out: Path) -> None:
+    """``bench --suite gpu``'s files and folders (game/bench/gpu_suite.py), checked before any
+    of its parts runs."""
+    soft = out / "soft"
+    outputs.check_paths(
+        files=[out / "summary.json", out / "summary.md", out / "window.json",
+               *(soft / name for name in ("soft_sweep.csv", "soft_sweep.json", "soft_sweep.png",
+                                          "soft_sweep_counters.png"))],
+        folders=[soft])
+    check_outputs(out / "hard")
+
+
+def failure_line(result: dict) -> str:
+    """One line for the runs of ``run``'s result that failed: how many, and the first one's
+    run and reason (bench.csv holds every reason)."""
+    failed = result["failed"]
+    run, status = failed[0]
+    reason = status.removeprefix("failed: ").splitlines()[0] if status.strip() else status
+    return (f"bench: {len(failed)} of {result['runs']} runs failed (the first: {run}: "
+            f"{reason}); the status column of {result['csv']} says why for each")
 
 
 def write_run_record(out: Path, command: str, gl: dict) -> None:
@@ -134,7 +175,8 @@ def _progress(total: int, enabled: bool):
         from tqdm import tqdm
     except ImportError as exc:
         raise GameError("bench needs tqdm and matplotlib: pip install -e '.[bench]'") from exc
-    return tqdm(total=total, disable=not enabled, unit="run", file=sys.stderr,
+    # None: drawn only on a terminal; a pipe or a log file would keep every redraw.
+    return tqdm(total=total, disable=None if enabled else True, unit="run", file=sys.stderr,
                 dynamic_ncols=True)
 
 

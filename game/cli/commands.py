@@ -86,6 +86,8 @@ def cmd_bench(args) -> int:
         return _report(args)
     if args.suite == "gpu":
         return _gpu_suite(args)
+    if args.suite == "cache":
+        return _cache_suite(args)
     args.out = args.out or Path("bench")
     _check_out(args.out)
     quick = args.quick
@@ -123,14 +125,17 @@ def cmd_bench(args) -> int:
                    if key in registry.METHODS[m].parameters]
         if not readers:
             raise ArgumentError(f"--param {key}: no selected method reads it")
+    # What the bench tells along the way goes to standard output: standard error holds only
+    # what went wrong, so that a stopped or failed bench says so in one line there.
     opts = runs.BenchOptions(
         out=args.out, quick=quick, size=args.size, repeat=args.repeat,
         scenes=patterns or None, user_scenes=files, methods=methods, params=params,
-        progress=not args.no_progress, **values)
+        progress=not args.no_progress, log=say, **values)
     if args.list:
         for _scene, spec in runs.plan_runs(opts, MAX_SIZE):
             say(spec.run_id(opts.size))
         return 0
+    bench.check_outputs(args.out)
     opts.reference = bench.reference_available()
     if not opts.reference:
         say("note: embreex missing: no shadow error or reference flicker "
@@ -142,6 +147,8 @@ def cmd_bench(args) -> int:
         say(f"  {c['scene']}: clumped {c['clumped_ms']:.1f} ms, error "
             f"{100 * c['clumped_error']:.2f}% vs {c['baseline']}: {c['baseline_ms']:.1f} ms, "
             f"{100 * c['baseline_error']:.2f}% -> {c['speedup']:.1f}x")
+    if result["failed"]:  # every other run was made, and its row and charts written
+        raise GameError(bench.failure_line(result))
     return 0
 
 
@@ -168,7 +175,7 @@ def _report(args) -> int:
 
 
 def _gpu_suite(args) -> int:
-    from game.bench import gpu_suite
+    from game.bench import gpu_suite, runner
 
     given = [flag for flag, value in (("--scenes", args.scenes), ("--methods", args.methods),
                                       ("--param", args.param), ("--list", args.list),
@@ -179,11 +186,31 @@ def _gpu_suite(args) -> int:
                             "belong to the sweep")
     out = args.out or Path("bench_gpu")
     _check_out(out)
+    runner.check_suite_outputs(out)
     summary = gpu_suite.run(gpu_suite.Suite(out=out, quick=args.quick,
-                                            progress=not args.no_progress))
+                                            progress=not args.no_progress, log=say))
     done = [p["part"] for p in summary["parts"] if p["status"] == "ok"]
     say(f"bench --suite gpu: {', '.join(done) or 'nothing'} done in {summary['wall_s']} s; "
         f"{out / 'summary.md'}")
+    return 0
+
+
+def _cache_suite(args) -> int:
+    from game.bench import cache_suite
+
+    given = [flag for flag, value in (("--scenes", args.scenes), ("--methods", args.methods),
+                                      ("--param", args.param), ("--list", args.list),
+                                      ("--frames", args.frames), ("--repeat", args.repeat > 1))
+             if value]
+    if given:
+        raise ArgumentError(f"--suite cache measures a fixed set; {', '.join(given)} "
+                            "belong to the sweep")
+    out = args.out or Path("bench_cache")
+    _check_out(out)
+    suite = cache_suite.CacheSuite(out=out, quick=args.quick, log=lambda line: say(line, err=True))
+    summary = cache_suite.run(suite, command=_command_line())
+    say(f"bench --suite cache: {summary['rows']} rows in {summary['csv']} in "
+        f"{summary['wall_s']} s" + "".join(f"; {n}" for n in summary["notes"]))
     return 0
 
 
@@ -333,8 +360,10 @@ def _error_line(err: dict) -> str:
 
 def _scene_of_dumps(folder: Path, frames: list[Path], scene_arg: str | None):
     """The scene the dumps were captured from: ``SCENE`` if it is that scene, else the one the
-    dumps record (read again, and checked against the recorded hash)."""
-    from game.reference.score import recorded_scene
+    dumps record (hashed first, and parsed only if its bytes hash to the recorded hash)."""
+    from game.reference.score import file_with_hash, recorded_scene
+    from game.scene import parse_scene
+    from game.scene.loader import MAX_SCENE_BYTES
 
     records = [recorded_scene(npz) for npz in frames]
     recorded = {r[:2] for r in records if r is not None}
@@ -353,18 +382,19 @@ def _scene_of_dumps(folder: Path, frames: list[Path], scene_arg: str | None):
         raise GameError(f"{folder}: {unrecorded} of the dumps do not record their scene; name "
                         f"it: python -m game verify {folder} SCENE")
     name, sha, absolute = next(r for r in records if r is not None)
+    # A dump may name any file (/etc/passwd): only the very bytes that were captured are parsed.
     candidates = [Path(p) for p in (absolute, name) if p]
-    found = [p for p in candidates if p.is_file()]
-    if not found:
+    found = file_with_hash(candidates, sha, MAX_SCENE_BYTES)
+    there = [p for p in candidates if p.exists()]
+    if found is None and not there:
         raise GameError(f"{folder}: the recorded scene {name!r} is not found from here; "
                         f"name it: python -m game verify {folder} SCENE")
-    for path in found:
-        scene = _load(str(path))
-        if scene.sha256 == sha:
-            return scene
-    raise GameError(f"{found[0]}: not the file these dumps were captured from (its sha256 "
-                    "differs from the recorded one: changed since, or another file); name the "
-                    "scene that was captured")
+    if found is None:
+        raise GameError(f"{there[0]}: not the file these dumps were captured from (it does not "
+                        f"match the recorded sha256 {sha[:12]}...: changed since, or another "
+                        f"file); name the scene: python -m game verify {folder} SCENE")
+    path, data = found  # UTF-8: the capture parsed these very bytes
+    return parse_scene(data.decode("utf-8", "replace"), source=path, base_dir=path.parent)
 
 
 def cmd_default() -> int:

@@ -23,6 +23,7 @@ import numpy as np
 import trimesh
 
 from game import gltf
+from game.reference.dump_format import format_problem
 
 # Shadow-ray start offset, as a fraction of the scene's bounding-box diagonal: large enough to step
 # past the float32 rounding of the dumped position and of Embree's own arithmetic (both about
@@ -147,7 +148,7 @@ def load_frame(npz_path: str | Path) -> dict[str, Any]:
     array is returned as stored. No pickles are loaded: a dump is data, not code.
     """
     with np.load(npz_path, allow_pickle=False) as data:
-        check_declared_sizes(data)
+        check_declared_sizes(data, Path(npz_path).name)
         frame: dict[str, Any] = {key: data[key] for key in data.files}
     if "names" in frame:
         frame["names"] = [str(name) for name in frame["names"]]
@@ -168,11 +169,12 @@ def _declared(data, key: str) -> tuple[tuple[int, ...], np.dtype]:
     return tuple(int(n) for n in shape), np.dtype(dtype)
 
 
-def check_declared_sizes(data) -> None:
-    """Refuse a dump whose arrays are larger than its own frame size allows, before reading
-    any of them: a few megabytes of npz can otherwise unpack into tens of gigabytes."""
+def check_declared_sizes(data, name: str = "the dump") -> None:
+    """Refuse a dump (the file ``name``) whose arrays are larger than its own frame size allows,
+    or not of the type and shape the format says (game/reference/dump_format.py), before
+    reading any of them: a few megabytes of npz can otherwise unpack into tens of gigabytes."""
     if "size" not in data.files:
-        raise ValueError("no 'size' array")
+        raise ValueError(f"{name}: no 'size' array")
     shape, dtype = _declared(data, "size")
     if shape != (2,) or dtype.kind not in "iu":
         raise ValueError("'size' is not two whole numbers")
@@ -193,6 +195,9 @@ def check_declared_sizes(data) -> None:
         if size > limit or wrong_shape:
             raise ValueError(f"array {key!r} declares {shape} of {dtype}, not what a "
                              f"{w}x{h} frame holds")
+        problem = format_problem(key, shape, dtype, w, h)
+        if problem is not None:
+            raise ValueError(f"{name}: {problem}")
         total += size
     if total > MAX_DUMP_BYTES:
         raise ValueError(f"its arrays declare {total / 2**30:.1f} GiB, more than the "

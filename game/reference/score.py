@@ -7,6 +7,9 @@ dump's ``lit_lights`` against shadow rays toward its own light.
 
 from __future__ import annotations
 
+import hashlib
+import os
+import stat
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -14,7 +17,9 @@ from typing import Any
 import numpy as np
 import trimesh
 
+from game.reference.dump_format import missing_to_score
 from game.reference.hard import (
+    check_declared_sizes,
     hard_visibility,
     hard_visibility_lights,
     load_frame,
@@ -69,6 +74,9 @@ def score_dump_lights(npz_path: str | Path, lights: Sequence[Any]) -> dict[str, 
         raise ValueError("a frame needs at least one light to score")
     npz_path = Path(npz_path)
     frame = load_frame(npz_path)
+    missing = missing_to_score(list(frame))
+    if missing is not None:
+        raise ValueError(f"{npz_path.name}: no {missing!r} array")
     layers = light_layers(frame)
     if "lit_lights" in frame and layers.shape[-1] != len(lights):
         raise ValueError(f"'lit_lights' holds {layers.shape[-1]} light(s) and the scene has "
@@ -88,7 +96,34 @@ def recorded_scene(npz_path: str | Path) -> tuple[str, str, str] | None:
     """The ``(scene, scene_sha256, scene_path)`` a dump records (``scene_path``: the file's
     absolute path, or ""), or None for a dump that records none."""
     with np.load(npz_path, allow_pickle=False) as data:
+        check_declared_sizes(data, Path(npz_path).name)
         if "scene" not in data.files or "scene_sha256" not in data.files:
             return None
         path = str(data["scene_path"]) if "scene_path" in data.files else ""
         return str(data["scene"]), str(data["scene_sha256"]), path
+
+
+def file_with_hash(paths: Sequence[Path], sha256: str,
+                   max_bytes: int) -> tuple[Path, bytes] | None:
+    """The first of ``paths`` that is a regular file of at most ``max_bytes`` whose bytes hash
+    to ``sha256``, with those bytes; None when none is.
+
+    A dump names its scene, and a dump may come from anyone: only a file that is byte for byte
+    the recorded one may go on to be parsed. Nothing else is read past its size, and a pipe or
+    a device is never opened for reading (a read from either may never end).
+    """
+    for path in paths:
+        try:
+            if not stat.S_ISREG(os.stat(path).st_mode):
+                continue
+            fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+        except (OSError, ValueError):  # ValueError: a NUL byte in the recorded path
+            continue
+        with os.fdopen(fd, "rb") as f:
+            info = os.fstat(f.fileno())  # the file opened, not the one looked at before
+            if not stat.S_ISREG(info.st_mode) or info.st_size > max_bytes:
+                continue
+            data = f.read(max_bytes + 1)
+        if len(data) <= max_bytes and hashlib.sha256(data).hexdigest() == sha256:
+            return path, data
+    return None

@@ -268,3 +268,57 @@ def test_ctrl_c_during_start_up_ends_the_run_cleanly(tmp_path, delay):
     assert proc.returncode in (0, 130), err[-2000:]
     if proc.returncode == 130:
         assert err.strip().splitlines()[-1] == "interrupted"
+
+
+class _FullDisk:
+    """A file whose writes fail as on a full disk (or a spent quota): OSError with no file
+    name, as the kernel reports them for a file descriptor."""
+
+    def __init__(self, f, code: int):
+        self.f, self.code = f, code
+
+    def write(self, data):
+        raise OSError(self.code, os.strerror(self.code))
+
+    def __getattr__(self, name):
+        return getattr(self.f, name)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.f.close()
+
+
+@pytest.mark.parametrize("code", ["ENOSPC", "EDQUOT", "EIO"])
+def test_a_failed_write_names_the_file_and_leaves_no_temp(tmp_path, monkeypatch, code):
+    import errno
+
+    number = getattr(errno, code)
+    real = os.fdopen
+    monkeypatch.setattr(os, "fdopen", lambda fd, mode: _FullDisk(real(fd, mode), number))
+    target = tmp_path / "stats.json"
+    with pytest.raises(outputs.WriteError) as caught:
+        outputs.write_json(target, {"a": 1})
+    message = str(caught.value)
+    assert message == f"{target}: cannot write: {os.strerror(number)}"
+    assert isinstance(caught.value, OSError)  # still handled as a failed write by OSError code
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_capture_dump_into_a_full_disk_names_the_dump(capsys, tmp_path, monkeypatch):
+    import errno
+
+    from game import cli
+
+    def full(file, *args, **kw):
+        file.write(b"PK")
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(np, "savez_compressed", full)
+    out = tmp_path / "o"
+    code = cli.main(["capture", str(TINY), "--size", "16x9", "--dump", "--out", str(out)])
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert code == 1 and lines == [f"error: {out / 'frame_0000.npz'}: cannot write: No space "
+                                   "left on device"], lines
+    assert list(out.iterdir()) == []  # no temp file, and no part of the frame

@@ -230,7 +230,7 @@ def test_bench_measures_again_a_scene_file_whose_text_changed(tmp_path):
             "--no-progress"]
     assert run("bench", "--scenes", tmp_path / "a" / "tiny.toml", *args).returncode == 0
     second = run("bench", "--scenes", tmp_path / "b" / "tiny.toml", *args)
-    assert second.returncode == 0 and "0 already in" in second.stderr, second.stderr
+    assert second.returncode == 0 and "0 already in" in second.stdout, second.stdout
 
 
 def test_a_default_output_folder_that_cannot_be_made_is_refused_before_any_work(tmp_path):
