@@ -312,7 +312,11 @@ def cmd_verify(args) -> int:
     from game.app import outputs
     from game.reference.score import score_dump_lights
 
-    frames = sorted(args.dumps.glob("frame_*.npz")) if args.dumps.is_dir() else []
+    if not args.dumps.exists():
+        raise ArgumentError(f"{args.dumps}: no such folder (the folder of a capture --dump)")
+    if not args.dumps.is_dir():
+        raise ArgumentError(f"{args.dumps}: not a folder (the folder of a capture --dump)")
+    frames = sorted(args.dumps.glob("frame_*.npz"))
     if not frames:
         raise ArgumentError(f"{args.dumps}: no frame_*.npz dumps (capture with --dump)")
     _check_file("--out", args.out)
