@@ -329,6 +329,9 @@ def parse_scene(text: str, source: Path | None = None, base_dir: Path | None = N
         message = str(error)
         match = re.search(r"at line (\d+)", message)
         line = int(match.group(1)) if match else max(len(text.splitlines()), 1)
+        if _both_light_forms(text):
+            raise SceneError(f"{ctx.label}:{line}: light: a scene has either one [light] table "
+                             "or a [[light]] array, not both") from None
         raise SceneError(f"{ctx.label}:{line}: TOML syntax error: {message}") from None
 
     for key in data:
@@ -389,6 +392,13 @@ def default_scene_path() -> Path:
     """The built-in scene, assets/default.toml: the town square that ``python -m game`` opens
     and every command takes without a SCENE."""
     return ASSET_DIR / "default.toml"
+
+
+def _both_light_forms(text: str) -> bool:
+    """Whether ``text`` has both a ``[light]`` table and a ``[[light]]`` array, which TOML
+    refuses in words of its own ("Cannot overwrite a value")."""
+    return (re.search(r"^\s*\[\s*light\s*\]", text, re.M) is not None
+            and re.search(r"^\s*\[\[\s*light\s*\]\]", text, re.M) is not None)
 
 
 def reference_scene_path() -> Path:

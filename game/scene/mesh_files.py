@@ -75,7 +75,7 @@ def regular_file(path: Path, shown: str, fail: Callable[[str], NoReturn]) -> Pat
     try:
         mode = path.stat().st_mode
     except FileNotFoundError:
-        fail(f"file not found: {shown}")
+        fail(f"file not found: {shown} (looked for at {path})")
     except OSError as error:
         fail(f"cannot open {shown}: {error.strerror or error}")
     if not stat.S_ISREG(mode):

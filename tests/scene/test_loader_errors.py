@@ -166,8 +166,9 @@ def test_a_light_that_is_not_a_table_is_refused(tmp_path, value, where):
 
 def test_a_light_table_and_a_light_array_together_are_refused(tmp_path):
     text = HEAD + ONE_POINT.replace("[[light]]", "[[light]] " + MARK)
-    message = expect_error(tmp_path, text, "TOML syntax error")
-    assert "overwrite" in message
+    message = expect_error(tmp_path, text, "light")
+    assert "either one [light] table or a [[light]] array, not both" in message
+    assert "TOML" not in message
 
 
 def test_missing_light_table(tmp_path):
@@ -238,7 +239,8 @@ def test_symlink_out_of_the_folder_is_refused(tmp_path):
 
 
 def test_missing_mesh_file(tmp_path):
-    expect_mesh_error(tmp_path, "models/nothere.obj", "file not found")
+    message = expect_mesh_error(tmp_path, "models/nothere.obj", "file not found")
+    assert str(tmp_path / "scene" / "models" / "nothere.obj") in message  # where it looked
 
 
 def test_non_mesh_files(tmp_path):
