@@ -18,6 +18,7 @@ from pathlib import Path
 
 from game.app import outputs
 from game.bench.acceptance import is_default
+from game.bench.report_cache import CacheRun, cache_section, is_cache_run, load_cache_run
 from game.bench.rows import read_rows, row_number
 from game.bench.runs import COMPARED_GROUPS, PARAM_KEYS, RERENDER
 from game.errors import GameError
@@ -47,11 +48,13 @@ def write_report(root: Path) -> list[Path]:
     files as they were.
     """
     runs = load_runs(root / "docs" / "runs")
+    caches = [load_cache_run(f) for f in sorted((root / "docs" / "runs").iterdir())
+              if f.is_dir() and is_cache_run(f)]
     results = root / "docs" / "results.md"
     readme = root / "README.md"
     if not readme.is_file():
         raise GameError(f"{readme}: not found (give the checkout's root: bench --report ROOT)")
-    page = results_page(runs, results.parent)
+    page = results_page(runs, results.parent, caches)
     text = replace_block(readme.read_text(encoding="utf-8"), readme_block(runs, readme.parent),
                          readme)
     outputs.write_bytes(results, page.encode())
@@ -64,7 +67,7 @@ def load_runs(folder: Path) -> list[RecordedRun]:
     if not folder.is_dir():
         raise GameError(f"{folder}: no recorded runs (record one with python -m game bench "
                         f"--out {folder}/NAME)")
-    runs = [load_run(f) for f in sorted(folder.iterdir()) if f.is_dir()]
+    runs = [load_run(f) for f in sorted(folder.iterdir()) if f.is_dir() and not is_cache_run(f)]
     if not runs:
         raise GameError(f"{folder}: no recorded runs (record one with python -m game bench "
                         f"--out {folder}/NAME)")
@@ -261,10 +264,13 @@ the charts this page shows need to be kept.
 """
 
 
-def results_page(runs: list[RecordedRun], here: Path) -> str:
-    """The whole of ``docs/results.md``: the two questions first, then every run."""
+def results_page(runs: list[RecordedRun], here: Path, caches: list[CacheRun] = ()) -> str:
+    """The whole of ``docs/results.md``: the two questions first, the soft-shadow cache
+    question, then every run."""
     lines = ["# Results", "", INTRO]
     lines += question_one(runs, here) + question_two(runs, here)
+    for cache in caches:
+        lines += cache_section(cache, here)
     lines += ["## Every recorded run", ""]
     for run in runs:
         lines += run_section(run, here)
