@@ -39,13 +39,14 @@ class HelpFormatter(argparse.HelpFormatter):
     """Each option's help ends with its default, where there is one to show."""
 
     def _get_help_string(self, action) -> str:
-        text = action.help or ""
-        default = action.default
-        if (not action.option_strings or default in (None, False, argparse.SUPPRESS)
+        text, default = action.help or "", action.default
+        # The bounds of whole() and in_range(shown=True) come first.
+        notes = [getattr(action.type, "bounds", None)]
+        if not (not action.option_strings or default in (None, False, argparse.SUPPRESS)
                 or "default" in text):
-            return text
-        shown = _shown(default).replace("%", "%%")
-        return f"{text} (default: {shown})" if text else f"default: {shown}"
+            notes.append("default: " + _shown(default).replace("%", "%%"))
+        notes = "; ".join(n for n in notes if n)
+        return f"{text} ({notes})" if text and notes else text or notes
 
 
 class Parser(argparse.ArgumentParser):
@@ -138,21 +139,30 @@ def positive(text: str) -> float:
     return value
 
 
-def non_negative(text: str) -> float:
-    value = finite(text)
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be zero or more, got {text!r}")
-    return value
-
-
-def in_range(low: float, high: float):
-    """A finite number from ``low`` to ``high``."""
+def in_range(low: float, high: float, shown: bool = False):
+    """A finite number from ``low`` to ``high`` (``shown``: the bounds end its help)."""
     def parse(text: str) -> float:
         value = finite(text)
         if not low <= value <= high:
             raise argparse.ArgumentTypeError(f"must be {low:g}..{high:g}, got {text!r}")
         return value
     parse.__name__ = "number"  # argparse names the type in its messages
+    if shown:
+        parse.bounds = f"{low:g}..{high:g}"
+    return parse
+
+
+def whole(low: int, high: int):
+    """A whole number from ``low`` to ``high``; the bounds end its help."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"must be {low}..{high}, got {text!r}")
+        return value
+    parse.__name__, parse.bounds = "whole number", f"{low}..{high}"
     return parse
 
 
@@ -165,6 +175,11 @@ def unit(text: str) -> float:
 
 scene_time = in_range(-MAX_SCENE_TIME, MAX_SCENE_TIME)
 frame_rate = in_range(*FPS_RANGE)
+# A map narrower than 16 texels has no texel left inside its margins; one side past the GL's
+# GL_MAX_TEXTURE_SIZE is clamped to it with a note, so the top only keeps the number sane.
+map_side = whole(16, 1_000_000)
+# Biases and texel ratios past these reach float32's range in the shaders' blocks.
+bias_texels = in_range(0.0, 1000.0, shown=True)
 
 
 def _add_method_option(parser) -> None:
@@ -184,15 +199,15 @@ def _add_shadow_options(p: argparse.ArgumentParser) -> None:
                    help="number of clumps (default: from --texels-per-metre)")
     g.add_argument("--texels-per-metre", type=positive, default=d.texels_per_metre,
                    help="texel-density target that sets the number of clumps")
-    g.add_argument("--clump-resolution", type=positive_int, default=d.clump_resolution,
+    g.add_argument("--clump-resolution", type=map_side, default=d.clump_resolution,
                    help="texels per side of each clump map")
-    g.add_argument("--character-resolution", type=positive_int,
+    g.add_argument("--character-resolution", type=map_side,
                    default=d.character_resolution,
                    help="most texels per side of a character map")
-    g.add_argument("--min-character-resolution", type=positive_int,
+    g.add_argument("--min-character-resolution", type=map_side,
                    default=d.min_character_resolution,
                    help="fewest texels per side of a character map")
-    g.add_argument("--character-texels-per-pixel", type=non_negative,
+    g.add_argument("--character-texels-per-pixel", type=bias_texels,
                    default=d.character_texels_per_pixel,
                    help="character map texels per pixel where the shadow can be nearest the "
                         "camera; 0 keeps every character map at the most, every frame")
@@ -201,24 +216,24 @@ def _add_shadow_options(p: argparse.ArgumentParser) -> None:
                    help="clumped: size each clump map by what the view needs (up to "
                         "--max-clump-resolution, in the memory the fixed maps would take), "
                         "instead of --clump-resolution for every clump map")
-    g.add_argument("--max-clump-resolution", type=positive_int, default=d.max_clump_resolution,
+    g.add_argument("--max-clump-resolution", type=map_side, default=d.max_clump_resolution,
                    help="clumped with --view-resolution: the largest side of a clump map")
-    g.add_argument("--single-resolution", type=positive_int, default=d.single_resolution,
+    g.add_argument("--single-resolution", type=map_side, default=d.single_resolution,
                    help="texels per side of the single baseline map")
-    g.add_argument("--lamp-resolution", type=positive_int, default=d.lamp_resolution,
+    g.add_argument("--lamp-resolution", type=map_side, default=d.lamp_resolution,
                    help="texels per side of a baseline's map (or cube face) for a spot or "
                         "point light with a range")
-    g.add_argument("--cascades", type=positive_int, default=d.cascades,
+    g.add_argument("--cascades", type=whole(1, 64), default=d.cascades,
                    help="csm: number of cascades")
     g.add_argument("--cascade-lambda", type=unit, default=d.cascade_lambda,
                    help="csm: split blend, 1 logarithmic, 0 uniform")
-    g.add_argument("--cascade-resolution", type=positive_int, default=d.cascade_resolution,
+    g.add_argument("--cascade-resolution", type=map_side, default=d.cascade_resolution,
                    help="csm: texels per side of each cascade")
-    g.add_argument("--normal-bias", type=non_negative, default=d.normal_bias,
+    g.add_argument("--normal-bias", type=bias_texels, default=d.normal_bias,
                    help="normal offset in texels")
-    g.add_argument("--depth-bias", type=non_negative, default=d.depth_bias,
+    g.add_argument("--depth-bias", type=bias_texels, default=d.depth_bias,
                    help="constant depth bias in texels")
-    g.add_argument("--slope-bias", type=non_negative, default=d.slope_bias,
+    g.add_argument("--slope-bias", type=bias_texels, default=d.slope_bias,
                    help="slope-scaled depth bias in texels")
     g.add_argument("--pcf", action=argparse.BooleanOptionalAction, default=None,
                    help="3x3 percentage-closer filtering (default: on in the window, off in "
@@ -358,16 +373,20 @@ def _add_bench_parser(sub) -> None:
         description="Sweep methods x parameters x scenes along a fixed camera path; write "
                     "OUT/bench.csv (one row per run; finished rows are kept and skipped on a "
                     "rerun), OUT/charts/*.png|svg and OUT/summary.json. See docs/results.md.")
-    bench.add_argument("--suite", choices=("gpu",),
+    bench.add_argument("--suite", choices=("gpu", "cache"),
                        help="gpu: the checks meant for a real GPU in one command, within 8 "
                             "minutes: hard shadows on the default scene, the 1 M-triangle town "
                             "and a real level; the window's frame rate; the soft-shadow sweep "
-                            "(see docs/results.md)")
+                            "(see docs/results.md). cache: the soft tracer's CPU twin under a "
+                            "cache simulator, natively and beside Embree, on the courtyard and "
+                            "the monastery (OUT/cache.csv; needs numba and valgrind: "
+                            "pip install -e '.[cache]')")
     bench.add_argument("--quick", action="store_true",
                        help="the short sweep (default scene, a small town, stability scenes), "
                             "or the GPU suite made small")
     bench.add_argument("--out", type=Path, default=None, metavar="DIR",
-                       help="output folder (default: bench, or bench_gpu for --suite gpu)")
+                       help="output folder (default: bench, or bench_gpu, bench_cache for "
+                            "--suite gpu, cache)")
     bench.add_argument("--size", type=size_value, default=(320, 180), metavar="WxH")
     bench.add_argument("--frames", type=positive_int, default=None,
                        help="timed frames per run (default 8, quick 4)")
@@ -418,14 +437,13 @@ def build_parser() -> argparse.ArgumentParser:
     _add_trace_parser(sub)
     _add_bench_parser(sub)
 
-    verify = sub.add_parser(
-        "verify", help="shadow error of dumped frames against Embree shadow rays")
-    verify.add_argument("dumps", type=Path, metavar="DIR", help="a capture --dump folder")
-    verify.add_argument("scene", nargs="?",
-                        help="the scene captured (default: the one the dumps record); a "
-                             "different scene is refused")
-    verify.add_argument("--out", type=Path, metavar="FILE",
-                        help="write the per-frame errors as JSON")
+    verify = sub.add_parser("verify", help="shadow error of dumped frames against Embree")
+    verify.add_argument("dumps", type=Path, metavar="DIR", help="a capture or trace --dump folder")
+    verify.add_argument("scene", nargs="?", help="the scene captured (default: the one the dumps "
+                        "record); a different scene is refused")
+    verify.add_argument("--out", type=Path, metavar="FILE", help="write the errors as JSON")
+    verify.add_argument("--images", action="store_true",
+                        help="write frame_kkkk_errors.png beside each frame: where they disagree")
     return parser
 
 

@@ -6,7 +6,9 @@ note, never crash and never drop a shadow. The degradations, in order:
 
 1. a resolution above GL_MAX_TEXTURE_SIZE is clamped to it;
 2. a budgeted depth array (clumped) over the budget gets coarser layers: the resolution halves
-   until the fewest layers it needs fit; the baselines keep the resolution asked for;
+   until the fewest layers it needs fit; the baselines keep the resolution asked for up to
+   their own budget, ``BASELINE_BUDGET_SHARE`` times it, past which every map's side halves
+   (or, where nothing fits, they are refused in one line before the driver is asked);
 3. the clumped method then shares layers (game/shadows/methods/clumped/): fewer, larger
    clumps; character maps packed into the layers left, the largest halved where they do not
    fit, and merged into shared maps where they outnumber the map records.
@@ -19,11 +21,18 @@ from __future__ import annotations
 
 import dataclasses
 
+from game.errors import GameError
 from game.gpu.limits import GLLimits
 from game.shadows.plan import ShadowSettings, layer_bytes
 from game.shadows.registry import method_class
 
 MIN_MAP_RESOLUTION = 64        # texels per side below which a map is useless; never halve past it
+# The baselines are comparisons at the resolution they name, so their budget is wider than the
+# clumped method's own: 2 GiB at the default, which every shipped scene's baseline fits (night
+# town's static-dynamic takes the most, 896 MiB); many lights with no range (a cube of maps
+# each) would ask the driver for tens of GiB.
+BASELINE_BUDGET_SHARE = 4
+BASELINE_RESOLUTIONS = ("single_resolution", "lamp_resolution", "cascade_resolution")
 
 
 def fit_settings(settings: ShadowSettings, limits: GLLimits,
@@ -72,3 +81,31 @@ def fit_settings(settings: ShadowSettings, limits: GLLimits,
     if not changes:
         return settings, notes
     return dataclasses.replace(settings, **changes), notes
+
+
+def fit_baseline_memory(settings: ShadowSettings, resolution: int,
+                        layers: int) -> tuple[ShadowSettings, str] | None:
+    """A baseline's settings with every map's side halved as often as its depth array
+    (``layers`` of ``resolution`` texels per side) needs to fit the baselines' budget, and the
+    note; None where it fits, or for a method with a budget of its own or no maps.
+
+    Raises GameError (one line) where even maps of MIN_MAP_RESOLUTION do not fit."""
+    method = method_class(settings.method)
+    if method.budgeted or not method.resolution_fields or not layers:
+        return None
+    budget_mib = BASELINE_BUDGET_SHARE * settings.budget_mib
+    res, halvings = resolution, 0
+    while res > MIN_MAP_RESOLUTION and layer_bytes(res) * layers > budget_mib * 2**20:
+        res, halvings = res // 2, halvings + 1
+    needs = f"{layers} maps of {resolution}^2 need {layer_bytes(resolution) * layers / 2**20:g} MiB"
+    if layer_bytes(res) * layers > budget_mib * 2**20:
+        raise GameError(f"{settings.method}: {needs}, and even maps of {res}^2 are over the "
+                        f"{budget_mib:g} MiB the baselines may take ({BASELINE_BUDGET_SHARE} x "
+                        "the shadow budget); use fewer lights, or give them a range")
+    if not halvings:
+        return None
+    smaller = {f: max(1, getattr(settings, f) >> halvings) for f in BASELINE_RESOLUTIONS}
+    return dataclasses.replace(settings, **smaller), (
+        f"{settings.method}: {needs}, over the {budget_mib:g} MiB the baselines may take "
+        f"({BASELINE_BUDGET_SHARE} x the shadow budget); every map's side is halved "
+        f"{halvings} time(s), to {res}^2 at most")

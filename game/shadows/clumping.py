@@ -151,15 +151,25 @@ def object_summaries(
         fp = np.asarray(footprint(chunk), dtype=np.float64)
         if fp.shape != (len(chunk), 2):
             raise ValueError(f"footprint must return shape ({len(chunk)}, 2), got {fp.shape}")
-        if not np.all(np.isfinite(fp)):
+        rects[start:stop] = _reduce_footprint(fp, offsets)
+        if not np.all(np.isfinite(rects[start:stop])) or np.isinf(fp).any():
             raise ValueError(f"footprint of objects {start}..{stop - 1} is not finite")
-        rects[start:stop, :2] = np.minimum.reduceat(fp, offsets, axis=0)
-        rects[start:stop, 2:] = np.maximum.reduceat(fp, offsets, axis=0)
         lo = np.minimum.reduceat(chunk, offsets, axis=0)
         hi = np.maximum.reduceat(chunk, offsets, axis=0)
         centres[start:stop] = 0.5 * (lo + hi)
         start = stop
     return rects, centres
+
+
+def _reduce_footprint(fp: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """Each object's rectangle (xmin, ymin, xmax, ymax) of footprint points ``fp`` split at
+    ``offsets``. A NaN point has no footprint (a caster's vertex at a point light) and is
+    skipped; an object with no other point stays NaN."""
+    if not np.isnan(fp).any():
+        return np.concatenate([np.minimum.reduceat(fp, offsets, axis=0),
+                               np.maximum.reduceat(fp, offsets, axis=0)], axis=1)
+    return np.concatenate([np.fmin.reduceat(fp, offsets, axis=0),
+                           np.fmax.reduceat(fp, offsets, axis=0)], axis=1)
 
 
 def union_rect(rects: np.ndarray) -> np.ndarray:
@@ -199,7 +209,10 @@ def split_wide(corners: np.ndarray, faces: np.ndarray, footprint: Footprint,
     the density target (a level's ground, a long wall) is then clumped piece by piece.
     Returns the pieces' faces, each ascending, in a fixed order."""
     fp = np.asarray(footprint(corners.reshape(-1, 3)), np.float64).reshape(-1, 3, 2)
-    lo, hi = fp.min(axis=1), fp.max(axis=1)
+    if np.isnan(fp).any():  # a corner at a point light has no footprint: the others span it
+        lo, hi = np.fmin.reduce(fp, axis=1), np.fmax.reduce(fp, axis=1)
+    else:
+        lo, hi = fp.min(axis=1), fp.max(axis=1)
     centre = (lo + hi) / 2
     pieces = []
     stack = [np.arange(len(faces))]

@@ -21,6 +21,7 @@ result into map records (game/shadows/methods/clumped/characters.py). Holds no G
 
 from __future__ import annotations
 
+import heapq
 import math
 from collections.abc import Hashable
 from dataclasses import dataclass
@@ -185,8 +186,8 @@ def group(sizes: list[int], rects: np.ndarray | None, max_resolution: int,
     groups = {k: _Group([k], boxes[k], texels[k], sizes[k]) for k in range(n)}
     if merge and n > 1:
         _merge_by_cost(groups, rects, texel, np.asarray(sizes, float), max_resolution)
-    while len(groups) > limit:
-        _merge_nearest(groups, max_resolution)
+    if len(groups) > limit:
+        _merge_nearest(groups, max_resolution, limit)
     out = []
     for g in groups.values():
         x0, y0, x1, y1 = g.box
@@ -255,39 +256,150 @@ def _merge_by_cost(groups: dict[int, _Group], rects: np.ndarray, texel: np.ndarr
 def near_pairs(centre: np.ndarray, reach: np.ndarray
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The pairs i < j of footprints (centres, half sides) less than twice the larger one's
-    half side apart, and their gaps. A sweep along x: pairs further apart along x than any pair
-    may be near are never formed, so a crowd spread over a town costs no n-by-n table."""
+    half side apart, and their gaps: only those in neighbouring cells of a grid as wide as two
+    near footprints may lie apart are paired, so a crowd costs no n-by-n table. (In each gap,
+    the one of a pair earlier along x comes first, as in a sweep along x: the same rounding.)"""
     n = len(centre)
-    order = np.argsort(centre[:, 0], kind="stable")
-    x = centre[order, 0]
     window = 4.0 * float(reach.max()) if n else 0.0  # the most two near footprints lie apart
-    count = np.searchsorted(x, x + window, side="right") - np.arange(n) - 1
-    a = np.repeat(np.arange(n), count)
-    b = a + 1 + np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)
-    p, q = order[a], order[b]
+    if not window > 0.0 or not math.isfinite(window):
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    rank = np.empty(n, np.int64)
+    rank[np.argsort(centre[:, 0], kind="stable")] = np.arange(n)
+    cell = np.floor(centre / (1.01 * window)).astype(np.int64)  # a little wider: no rounding
+    cell -= cell.min(axis=0)                                  # loses a pair across a cell edge
+    rows = int(cell[:, 1].max()) + 3
+    key = cell[:, 0] * rows + cell[:, 1] + 1
+    order = np.argsort(key, kind="stable")
+    sorted_key = key[order]
+    starts, stops = [], []
+    for step in (0, 1, rows - 1, rows, rows + 1):  # this cell and the next four: each pair once
+        starts.append(np.arange(n) + 1 if step == 0 else
+                      np.searchsorted(sorted_key, sorted_key + step, side="left"))
+        stops.append(np.searchsorted(sorted_key, sorted_key + step, side="right"))
+    lo = np.concatenate(starts)
+    count = np.maximum(np.concatenate(stops) - lo, 0)
+    first = np.repeat(np.tile(np.arange(n), 5), count)
+    second = np.repeat(lo, count) + np.arange(int(count.sum())) - np.repeat(
+        np.cumsum(count) - count, count)
+    p, q = order[first], order[second]
+    swap = rank[p] > rank[q]
+    p, q = np.where(swap, q, p), np.where(swap, p, q)
     gap = np.hypot(*(centre[p] - centre[q]).T) - reach[p] - reach[q]
-    near = gap < 2.0 * np.maximum(reach[p], reach[q])
+    near = (gap < 2.0 * np.maximum(reach[p], reach[q])) & (
+        centre[q, 0] <= centre[p, 0] + window)
     return np.minimum(p, q)[near], np.maximum(p, q)[near], gap[near]
 
 
-def _merge_nearest(groups: dict[int, _Group], max_resolution: int) -> None:
-    """Merge the two groups whose union is smallest (too many maps for the records)."""
-    keys = list(groups)
-    boxes = np.array([groups[k].box for k in keys])
-    lo = np.minimum(boxes[:, None, :2], boxes[None, :, :2])
-    hi = np.maximum(boxes[:, None, 2:], boxes[None, :, 2:])
-    side = (hi - lo).max(axis=2)
-    np.fill_diagonal(side, np.inf)
-    a, b = np.unravel_index(int(np.argmin(side)), side.shape)
-    ga, gb = groups[keys[a]], groups[keys[b]]
-    box = _union(ga, gb)
-    texel = None if ga.texel is None or gb.texel is None else min(ga.texel, gb.texel)
-    need = (max(box[2] - box[0], box[3] - box[1]) / texel + SPARE_TEXELS) if texel else math.inf
-    if need > max_resolution:
-        texel = None  # coarser than asked: fitted to the square at the largest size
-    size = max_resolution if texel is None else pow2_at_least(need, 1, max_resolution)
-    groups[keys[a]] = _Group(ga.members + gb.members, box, texel, size)
-    del groups[keys[b]]
+class _Nearest:
+    """The groups' union sides, for merging the two whose union is smallest again and again
+    (too many maps for the records), with the first pair in the groups' order among equals.
+
+    Each group keeps its best partner; a merge changes only the merged group's and those whose
+    best was one of the pair: a union only grows, so no other group finds a better partner. A
+    partner is searched for in rings of grid cells around the group's centre, out to where no
+    union can be smaller (it is at least as wide as its two centres lie apart)."""
+
+    def __init__(self, groups: dict[int, _Group]):
+        self.keys = list(groups)
+        n = len(self.keys)
+        self.boxes = np.array([groups[k].box for k in self.keys], float)
+        self.alive = np.ones(n, bool)
+        self.best = np.full(n, -1, np.int64)
+        self.side = np.full(n, np.inf)
+        self.heap: list[tuple[float, int, int]] = []
+        self._grid()
+        for a in range(n):
+            self._refresh(a)
+
+    def _grid(self) -> None:
+        """Cells of about one group each, made anew as the groups halve."""
+        live = np.flatnonzero(self.alive)
+        centres = 0.5 * (self.boxes[live, :2] + self.boxes[live, 2:])
+        self.origin = centres.min(axis=0)
+        span = float((centres.max(axis=0) - self.origin).max())
+        self.h = span / math.sqrt(len(live)) if span > 0 and math.isfinite(span) else 1.0
+        self.cells: dict[tuple[int, int], set[int]] = {}
+        self.cell_of: dict[int, tuple[int, int]] = {}
+        self.extent = 0
+        for a in live.tolist():
+            self._place(a)
+        self.regrid_at = len(live) // 2
+
+    def _place(self, a: int) -> None:
+        c = 0.5 * (self.boxes[a, :2] + self.boxes[a, 2:])
+        cx, cy = (int(v) for v in np.floor((c - self.origin) / self.h))
+        self.cells.setdefault((cx, cy), set()).add(a)
+        self.cell_of[a] = (cx, cy)
+        self.extent = max(self.extent, abs(cx), abs(cy))
+
+    def _ring(self, cx: int, cy: int, k: int) -> list[int]:
+        cells = [(cx + d, cy + e) for d in range(-k, k + 1) for e in {-k, k}]
+        cells += [(cx + e, cy + d) for d in range(-k + 1, k) for e in (-k, k)]
+        return [i for cell in cells for i in self.cells.get(cell, ())]
+
+    def _refresh(self, a: int) -> None:
+        (cx, cy), best_side, best = self.cell_of[a], math.inf, -1
+        k = 0
+        # A group k + 1 rings out lies more than (k - 1) cells away along one axis (a ring of
+        # margin for rounding), and so does its union's side.
+        while (k - 1) * self.h < best_side and k <= 2 * self.extent + 2:
+            found = [i for i in self._ring(cx, cy, k) if i != a]
+            k += 1
+            if not found:
+                continue
+            idx = np.array(found)
+            lo = np.minimum(self.boxes[a, :2], self.boxes[idx, :2])
+            hi = np.maximum(self.boxes[a, 2:], self.boxes[idx, 2:])
+            side = (hi - lo).max(axis=1)
+            m = float(side.min())
+            first = int(idx[side == m].min())  # the groups' order breaks ties
+            if m < best_side or (m == best_side and first < best):
+                best_side, best = m, first
+        self.best[a], self.side[a] = best, best_side
+        if best >= 0:
+            heapq.heappush(self.heap, (best_side, min(a, best), max(a, best)))
+
+    def pop(self) -> tuple[int, int]:
+        """The pair (a, b), a before b, to merge next; the merged group will be ``a``."""
+        while True:
+            side, a, b = heapq.heappop(self.heap)
+            if not (self.alive[a] and self.alive[b]):
+                continue
+            if ((self.best[a] == b and self.side[a] == side)
+                    or (self.best[b] == a and self.side[b] == side)):
+                return a, b
+
+    def merged(self, a: int, b: int, box: list[float]) -> None:
+        for k in (a, b):
+            self.cells[self.cell_of.pop(k)].discard(k)
+        self.alive[b] = False
+        self.boxes[a] = box
+        self._place(a)
+        if int(self.alive.sum()) <= self.regrid_at:
+            self._grid()
+        stale = np.flatnonzero(self.alive & ((self.best == a) | (self.best == b)))
+        for k in [a, *stale.tolist()]:
+            self._refresh(k)
+
+
+def _merge_nearest(groups: dict[int, _Group], max_resolution: int, limit: int) -> None:
+    """Merge the two groups whose union is smallest while there are more than ``limit`` (too
+    many maps for the records)."""
+    nearest = _Nearest(groups)
+    keys = nearest.keys
+    while len(groups) > limit:
+        a, b = nearest.pop()
+        ga, gb = groups[keys[a]], groups[keys[b]]
+        box = _union(ga, gb)
+        texel = None if ga.texel is None or gb.texel is None else min(ga.texel, gb.texel)
+        need = ((max(box[2] - box[0], box[3] - box[1]) / texel + SPARE_TEXELS) if texel
+                else math.inf)
+        if need > max_resolution:
+            texel = None  # coarser than asked: fitted to the square at the largest size
+        size = max_resolution if texel is None else pow2_at_least(need, 1, max_resolution)
+        groups[keys[a]] = _Group(ga.members + gb.members, box, texel, size)
+        del groups[keys[b]]
+        nearest.merged(a, b, box)
 
 
 def layer_square(layer_resolution: int) -> int:

@@ -177,7 +177,16 @@ class Point(LightKind):
         typical = _typical_distance(eye, statics)
 
         def point(points: np.ndarray) -> np.ndarray:
-            return octahedral_encode(np.asarray(points, float) - eye)
+            d = np.asarray(points, float) - eye
+            # A caster's vertex at the light (a lamp on a wall's corner) has no direction: it
+            # is NaN, which object_summaries skips; the caster's other points span its cone.
+            at_light = ~d.any(axis=1)
+            if not at_light.any():
+                return octahedral_encode(d)
+            d[at_light] = 1.0
+            e = octahedral_encode(d)
+            e[at_light] = np.nan
+            return e
 
         # An octahedral unit spans about pi/2 radians.
         return point, 1.0 / (typical * math.pi / 2)

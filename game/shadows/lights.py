@@ -25,6 +25,7 @@ import numpy as np
 from game.scene.geometry import PackedGeometry
 from game.scene.model import Light
 from game.shadows import registry
+from game.shadows.budget import fit_baseline_memory
 from game.shadows.light_kinds import kind_of
 from game.shadows.method import ShadowMethod, SharesBudget, ViewSized
 from game.shadows.plan import (
@@ -100,6 +101,20 @@ class LightShadows:
 
     def __init__(self, geom: PackedGeometry, lights: list[Light], settings: ShadowSettings,
                  max_layers: int, max_maps: int):
+        # The baselines' maps are sized anew where their array is over the baselines' budget;
+        # each time every side halves, so this ends.
+        budget_notes: list[str] = []
+        while True:
+            self._make(geom, lights, settings, max_layers, max_maps)
+            fitted = fit_baseline_memory(settings, self._resolution(), self._places()[1])
+            if fitted is None:
+                break
+            settings, note = fitted
+            budget_notes.append(note)
+        self._notes[:0] = budget_notes
+
+    def _make(self, geom: PackedGeometry, lights: list[Light], settings: ShadowSettings,
+              max_layers: int, max_maps: int) -> None:
         n = len(lights)
         radius = scene_radius(geom)
         shares, sides = budget_shares(lights, settings.budget_mib, settings.clump_resolution,
@@ -210,7 +225,7 @@ class LightShadows:
     def notes(self) -> list[str]:
         """Each light's notes; with several lights, each says which light it is about."""
         if len(self.methods) == 1:
-            return self.methods[0].notes
+            return self._notes + self.methods[0].notes
         return self._notes + [f"light {k}: {note}" for k, m in enumerate(self.methods)
                               for note in m.notes]
 

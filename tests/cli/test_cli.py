@@ -127,11 +127,18 @@ def test_refused_combinations_get_one_line(args, tmp_path):
     assert len(result.stderr.strip().splitlines()) == 1 and "Traceback" not in result.stderr
 
 
-def test_a_depth_array_the_driver_refuses_gets_one_line(tmp_path):
-    # 1,000 cascades of 16384² depth texels: 1 TiB, which no driver hands out.
+def test_a_depth_array_past_every_budget_is_never_asked_of_the_driver(tmp_path):
+    # 1,000 cascades: past the bound of the flag, one line before anything is made.
     result = run("capture", str(TINY), "--method", "csm", "--cascades", "1000",
                  "--cascade-resolution", "16384", "--size", "32x18", "--out", str(tmp_path),
                  cwd=tmp_path)
-    assert result.returncode == 1
+    assert result.returncode == 2
     assert result.stderr.strip().splitlines() == [
-        "error: the driver refused a 16384x16384x1000 depth array (out of memory?)"]
+        "error: python -m game capture: argument --cascades: must be 1..64, got '1000'"]
+    # 64 cascades of 16384² (64 GiB): the baselines' budget halves the maps, and says so.
+    result = run("capture", str(TINY), "--method", "csm", "--cascades", "64",
+                 "--cascade-resolution", "16384", "--size", "32x18", "--out", str(tmp_path),
+                 cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert any(line.startswith("note: csm:") and "halved" in line
+               for line in result.stderr.splitlines()), result.stderr

@@ -15,6 +15,7 @@ import math
 import numpy as np
 
 from game import transforms
+from game.errors import GameError
 from game.scene.geometry import PackedGeometry
 from game.scene.model import Light
 from game.shadows.fit import (
@@ -105,6 +106,11 @@ class CascadedShadows(ShadowMethod):
     def __init__(self, geom: PackedGeometry, light: Light, settings: ShadowSettings,
                  max_layers: int, max_maps: int | None = None):
         super().__init__(geom, light, settings, max_layers, max_maps)
+        if kind_of(light).orthographic and settings.cascades > max_layers:
+            # Refused here, before the driver is asked for the array or the block for the maps.
+            raise GameError(f"csm: {settings.cascades} cascades are more maps than a light may "
+                            f"have on this GL ({max_layers}: the array's layers and the map "
+                            "records, shared by the lights); use fewer --cascades")
         self.set_light(light)
 
     @property
