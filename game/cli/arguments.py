@@ -1,8 +1,7 @@
 """The command line's parser: every subcommand, flag, default and value check.
 
 A bad value becomes one :class:`ArgumentError` line (exit status 2), never argparse's usage
-block. The method choices come from the registries (game/shadows/registry.py,
-game/soft/methods.py).
+block. The method choices come from the registries (shadows/registry.py, soft/methods.py).
 """
 
 from __future__ import annotations
@@ -173,6 +172,7 @@ def unit(text: str) -> float:
     return value
 
 
+CLOCK_HELP = "timing clock (auto: CPU around glFinish on llvmpipe, GPU queries elsewhere)"
 scene_time = in_range(-MAX_SCENE_TIME, MAX_SCENE_TIME)
 frame_rate = in_range(*FPS_RANGE)
 # A map narrower than 16 texels has no texel left inside its margins; one side past the GL's
@@ -240,13 +240,13 @@ def _add_shadow_options(p: argparse.ArgumentParser) -> None:
                         "captures and the benchmark)")
     g.add_argument("--grid", choices=("auto", "on", "off"), default=d.grid,
                    help="light-space grid of map lists (auto: when there are many maps)")
-    g.add_argument("--debug-view", choices=list(DEBUG_VIEWS),
-                   default="none",
-                   help="colour pixels by the map they used, by the number of maps read, or "
-                        "by whether their map was re-rendered (red) or cached (green)")
-    g.add_argument("--clock", choices=CLOCKS, default="auto",
-                   help="timing clock (auto: CPU around glFinish on llvmpipe, GPU queries "
-                        "elsewhere)")
+    g.add_argument("--debug-view", choices=list(DEBUG_VIEWS), default="none",
+                   help="map: each pixel in the colour of the map that decided it (grey: none); "
+                        "map-count: the maps it read, blue 0, cyan 1, green 2, yellow 3, red 4 "
+                        "or more; cache: its map drawn this frame (red) or cached (green); "
+                        "shadowed-lights: the lights that reach it but are blocked, grey 0, "
+                        "blue 1, cyan 2, yellow 3, red 4 or more")
+    g.add_argument("--clock", choices=CLOCKS, default="auto", help=CLOCK_HELP)
 
 
 def shadow_settings(args) -> ShadowSettings:
@@ -340,7 +340,7 @@ def _add_trace_parser(sub) -> None:
                        metavar="N", help="stratified samples along the segment per shaded point "
                                          f"(at most {most['samples']})")
     _add_frame_options(trace, dump_help="write npz (with soft) + glb")
-    trace.add_argument("--clock", choices=CLOCKS, default="auto")
+    trace.add_argument("--clock", choices=CLOCKS, default="auto", help=CLOCK_HELP)
     g = trace.add_argument_group("tracer parameters")
     g.add_argument("--structure", choices=list(STRUCTURES), default=d.structure,
                    help="; ".join(f"{name}: {text}" for name, text in STRUCTURES.items()))
@@ -387,7 +387,8 @@ def _add_bench_parser(sub) -> None:
     bench.add_argument("--out", type=Path, default=None, metavar="DIR",
                        help="output folder (default: bench, or bench_gpu, bench_cache for "
                             "--suite gpu, cache)")
-    bench.add_argument("--size", type=size_value, default=(320, 180), metavar="WxH")
+    bench.add_argument("--size", type=size_value, default=(320, 180), metavar="WxH",
+                       help="frame size of every run")
     bench.add_argument("--frames", type=positive_int, default=None,
                        help="timed frames per run (default 8, quick 4)")
     bench.add_argument("--warmup", type=int, default=None,
