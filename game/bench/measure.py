@@ -209,6 +209,8 @@ class Timing:
         if self.spec.rerender:
             renderer.shadows.mark_rendered_lost()
         self.view = orbit_view(self.scene, self.opts.size, ORBIT_DEG * k)
+        # The last frame also counts the map records its pixels consider (outside its timings).
+        renderer.count_candidates = k == self.frames - 1
         frame = renderer.render(k / FPS, self.view)
         if k >= self.opts.warmup:
             self.timed.append(frame)
@@ -238,6 +240,8 @@ class Timing:
             for name in ("maps_total", "maps_rendered", "triangles_to_maps", "texels_to_maps",
                          "camera_triangles", "maps_per_fragment"):
                 out[name] = float(np.mean([getattr(f, name) for f in timed]))
+            last = timed[-1].map_candidates_per_fragment if timed else None
+            out["map_candidates_per_fragment"] = float("nan") if last is None else last
             out["shadow_memory_mib"] = renderer.shadow_memory_bytes / 2**20
             out["notes"] = "; ".join(renderer.notes + floors.floor_warnings(self.scene))
         finally:

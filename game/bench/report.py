@@ -367,11 +367,13 @@ def run_section(run: RecordedRun, here: Path) -> list[str]:
     """Every finished row of one run, and up to two of its charts."""
     lines = [f"### {run.name}", ""] + header(run, here)
     head = ["scene", "size", "method", "settings", "frame ms", "p95 ms", "shadow maps ms",
-            "camera ms", "error", "maps drawn a frame", "maps per pixel", "shadow MiB"]
+            "camera ms", "error", "maps drawn a frame", "maps per pixel",
+            "map records per pixel", "shadow MiB"]
     body = [[r["scene"], size_of(r), f"`{r['method']}`", label(r), frame(r),
              ms(row_number(r, "total_ms_p95")), ms(maps_ms(r)), ms(camera_ms(r)),
              pct(row_number(r, "error")), count(row_number(r, "maps_rendered")),
              share(row_number(r, "maps_per_fragment")),
+             share(row_number(r, "map_candidates_per_fragment")),
              count(row_number(r, "shadow_memory_mib"))] for r in run.rows]
     lines += table(head, body)
     for chart in sorted((run.folder / "charts").glob("pareto_*.png"))[:CHARTS_PER_RUN]:
