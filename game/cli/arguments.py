@@ -444,7 +444,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "record); a different scene is refused")
     verify.add_argument("--out", type=Path, metavar="FILE", help="write the errors as JSON")
     verify.add_argument("--images", action="store_true",
-                        help="write frame_kkkk_errors.png beside each frame: where they disagree")
+                        help="picture where the method and Embree disagree, beside each frame")
     return parser
 
 

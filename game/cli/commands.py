@@ -307,10 +307,9 @@ def cmd_capture(args) -> int:
 
 
 def cmd_verify(args) -> int:
-    """Score every dumped frame against Embree shadow rays (game/reference/): its ``lit`` for
-    light 0, and each light's layer of ``lit_lights`` for a scene of several lights."""
-    from game.app import outputs
-    from game.reference.score import score_dump_lights
+    """Score every dumped frame against Embree (game/app/verify_report.py): the hard ``lit``
+    and ``lit_lights`` of a capture, the ``soft`` of a trace; ``--images`` draws the errors."""
+    from game.app import outputs, verify_report
 
     if not args.dumps.exists():
         raise ArgumentError(f"{args.dumps}: no such folder (the folder of a capture --dump)")
@@ -322,17 +321,14 @@ def cmd_verify(args) -> int:
     _check_file("--out", args.out)
     try:
         scene = _scene_of_dumps(args.dumps, frames, args.scene)
-        several = len(scene.lights) > 1
-        results = []
-        for npz in frames:
-            scores = score_dump_lights(npz, scene.lights)
-            lights = [{"light": k, **_error_keys(err)} for k, err in enumerate(scores["lights"])]
-            results.append({"frame": npz.stem, **_error_keys(scores["lit"]), "lights": lights})
-            if not several:
-                say(f"{npz.stem}: {_error_line(scores['lit'])}")
-                continue
-            for k, err in enumerate(scores["lights"]):
-                say(f"{npz.stem} light {k} ({scene.lights[k].kind}): {_error_line(err)}")
+        if args.images:  # every picture's path, before any work
+            try:
+                outputs.check_paths(verify_report.picture_paths(frames, scene))
+            except GameError as exc:
+                raise ArgumentError(f"--images: {exc}") from None
+        results = verify_report.verify_frames(frames, scene, args.images, say)
+    except GameError:
+        raise  # a failed write (an OSError too) names its file
     except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile) as exc:
         raise GameError(f"{args.dumps}: cannot read the dumps ({exc})") from None
     except MemoryError:
@@ -345,21 +341,6 @@ def cmd_verify(args) -> int:
                                       "scene": scene.given,
                                       "scene_sha256": scene.sha256, "frames": results})
     return 0
-
-
-def _error_keys(err: dict) -> dict:
-    """The shadow error's numbers, without its images (the JSON of ``verify --out``)."""
-    return {k: v for k, v in err.items() if k not in ("mask", "exact")}
-
-
-def _error_line(err: dict) -> str:
-    """One frame's (or one light's) shadow error as ``verify`` prints it."""
-    from game.reference.hard import MIN_NDOTL
-
-    return (f"error {err['error']:.4f} ({err['misclassified']} misclassified of "
-            f"{err['shadowed_either']} pixels shadowed by the method or the reference; "
-            f"{err['shadowed']} by the reference; {err['considered']} pixels with N.L > "
-            f"{MIN_NDOTL})")
 
 
 def _scene_of_dumps(folder: Path, frames: list[Path], scene_arg: str | None):

@@ -328,14 +328,17 @@ def hard_visibility_lights(
     position: np.ndarray,
     normal: np.ndarray,
     lights: Sequence[Light | Mapping[str, Any] | Any],
+    offset_scale: float = 1.0,
 ) -> list[np.ndarray]:
-    """:func:`hard_visibility` toward each of ``lights``, through one Embree scene built once."""
+    """:func:`hard_visibility` toward each of ``lights``, through one Embree scene built once;
+    ``offset_scale`` scales the rays' start offset (game/reference/offsets.py probes with it)."""
     caster = _Caster(mesh)
-    return [_visibility(caster, position, normal, as_light(light)) for light in lights]
+    return [_visibility(caster, position, normal, as_light(light), offset_scale)
+            for light in lights]
 
 
 def _visibility(caster: _Caster, position: np.ndarray, normal: np.ndarray,
-                light: Light) -> np.ndarray:
+                light: Light, offset_scale: float) -> np.ndarray:
     mesh = caster.mesh
     shape = position.shape[:-1]
     flat_p = position.reshape(-1, 3).astype(np.float64)
@@ -354,6 +357,7 @@ def _visibility(caster: _Caster, position: np.ndarray, normal: np.ndarray,
         corners = np.vstack([mesh.bounds, p.min(axis=0), p.max(axis=0)])
         diagonal = float(np.linalg.norm(corners.max(axis=0) - corners.min(axis=0)))
         eps = RAY_OFFSET_SCENE * diagonal + RAY_OFFSET_DISTANCE * np.linalg.norm(p, axis=1)
+        eps *= offset_scale
         origins = p + n * eps[:, None]
         # Aim from the pushed-off origin and stop at the light: only hits nearer than a point
         # light count, anything behind it cannot shadow.
@@ -371,6 +375,7 @@ def shadow_error(
     normal: np.ndarray,
     light: Light | Mapping[str, Any] | Any,
     min_ndotl: float = MIN_NDOTL,
+    left_out: np.ndarray | None = None,
 ) -> dict[str, Any]:
     """The accuracy metric: misclassified pixels per pixel that either side shadows.
 
@@ -378,14 +383,17 @@ def shadow_error(
     the cone and, for a light with a ``range``, within that distance of the light are considered:
     elsewhere the light does not reach and a method's ``lit`` is free to say anything. A pixel
     is misclassified when the method and the reference disagree about ``lit >= 0.5``; a NaN in
-    ``lit_method`` where there is geometry reads as shadowed.
+    ``lit_method`` where there is geometry reads as shadowed. Pixels of the (H, W) bool
+    ``left_out`` (where the reference changes with the ray offset) are not considered either.
 
-    Returns ``{"error", "misclassified", "shadowed", "shadowed_either", "considered", "mask"}``:
-    ``shadowed`` counts the pixels the reference shadows, ``shadowed_either`` those that the
-    method or the reference shadows, and ``error`` is ``misclassified / max(1, shadowed_either)``.
-    Every misclassified pixel is shadowed on one side, so the error lies in [0, 1] whatever the
-    method says: 1 - the intersection over union of the two shadow masks. ``mask`` is the (H, W)
-    bool image of misclassified pixels (for a diff image).
+    Returns ``{"error", "misclassified", "shadowed", "shadowed_either", "considered",
+    "left_out_reach", "left_out_offset"}`` and the (H, W) bool images ``mask`` (misclassified),
+    ``considered_mask`` and ``offset_mask``: ``shadowed`` counts the pixels the reference
+    shadows, ``shadowed_either`` those that the method or the reference shadows, and ``error``
+    is ``misclassified / max(1, shadowed_either)``. Every misclassified pixel is shadowed on one
+    side, so the error lies in [0, 1]: 1 - the intersection over union of the two shadow masks.
+    ``left_out_reach`` counts the pixels with geometry left out by N.L, cone or range,
+    ``left_out_offset`` the further ones left out by ``left_out``.
     """
     light = as_light(light)
     has_geometry = np.isfinite(position).all(axis=-1) & np.isfinite(normal).all(axis=-1)
@@ -396,6 +404,9 @@ def shadow_error(
             considered &= _inside_cone(light, position)
         if light.range is not None:
             considered &= _within_range(light, position)
+        reached = considered.copy()
+        offset_mask = reached & (False if left_out is None else left_out)
+        considered &= ~offset_mask
         method_lit = lit_method >= 0.5
         reference_lit = lit_reference >= 0.5
     mask = considered & (method_lit != reference_lit)
@@ -408,7 +419,9 @@ def shadow_error(
         "shadowed": shadowed,
         "shadowed_either": shadowed_either,
         "considered": int(considered.sum()),
-        "mask": mask,
+        "left_out_reach": int((has_geometry & ~reached).sum()),
+        "left_out_offset": int(offset_mask.sum()),
+        "mask": mask, "considered_mask": considered, "offset_mask": offset_mask,
     }
 
 

@@ -26,6 +26,7 @@ from game.reference.hard import (
     load_geometry,
     shadow_error,
 )
+from game.reference.offsets import offset_sensitive_lights
 
 
 def score_frame(lit: np.ndarray, position: np.ndarray, normal: np.ndarray,
@@ -62,8 +63,11 @@ def score_dump_lights(npz_path: str | Path, lights: Sequence[Any]) -> dict[str, 
     ``lights[k]``, all through one Embree scene. A dump without ``lit_lights`` holds light 0
     alone, as ``lit``, and only that light is scored.
 
+    Pixels whose reference changes with the ray offset (game/reference/offsets.py) are left
+    out of every light's error and counted in ``left_out_offset``.
+
     Returns ``{"lit": ..., "lights": [...]}``: :func:`score_frame`'s dict for the frame's ``lit``
-    against light 0 (what :func:`score_dump` gives), and one such dict per layer.
+    against light 0, and one such dict per layer, each with ``method``, the layer scored.
 
     Raises
     ------
@@ -85,10 +89,14 @@ def score_dump_lights(npz_path: str | Path, lights: Sequence[Any]) -> dict[str, 
     occluders = load_geometry(npz_path.with_suffix(".glb"))
     position, normal = frame["position"], frame["normal"]
     exact = hard_visibility_lights(occluders, position, normal, lights)
-    scores = [{**shadow_error(layers[..., k], exact[k], position, normal, light),
-               "exact": exact[k]} for k, light in enumerate(lights)]
-    lit = {**shadow_error(frame["lit"], exact[0], position, normal, lights[0]),
-           "exact": exact[0]}
+    # Pixels the reference cannot decide are left out of every light's error, and counted.
+    shaky = offset_sensitive_lights(occluders, position, normal, lights, exact)
+    scores = [{**shadow_error(layers[..., k], exact[k], position, normal, light,
+                              left_out=shaky[k]),
+               "exact": exact[k], "method": layers[..., k]} for k, light in enumerate(lights)]
+    lit = {**shadow_error(frame["lit"], exact[0], position, normal, lights[0],
+                          left_out=shaky[0]),
+           "exact": exact[0], "method": frame["lit"]}
     return {"lit": lit, "lights": scores}
 
 

@@ -18,9 +18,12 @@ pytest.importorskip("embreex", reason="verify needs embreex (pip install embreex
 
 # The one line per frame of a one-light scene, which outside checks read.
 ONE_LIGHT_LINE = re.compile(
-    r"^frame_\d{4}: error \d\.\d{4} \(\d+ misclassified of \d+ pixels shadowed by the method or "
-    r"the reference; \d+ by the reference; \d+ pixels with N\.L > 0\.1\)$")
-ERROR_KEYS = {"error", "misclassified", "shadowed", "shadowed_either", "considered"}
+    r"^frame_\d{4}: error \d+\.\d{2}% \(\d+ misclassified of \d+ pixels shadowed by the method "
+    r"or the reference; \d+ by the reference; \d+ pixels considered, with N\.L > 0\.1 and in "
+    r"the light's reach; left out: \d+ out of reach, \d+ where the reference changes with the "
+    r"ray offset\)$")
+ERROR_KEYS = {"error", "misclassified", "shadowed", "shadowed_either", "considered",
+              "left_out_reach", "left_out_offset"}
 
 
 def verify(capsys, *args) -> tuple[int, list[str], list[str]]:
@@ -41,9 +44,11 @@ def test_each_light_gets_a_line_and_a_wrong_light_a_large_error(capsys, tmp_path
     assert [line.split(":")[0] for line in out] == [
         "frame_0000 light 0 (directional)", "frame_0000 light 1 (point)",
         "frame_0001 light 0 (directional)", "frame_0001 light 1 (point)"]
-    assert out[0].endswith(": error 0.0000 (0 misclassified of 16 pixels shadowed by the method "
-                           "or the reference; 16 by the reference; 399 pixels with N.L > 0.1)")
-    assert " error 1.0000 (36 misclassified of 36 " in out[1]
+    assert out[0].endswith(": error 0.00% (0 misclassified of 16 pixels shadowed by the method "
+                           "or the reference; 16 by the reference; 399 pixels considered, with "
+                           "N.L > 0.1 and in the light's reach; left out: 0 out of reach, 0 "
+                           "where the reference changes with the ray offset)")
+    assert " error 100.00% (36 misclassified of 36 " in out[1]
 
     report = json.loads((tmp_path / "v.json").read_text())
     frame = report["frames"][0]
@@ -78,7 +83,7 @@ def test_a_one_light_scene_prints_one_line_per_frame_as_before(capsys, tmp_path)
     assert code == 0, err
     assert len(out) == 1 and ONE_LIGHT_LINE.match(out[0]), out
     frame = json.loads((tmp_path / "v.json").read_text())["frames"][0]
-    assert set(frame) == ERROR_KEYS | {"frame", "lights"}
+    assert set(frame) == ERROR_KEYS | {"frame", "kind", "lights"} and frame["kind"] == "hard"
     assert frame["lights"] == [{"light": 0, **{k: frame[k] for k in ERROR_KEYS}}]
 
 

@@ -44,12 +44,20 @@ GRID = np.arange(-4.75, 4.76, 0.5)   # 20 points a side, none on a shadow's edge
 POINT_LIGHT_HEIGHT = 6.0
 
 
-def scene_text(light_range: float | None = None, point_light: bool = True) -> str:
-    """The scene of two lights (the point light's ``range`` optional), or of the first alone."""
+# A linear light straight above the cube, along x: LINEAR_LIGHT[0] to LINEAR_LIGHT[1].
+LINEAR_LIGHT = ((-3.0, 9.0, 0.0), (3.0, 9.0, 0.0))
+
+
+def scene_text(light_range: float | None = None, point_light: bool = True,
+               linear_light: bool = False) -> str:
+    """The scene of two lights (the point light's ``range`` optional), or of the first alone;
+    with ``linear_light``, also the linear light :data:`LINEAR_LIGHT`."""
     point = '[[light]]\nkind = "point"\nposition = [0.0, 6.0, 0.0]\n'
     if light_range is not None:
         point += f"range = {light_range}\n"
-    return SCENE.format(point_light=point if point_light else "")
+    a, b = (", ".join(f"{x:.1f}" for x in end) for end in LINEAR_LIGHT)
+    linear = f"[linear_light]\na = [{a}]\nb = [{b}]\n" if linear_light else ""
+    return SCENE.format(point_light=point if point_light else "") + linear
 
 
 def floor_frame() -> tuple[np.ndarray, np.ndarray]:
@@ -71,9 +79,11 @@ def true_lit(position: np.ndarray, light: int) -> np.ndarray:
 
 
 def write_dump(folder: Path, text: str, layers: list[np.ndarray] | None,
-               lit: np.ndarray | None = None, stem: str = "frame_0000") -> Path:
+               lit: np.ndarray | None = None, stem: str = "frame_0000",
+               soft: np.ndarray | None = None) -> Path:
     """A dump of the scene ``text`` (saved as folder/scene.toml, which the dump records) whose
-    ``lit_lights`` are ``layers`` (none when None) and ``lit`` is ``lit`` (default: layer 0)."""
+    ``lit_lights`` are ``layers`` (none when None), ``lit`` is ``lit`` (default: layer 0) and
+    ``soft``, where given, ``soft`` (a trace's dump)."""
     folder.mkdir(parents=True, exist_ok=True)
     scene_file = folder / "scene.toml"
     scene_file.write_text(text)
@@ -93,6 +103,8 @@ def write_dump(folder: Path, text: str, layers: list[np.ndarray] | None,
     }
     if layers is not None:
         arrays["lit_lights"] = np.stack(layers, axis=-1).astype(np.float32)
+    if soft is not None:
+        arrays["soft"] = soft.astype(np.float32)
     npz = folder / f"{stem}.npz"
     np.savez(npz, **arrays)
     geometry = trimesh.Scene()
