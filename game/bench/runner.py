@@ -138,14 +138,18 @@ def write_run_record(out: Path, command: str, gl: dict) -> None:
     outputs.write_json(out / "run.json", record)
 
 
+CODE_PATHS = (":/game", ":/shaders", ":/assets", ":/pyproject.toml")  # what a run's figures rest on
+
+
 def git_commit(folder: Path) -> dict:
     """The commit of the checkout that holds ``folder``; empty where there is none (a wheel)."""
     try:
         head = subprocess.run(["git", "-C", str(folder), "rev-parse", "HEAD"], text=True,
                               capture_output=True, timeout=10, check=True).stdout.strip()
+        # Changed code, not the docs: a run recorded into docs/runs/ changes that folder itself.
         dirty = subprocess.run(["git", "-C", str(folder), "status", "--porcelain",
-                                "--untracked-files=no"], text=True, capture_output=True,
-                               timeout=10, check=True).stdout.strip()
+                                "--untracked-files=no", "--", *CODE_PATHS], text=True,
+                               capture_output=True, timeout=10, check=True).stdout.strip()
     except (OSError, subprocess.SubprocessError):
         return {}
     return {"commit": head, "dirty": bool(dirty)}
