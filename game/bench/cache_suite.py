@@ -21,8 +21,6 @@ scene) and ``OUT/run.json``.
 
 from __future__ import annotations
 
-import csv
-import io
 import os
 import platform
 import tempfile
@@ -35,6 +33,7 @@ import numpy as np
 
 from game.app import dumps, outputs
 from game.bench import cache_grind
+from game.bench.rows import write_table
 from game.bench.runner import git_commit
 from game.data import CHECKOUT_DIR
 from game.errors import GameError
@@ -125,7 +124,7 @@ def run(suite: CacheSuite, command: str = "") -> dict:
     finally:
         ctx.release()
     suite.out.mkdir(parents=True, exist_ok=True)
-    write_csv(suite.out / "cache.csv", rows)
+    write_table(suite.out / "cache.csv", rows, FIELDS)
     write_chart(suite.out / "cache.png", rows, suite)
     wall = round(time.perf_counter() - start, 1)
     write_record(suite, command, gl, wall)
@@ -283,14 +282,6 @@ def _add_grind(rows: list[dict], name: str, twin_scene, points, suite: CacheSuit
                    d1_misses_per_point=round(d1 / p, 3), ll_misses_per_point=round(ll / p, 3),
                    d_refs_per_point=round(refs / p, 1),
                    grind_equal=int((g["visible"] == visible).sum()))
-
-
-def write_csv(path: Path, rows: list[dict]) -> None:
-    buf = io.StringIO()
-    writer = csv.DictWriter(buf, fieldnames=FIELDS)
-    writer.writeheader()
-    writer.writerows(rows)
-    outputs.write_bytes(path, buf.getvalue().encode())
 
 
 def write_chart(path: Path, rows: list[dict], suite: CacheSuite) -> None:

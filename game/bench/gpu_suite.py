@@ -26,6 +26,7 @@ import numpy as np
 
 from game.app import outputs
 from game.bench import runner, runs, soft_sweep
+from game.bench.rows import write_table
 from game.gpu import context
 from game.scene import default_scene_path, load_scene, reference_scene_path
 
@@ -142,7 +143,7 @@ def _soft(suite: Suite, deadline: float) -> dict:
         ctx.release()
     folder = suite.out / "soft"
     folder.mkdir(exist_ok=True)
-    soft_sweep.write_csv(folder / "soft_sweep.csv", rows)
+    write_table(folder / "soft_sweep.csv", rows, soft_sweep.FIELDS)
     outputs.write_json(folder / "soft_sweep.json", {**header, "rows": rows})
     soft_sweep.write_chart(folder / "soft_sweep.png", rows, header)
     soft_sweep.write_counter_chart(folder / "soft_sweep_counters.png", rows, header)

@@ -113,10 +113,11 @@ def cache_section(run: CacheRun, here: Path) -> list[str]:
         f"{rec.get('cache_simulation', {}).get('tool', 'valgrind')}; {rec['date']}.", "",
         f"![misses and time per ray against N]({where}/cache.png)", ""]
     for scene in scenes:
-        lines += [f"**{scene}**: per ray, grid / tri-cache / voxel-cache "
-                  "(time on one thread, µs; Embree's beside it)", ""]
-        lines += ["| N | L1 misses | last-level misses | µs per ray | Embree µs |",
-                  "|---|---|---|---|---|"]
+        lines += [f"**{scene}**: grid / tri-cache / voxel-cache, misses per ray and per "
+                  "shaded point, time per ray on one thread (µs; Embree's beside it)", ""]
+        lines += ["| N | L1 misses per ray | last-level per ray | L1 per point | "
+                  "last-level per point | µs per ray | Embree µs |",
+                  "|---|---|---|---|---|---|---|"]
         for n in samples:
             cells = [_cell(rows, scene, m, n) for m in CACHED]
             if any(c is None for c in cells):
@@ -124,6 +125,7 @@ def cache_section(run: CacheRun, here: Path) -> list[str]:
             def three(key: str, scale: float = 1.0, cells=cells) -> str:
                 return " / ".join(f"{scale * row_number(c, key):.3g}" for c in cells)
             lines.append(f"| {n} | {three('d1_misses_per_ray')} | {three('ll_misses_per_ray')} "
+                         f"| {three('d1_misses_per_point')} | {three('ll_misses_per_point')} "
                          f"| {three('ms_per_ray_1thread', 1e3)} | "
                          f"{1e3 * row_number(cells[0], 'embree_ms_per_ray'):.3g} |")
         lines.append("")

@@ -32,6 +32,16 @@ def read_rows(path: Path) -> list[dict]:
         raise GameError(f"{path}: not a bench CSV ({error})") from None
 
 
+def write_table(path: Path, rows: list[dict], fields: list[str]) -> None:
+    """``rows`` under the header ``fields``, written whole (the soft sweep's and the cache
+    suite's tables)."""
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=fields)
+    writer.writeheader()
+    writer.writerows(rows)
+    outputs.write_bytes(path, buf.getvalue().encode())
+
+
 def write_rows(path: Path, rows: list[dict]) -> None:
     buf = io.StringIO()
     writer = csv.DictWriter(buf, fieldnames=COLUMNS, extrasaction="ignore",

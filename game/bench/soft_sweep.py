@@ -15,8 +15,6 @@ and ``--structures`` every acceleration structure; then each scene gets its own 
 from __future__ import annotations
 
 import argparse
-import csv
-import io
 import sys
 import time
 from pathlib import Path
@@ -25,6 +23,7 @@ import numpy as np
 
 from game.app import dumps, outputs
 from game.bench.chart_axes import plain_log_ticks
+from game.bench.rows import write_table
 from game.errors import GameError
 from game.gpu import context
 from game.reference import soft as sr
@@ -167,14 +166,6 @@ def _row(scene, structure, method, n, result, ms, truth, reference, covered) -> 
             **{k: round(v, 4) for k, v in means.items()},
             "rays": "", "rays_per_s": "", "embree_ms": "", "embree_rays": "",
             "embree_rays_per_s": "", "trace_over_embree": ""}
-
-
-def write_csv(path: Path, rows: list[dict]) -> None:
-    buf = io.StringIO()
-    writer = csv.DictWriter(buf, fieldnames=FIELDS)
-    writer.writeheader()
-    writer.writerows(rows)
-    outputs.write_bytes(path, buf.getvalue().encode())
 
 
 def _series(rows: list[dict]) -> list[tuple[str, str, str, str]]:
@@ -383,7 +374,7 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         ctx.release()
     args.out.mkdir(parents=True, exist_ok=True)
-    write_csv(args.out / f"{args.name}.csv", rows)
+    write_table(args.out / f"{args.name}.csv", rows, FIELDS)
     outputs.write_json(args.out / f"{args.name}.json",
                        {**headers[0], "scenes": headers, "rows": rows})
     for header in headers:

@@ -174,16 +174,20 @@ def _report(args) -> int:
     return 0
 
 
-def _gpu_suite(args) -> int:
-    from game.bench import gpu_suite, runner
-
+def _refuse_sweep_flags(args, what: str) -> None:
+    """A suite of its own takes none of the sweep's choices: one line naming those given."""
     given = [flag for flag, value in (("--scenes", args.scenes), ("--methods", args.methods),
                                       ("--param", args.param), ("--list", args.list),
                                       ("--frames", args.frames), ("--repeat", args.repeat > 1))
              if value]
     if given:
-        raise ArgumentError(f"--suite gpu runs a fixed set of checks; {', '.join(given)} "
-                            "belong to the sweep")
+        raise ArgumentError(f"{what}; {', '.join(given)} belong to the sweep")
+
+
+def _gpu_suite(args) -> int:
+    from game.bench import gpu_suite, runner
+
+    _refuse_sweep_flags(args, "--suite gpu runs a fixed set of checks")
     out = args.out or Path("bench_gpu")
     _check_out(out)
     runner.check_suite_outputs(out)
@@ -198,13 +202,7 @@ def _gpu_suite(args) -> int:
 def _cache_suite(args) -> int:
     from game.bench import cache_suite
 
-    given = [flag for flag, value in (("--scenes", args.scenes), ("--methods", args.methods),
-                                      ("--param", args.param), ("--list", args.list),
-                                      ("--frames", args.frames), ("--repeat", args.repeat > 1))
-             if value]
-    if given:
-        raise ArgumentError(f"--suite cache measures a fixed set; {', '.join(given)} "
-                            "belong to the sweep")
+    _refuse_sweep_flags(args, "--suite cache measures a fixed set")
     out = args.out or Path("bench_cache")
     _check_out(out)
     suite = cache_suite.CacheSuite(out=out, quick=args.quick, log=lambda line: say(line, err=True))

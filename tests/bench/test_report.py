@@ -148,6 +148,7 @@ def test_the_run_record_names_the_checkouts_commit():
 def cache_row(scene: str, method: str, n: int, l1: float, ms: float) -> dict:
     return {"scene": scene, "method": method, "samples": n, "points": 10,
             "d1_misses_per_ray": l1, "ll_misses_per_ray": l1 / 2, "ms_per_ray_1thread": ms,
+            "d1_misses_per_point": 3 * l1, "ll_misses_per_point": 1.5 * l1,
             "embree_ms_per_ray": 0.001, "gpu_differ": 0}
 
 

@@ -130,7 +130,6 @@ class Walkaround(WindowInput):
             glfw.terminate()
             raise
         self.renderer.debug_view = opts.debug_view
-        self.renderer.count_candidates = True  # on the frames read back, outside their timings
         self.render_scale = opts.render_scale
         self.presenter = Presenter(self.ctx, opts.antialias)
         # Our callbacks first: the imgui backend chains to the ones installed before it.
@@ -246,6 +245,9 @@ class Walkaround(WindowInput):
         self.renderer.traced.reduce_soft(self.upsampling if self.soft else None,
                                          view.view.tobytes() + view.proj.tobytes())
         read = self.frames % MPF_EVERY_FRAMES == 0
+        # Counting the map records draws the shading pass once more (outside the frame's
+        # timings, not its wall time): only while the panel that shows them is open.
+        self.renderer.count_candidates = self.overlay is not None and self.overlay.panel
         try:
             frame = self.renderer.render(self.scene_time, view, read=read,
                                          soft=self._soft_settings())
