@@ -1,15 +1,18 @@
 // Hard-shadow lookup over the multi-map buffer (needs world.glsl and lighting.glsl).
 // A fragment samples only the maps that can shadow it: those whose rectangle holds it and whose
 // caster lies nearer the light. With many maps, a light-space grid lists the candidates per cell
-// so the per-fragment cost stays flat (game/shadows/map_grid.py builds it). Visibility is the minimum.
+// so the per-fragment cost stays flat (game/shadows/map_grid.py builds it). Visibility is the
+// minimum. Where a directional light's statics are tiled (GRID_TILES), a cell names its one
+// static map first: one fetch, then one depth read, as a virtual shadow map's page table.
 //
 // Each light has its own maps, u_maps[first_map, first_map + map_count), and its own grid.
 //
 // What is fixed for a whole frame arrives as #defines, and the renderer picks the program made
 // for it (game/render/shading_pass.py): PCF (0 or 1), COUNT_PIXELS (0 or 1), and with one light
 // (MANY_LIGHTS 0) its kind LIGHT_KIND (LIGHT_DIRECTIONAL, LIGHT_SPOT, LIGHT_POINT) and its
-// grid's mode GRID (GRID_NONE, GRID_ORTHO, GRID_OCTAHEDRAL). Branching on uniforms instead costs more on llvmpipe, which runs
-// both sides of a branch under a lane mask; with several lights those two are read per light.
+// grid's mode GRID (GRID_NONE, GRID_ORTHO, GRID_OCTAHEDRAL, GRID_TILES). Branching on uniforms
+// instead costs more on llvmpipe, which runs both sides of a branch under a lane mask; with
+// several lights those two are read per light.
 
 uniform sampler2DArrayShadow u_shadow_maps;
 
@@ -212,14 +215,25 @@ float shadow_visibility(LightRecord light, vec3 p, vec3 n, int object, inout int
         }
         return vis;
     }
-    vec2 g = GRID_OF(light) == GRID_ORTHO ? r.lp.xy : octahedral(normalize(p - light.position));
+    vec2 g = GRID_OF(light) != GRID_OCTAHEDRAL ? r.lp.xy
+                                                : octahedral(normalize(p - light.position));
     // Outside the grid's rectangle, the nearest edge cell: it lists every map reaching past
     // that edge (game/shadows/map_grid.py).
     vec2 f = (g - light.grid_rect.xy) / (light.grid_rect.zw - light.grid_rect.xy);
     int size = light.grid_size;
     ivec2 cell = clamp(ivec2(floor(f * float(size))), ivec2(0), ivec2(size - 1));
     int c = light.grid_base + cell.y * size + cell.x;
-    for (int k = u_grid[c]; k < u_grid[c + 1] && vis > 0.0; ++k) {
+    int first = u_grid[c], end = u_grid[c + 1];
+    if (GRID_OF(light) == GRID_TILES) {
+        // The cell's tile map, the one static map that can shadow it, read without a loop;
+        // then the cell's character maps, often none.
+        int tile_map = u_grid[first];
+        if (tile_map >= 0) {
+            consider(light, tile_map, r, vis, sampled, used, held);
+        }
+        first += 1;
+    }
+    for (int k = first; k < end && vis > 0.0; ++k) {
         int before = sampled;
         consider(light, u_grid[k], r, vis, sampled, used, held);
         if (decided(u_grid[k], before, sampled)) {

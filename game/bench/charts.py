@@ -9,6 +9,7 @@ game/bench/runner.py.
   proportional to the walkers;
 - ``lights``: shadow-map ms, frame ms and error against the number of lights (the night town:
   the moon and 0 to 63 street lamps), methods at defaults;
+- ``camera_maps``: camera-pass ms against the maps a frame holds (game/bench/chart_camera.py);
 - ``maps_per_fragment`` and ``flicker``: per scene, methods at defaults;
 - ``stability_FACTOR``: error (and failures) against the factor's value, per method; a factor
   with a single value is drawn as one bar per method.
@@ -28,6 +29,7 @@ from typing import TYPE_CHECKING
 
 from game.app import outputs
 from game.bench.chart_axes import place_labels, plain_log_ticks, pyplot
+from game.bench.chart_camera import camera_figure
 from game.bench.rows import row_number
 from game.bench.runs import COMPARED_GROUPS
 
@@ -377,6 +379,7 @@ def figures(rows: list[dict]) -> tuple[list[tuple[str, Figure]], dict[str, str]]
     for axis in ("triangles", "characters", "shadow"):
         builders.append((f"scaling_{axis}", lambda a=axis: scaling_figure(plt, rows, a)))
     builders.append(("lights", lambda: lights_figure(plt, rows)))
+    builders.append(("camera_maps", lambda: camera_figure(plt, rows, COLOURS, MARKERS, _size)))
     builders.append(("maps_per_fragment", lambda: per_scene_bars_figure(
         plt, rows, "maps_per_fragment", "maps read per shaded pixel, count",
         "shadow maps read per shaded pixel")))

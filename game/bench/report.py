@@ -19,6 +19,7 @@ from pathlib import Path
 from game.app import outputs
 from game.bench.acceptance import is_default
 from game.bench.report_cache import CacheRun, cache_section, is_cache_run, load_cache_run
+from game.bench.report_shading import shading_section
 from game.bench.rows import read_rows, row_number
 from game.bench.runs import COMPARED_GROUPS, PARAM_KEYS, RERENDER
 from game.errors import GameError
@@ -269,6 +270,7 @@ def results_page(runs: list[RecordedRun], here: Path, caches: list[CacheRun] = (
     question, then every run."""
     lines = ["# Results", "", INTRO]
     lines += question_one(runs, here) + question_two(runs, here)
+    lines += shading_section(runs, here, header)
     for cache in caches:
         lines += cache_section(cache, here)
     lines += ["## Every recorded run", ""]

@@ -38,6 +38,7 @@ def shader_defines(ctx) -> dict:
     d = {"MAX_MAPS": blocks.max_maps(ctx), "MAX_LIGHTS": blocks.MAX_LIGHTS, "MANY_LIGHTS": 0,
          "GRID_NONE": blocks.GRID_NONE,
          "GRID_ORTHO": blocks.GRID_ORTHO, "GRID_OCTAHEDRAL": blocks.GRID_OCTAHEDRAL,
+         "GRID_TILES": blocks.GRID_TILES,
          "KIND_CASCADE": KIND_CASCADE, "KIND_CLUMP": KIND_CLUMP, "KIND_FALLBACK": KIND_FALLBACK,
          "KIND_CHARACTER": KIND_CHARACTER, "KIND_ALL": KIND_ALL}
     d.update({f"DEBUG_{name.upper().replace('-', '_')}": value

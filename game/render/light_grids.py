@@ -12,14 +12,7 @@ from game.scene.model import Light
 from game.shadows.light_kinds import kind_of
 from game.shadows.lights import LightSpan
 from game.shadows.map_grid import GridBuilder, MapGrid
-from game.shadows.plan import ShadowPlan, ShadowSettings
-
-
-def shadow_reach(settings: ShadowSettings) -> float:
-    """How far the shader may look from a fragment, in texels: the bias offsets (as in
-    shaders/shadow.glsl) plus one PCF tap and one for rounding."""
-    s = settings
-    return s.normal_bias + s.depth_bias + s.slope_bias * s.max_slope + 2.0
+from game.shadows.plan import ShadowPlan, ShadowSettings, shadow_reach
 
 
 def build_grids(builders: list[GridBuilder], plan: ShadowPlan, spans: list[LightSpan],
@@ -33,6 +26,7 @@ def build_grids(builders: list[GridBuilder], plan: ShadowPlan, spans: list[Light
                    if span.first_map <= i < span.first_map + span.map_count]
         grids.append(builder.build([m.fit for m in maps], kind_of(light).eye(light),
                                    settings.grid, [m.cover for m in maps], reach,
+                                   tiles=[m.tile for m in maps],
                                    steady=min(dynamic, default=len(maps))))
     return grids
 

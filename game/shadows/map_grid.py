@@ -23,11 +23,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from game.gpu.blocks import GRID_NONE, GRID_OCTAHEDRAL, GRID_ORTHO
+from game.gpu.blocks import GRID_NONE, GRID_OCTAHEDRAL, GRID_ORTHO, GRID_TILES
 from game.shadows.fit import MapFit
 
 LOOP_MAX_MAPS = 2         # beyond this many maps the grid is cheaper than looping over all
 MAX_GRID = 128
+MAX_TILE_GRID = 512       # a partition's grid: most cells per side (a wider one is not aligned)
 GRID_CELLS_PER_MAP = 8  # cells per side per sqrt(map count): short lists, small grid
 OCTAHEDRAL_GRID = 32      # even, so that no cell straddles an octant boundary
 
@@ -61,6 +62,24 @@ def _pack(keys: np.ndarray, size: int, mode: int, rect: np.ndarray) -> MapGrid:
     offsets = (cells + 1) + np.concatenate([[0], np.cumsum(counts)])
     data = np.concatenate([offsets, keys % KEY_MAPS]).astype(np.int32)
     return MapGrid(mode, size, rect, data)
+
+
+def _pack_tiles(tile_keys: np.ndarray, keys: np.ndarray, size: int, rect: np.ndarray
+                ) -> MapGrid:
+    """A partition's grid: each cell's list is its tile's map (-1: none), then the maps of
+    ``keys`` (sorted unique, the cell's character maps)."""
+    cells = size * size
+    tile_of = np.full(cells, -1, np.int64)
+    tile_of[tile_keys // KEY_MAPS] = tile_keys % KEY_MAPS
+    cell = keys // KEY_MAPS
+    counts = 1 + np.bincount(cell, minlength=cells)
+    starts = (cells + 1) + np.concatenate([[0], np.cumsum(counts)])
+    lists = np.empty(int(counts.sum()), np.int64)
+    lists[starts[:-1] - (cells + 1)] = tile_of
+    # Each character map after its cell's tile map, in the order of ``keys``.
+    rank = np.arange(len(keys)) - np.searchsorted(cell, cell)
+    lists[starts[cell] - (cells + 1) + 1 + rank] = keys % KEY_MAPS
+    return MapGrid(GRID_TILES, size, rect, np.concatenate([starts, lists]).astype(np.int32))
 
 
 def _union(rects: np.ndarray) -> np.ndarray:
@@ -97,16 +116,45 @@ def _ortho_pairs(fits: list[MapFit], covers: list[np.ndarray | None] | None, rea
     lo = np.floor((rects[:, :2] - rect[:2]) / cell - sliver).astype(np.int64)
     hi = np.floor((rects[:, 2:] - rect[:2]) / cell + sliver).astype(np.int64)
     lo, hi = np.clip(lo, 0, size - 1), np.clip(hi, 0, size - 1)
+    return _cell_keys(lo, hi, owner + first, size)
+
+
+def _cell_keys(lo: np.ndarray, hi: np.ndarray, owner: np.ndarray, size: int) -> np.ndarray:
+    """Sorted unique keys of every cell in the inclusive cell ranges ``lo``..``hi`` ((n, 2)
+    columns and rows) of map ``owner[n]``."""
     width = hi[:, 0] - lo[:, 0] + 1
     height = hi[:, 1] - lo[:, 1] + 1
-    count = width * height
-    which = np.repeat(np.arange(len(rects)), count)
+    count = np.maximum(width, 0) * np.maximum(height, 0)
+    which = np.repeat(np.arange(len(lo)), count)
     k = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
     cx = lo[which, 0] + k % width[which]
     cy = lo[which, 1] + k // width[which]
     # Pairs, not a dense (cells, maps) table: with a hundred maps on a large grid that table
     # holds over a million entries to fill every frame.
-    return np.unique((cy * size + cx) * KEY_MAPS + owner[which] + first)
+    return np.unique((cy * size + cx) * KEY_MAPS + owner[which])
+
+
+def _tile_lattice(tiles: list[np.ndarray], want: int) -> tuple[np.ndarray, int] | None:
+    """The grid's rectangle and size for a partition's tiles (equal squares on one lattice):
+    whole tiles per side, each split into the same number of cells, so that no cell straddles
+    two tiles; None where the tiles span more cells than MAX_TILE_GRID per side."""
+    t = np.asarray(tiles, float)
+    span = float(t[0, 2] - t[0, 0])
+    lo, hi = t[:, :2].min(axis=0), t[:, 2:].max(axis=0)
+    n = max(1, int(round(float((hi - lo).max()) / span)))
+    if n > MAX_TILE_GRID:
+        return None
+    size = n * max(1, min(want, MAX_TILE_GRID) // n)
+    return np.concatenate([lo, lo + n * span]), size
+
+
+def _tile_pairs(tiles: list[np.ndarray], rect: np.ndarray, size: int) -> np.ndarray:
+    """Keys of the cells of each tile, exactly: tile k lists map k in its own cells only."""
+    t = np.asarray(tiles, float)
+    cell = (rect[2:] - rect[:2]) / size
+    lo = np.rint((t[:, :2] - rect[:2]) / cell).astype(np.int64)
+    hi = np.rint((t[:, 2:] - rect[:2]) / cell).astype(np.int64) - 1
+    return _cell_keys(lo, hi, np.arange(len(t)), size)
 
 
 def build_ortho(fits: list[MapFit], covers: list[np.ndarray | None] | None = None,
@@ -224,33 +272,47 @@ class GridBuilder:
 
     def build(self, fits: list[MapFit], eye: np.ndarray | None, use: str = "auto",
               covers: list[np.ndarray | None] | None = None,
-              reach: float = 0.0, steady: int | None = None) -> MapGrid:
+              reach: float = 0.0, steady: int | None = None,
+              tiles: list[np.ndarray | None] | None = None) -> MapGrid:
         """The grid for these maps, or none when a plain loop is cheap enough: over the
         light space of orthographic maps, or over the directions from a light at ``eye``.
 
         ``use`` is "auto" (a grid above LOOP_MAX_MAPS maps), "on" or "off"; ``covers`` and
         ``reach`` as in :func:`build_ortho`; the first ``steady`` maps (all by default) are
-        the ones whose cells are kept while they do not change.
+        the ones whose cells are kept while they do not change. Where every steady map has a
+        tile of a partition (``tiles``), the grid is aligned to the tiles and lists each such
+        map in its tile's cells only: a fragment then finds one static map.
         """
         if not fits or use == "off" or (use == "auto" and len(fits) <= LOOP_MAX_MAPS):
             return no_grid()
         steady = len(fits) if steady is None else min(steady, len(fits))
         ortho = eye is None
-        if ortho:
+        own = (tiles or [None] * len(fits))[:steady]
+        lattice = (_tile_lattice(own, _grid_size(len(fits)))
+                   if ortho and own and all(t is not None for t in own) else None)
+        if lattice is not None:
+            (rect, size), mode = lattice, GRID_TILES
+        elif ortho:
             rects = np.array([f.rect for f in fits[:steady] or fits], float)
             rect, size, mode = _union(rects), _grid_size(len(fits)), GRID_ORTHO
         else:
             rect, size, mode = np.array([-1.0, -1.0, 1.0, 1.0]), OCTAHEDRAL_GRID, GRID_OCTAHEDRAL
         cover = covers if covers is not None else [None] * len(fits)
         key = (mode, size, float(reach), rect.tobytes(),
-               None if ortho else np.asarray(eye, float).tobytes(),
+               None if ortho else np.asarray(eye, float).tobytes(), lattice is not None,
                tuple(_fit_key(f, c) for f, c in zip(fits[:steady], cover[:steady], strict=True)))
         if key != self._key:
-            self._keys = (_ortho_pairs(fits[:steady], cover[:steady], reach, rect, size)
-                          if ortho else _octahedral_pairs(fits[:steady], eye))
+            if lattice is not None:
+                self._keys = _tile_pairs(own, rect, size)
+            elif ortho:
+                self._keys = _ortho_pairs(fits[:steady], cover[:steady], reach, rect, size)
+            else:
+                self._keys = _octahedral_pairs(fits[:steady], eye)
             self._key = key
         moving = (_ortho_pairs(fits[steady:], cover[steady:], reach, rect, size, steady)
                   if ortho else _octahedral_pairs(fits[steady:], eye, steady))
+        if lattice is not None:
+            return _pack_tiles(self._keys, moving, size, rect)
         keys = self._keys if not len(moving) else np.sort(np.concatenate([self._keys, moving]))
         return _pack(keys, size, mode, rect)
 

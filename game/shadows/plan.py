@@ -84,6 +84,13 @@ class ShadowSettings:
     cascade_resolution: int = CASCADE_RESOLUTION
 
 
+def shadow_reach(settings: ShadowSettings) -> float:
+    """How far the shader may look from a fragment, in texels: the bias offsets (as in
+    shaders/shadow.glsl) plus one PCF tap and one for rounding."""
+    s = settings
+    return s.normal_bias + s.depth_bias + s.slope_bias * s.max_slope + 2.0
+
+
 def map_names(base: str, count: int) -> list[str]:
     """Names of a caster set's maps: ``base`` for one, ``base_face_K`` for a cube's faces."""
     return [base] if count == 1 else [f"{base}_face_{k}" for k in range(count)]
@@ -108,6 +115,10 @@ class MapRecord:
     pieces: list[int] | None = None
     # Texel offset of the map's square in its layer (character maps share layers).
     origin: tuple[int, int] = (0, 0)
+    # A tile of a partition of the light plane (directional light): the light-space square
+    # (xmin, ymin, xmax, ymax) for which this map alone holds every static caster. The map grid
+    # lists the map in exactly the cells of its tile (game/shadows/map_grid.py).
+    tile: np.ndarray | None = None
 
 
 @dataclass(frozen=True)

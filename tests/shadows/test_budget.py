@@ -202,7 +202,7 @@ def test_capture_clamps_a_resolution_above_the_gl_limit(tmp_path):
 
 def test_clumps_short_of_layers_get_maps_of_half_the_side(ctx):
     """A density target the budget cannot meet: the clump maps are halved once, four times as
-    many, the parts are split for the clumps the budget gives (wider than the target's), a note
+    many, the maps are wider than the target's (the clumps or tiles the budget gives), a note
     says so, and the frame still matches Embree. A budget that holds the target keeps 2048."""
     scene = parse_scene(TINY, TINY_PATH, TINY_PATH.parent)
     layer_mib = 4 * 2048 ** 2 / 2**20
@@ -212,7 +212,7 @@ def test_clumps_short_of_layers_get_maps_of_half_the_side(ctx):
     try:
         method = renderer.method
         assert method.resolution == 1024
-        assert method.members.extent_scale > 1.0
+        assert method.maps.density < short.texels_per_metre  # wider than the target's
         assert any("four times as many" in note for note in method.notes)
         _, err = render_and_check(renderer, 0.0)
         assert err["shadowed"] >= 100 and err["error"] <= MAX_ERROR, err["error"]
@@ -222,6 +222,6 @@ def test_clumps_short_of_layers_get_maps_of_half_the_side(ctx):
                                                               budget_mib=64 * layer_mib))
     try:
         assert renderer.method.resolution == 2048
-        assert renderer.method.members.extent_scale == 1.0
+        assert renderer.method.maps.density == 96.0
     finally:
         renderer.release()

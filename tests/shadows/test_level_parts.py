@@ -3,11 +3,7 @@ as the same level given as separate files."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
-import numpy as np
 import pytest
-import trimesh
 
 from game import transforms
 from game.render.renderer import Renderer
@@ -15,51 +11,9 @@ from game.scene import load_scene
 from game.shadows.plan import ShadowSettings
 from tests.helpers import ACCURACY_SIZE, MAX_ERROR
 from tests.shadow_check import render_and_check
+from tests.shadows.level_scenes import write_level
 
 pytest.importorskip("embreex", reason="the Embree reference needs embreex (pip install .[test])")
-
-HEAD = """name = "level"
-[camera]
-position = [0.0, 45.0, 55.0]
-target   = [0.0, 0.0, 0.0]
-fov      = 55.0
-[light]
-kind      = "directional"
-direction = [0.5, -1.0, -0.35]
-[[floor]]
-shape    = "box"
-size     = [120.0, 0.2, 120.0]
-position = [0.0, -0.1, 0.0]
-"""
-
-
-def level_meshes() -> list[trimesh.Trimesh]:
-    """Houses of several heights on a 4x4 grid over 48 m, and a 40 m wall: wider than one
-    clump map holds at the density target, so it must be split too."""
-    rng = np.random.default_rng(7)
-    meshes = []
-    for x in np.linspace(-21, 21, 4):
-        for z in np.linspace(-21, 21, 4):
-            h = float(rng.uniform(2.0, 6.0))
-            meshes.append(trimesh.creation.box([4.0, h, 4.0]).apply_translation([x, h / 2, z]))
-    meshes.append(trimesh.creation.box([40.0, 3.0, 0.6]).apply_translation([0.0, 1.5, -27.0]))
-    return meshes
-
-
-def write_level(folder: Path, as_parts: bool) -> Path:
-    folder.mkdir()
-    meshes = level_meshes()
-    if as_parts:
-        entries = []
-        for i, mesh in enumerate(meshes):
-            mesh.export(folder / f"part_{i}.obj")
-            entries.append(f'[[static]]\nshape = "mesh"\nfile = "part_{i}.obj"\n')
-    else:
-        trimesh.util.concatenate(meshes).export(folder / "level.obj")
-        entries = ['[[static]]\nshape = "mesh"\nfile = "level.obj"\n']
-    (folder / "level.toml").write_text(HEAD + "\n".join(entries))
-    return folder / "level.toml"
-
 
 def test_a_level_in_one_file_gets_many_maps_and_the_accuracy_of_separate_files(ctx, tmp_path):
     from tests.shadow_check import capture_errors
@@ -95,10 +49,11 @@ def test_editing_a_level_file_re_renders_the_clumps_of_its_parts(ctx, tmp_path):
         method = r.method
         level = r.geom.names.index("static_0")
         holding = [k for k, m in enumerate(method.static_maps) if level in m.objects]
-        assert 8 <= len(holding) < len(method.static_maps)  # the box has a clump of its own
-        # Moving the box touches its own clump only; moving the level, every clump of its parts,
-        # and no stale shadow is left where its houses were.
-        assert len(r.move_static("static_1", transforms.translation([1.0, 0.0, 0.0]))) == 1
+        assert len(holding) >= 8
+        # Moving the box touches only the map it leaves and the one it joins (tiles: it may
+        # share a tile with parts of the level); moving the level, every map of its parts, and
+        # no stale shadow is left where its houses were.
+        assert 1 <= len(r.move_static("static_1", transforms.translation([1.0, 0.0, 0.0]))) <= 2
         touched = r.move_static("static_0", transforms.translation([0.0, 0.0, 3.0]))
         assert len(touched) >= len(holding)
         frame, err = render_and_check(r)

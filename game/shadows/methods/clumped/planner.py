@@ -5,6 +5,8 @@ array; floors are in no map. This facade holds one light's parts, a concept each
 
 - :mod:`.layers`: the pool of array layers and the limit the budget sets;
 - :mod:`.units`, :mod:`.statics`: what the clumps are made of, and the clump policy;
+- :mod:`.tiles`: clumping in light space under a directional light, as a partition of its
+  plane into tiles, so that a fragment reads one static map;
 - :mod:`.clump_maps`, :mod:`.characters`: the clumps' maps, and the walkers' of each frame;
 - :mod:`.view_maps`: the clump maps sized by the view (``view_resolution``).
 """
@@ -25,6 +27,7 @@ from game.shadows.methods.clumped.clump_maps import ClumpMaps
 from game.shadows.methods.clumped.context import LightContext
 from game.shadows.methods.clumped.layers import LayerPool
 from game.shadows.methods.clumped.statics import ClumpMembers
+from game.shadows.methods.clumped.tiles import TileMaps, TileMembers, fits_tiles
 from game.shadows.methods.clumped.view_maps import ViewSizedMaps
 from game.shadows.plan import (
     MIN_SHORT_RESOLUTION,
@@ -91,8 +94,12 @@ class ClumpedShadows(ShadowMethod, SharesBudget, ViewSized):
         clumps in what is left."""
         s, ctx = self.settings, self.ctx
         pool = LayerPool(s.budget_mib, s.clump_resolution, self.max_layers)
-        members = ClumpMembers(ctx, pool)
-        maps = ClumpMaps(ctx, members)
+        if tiled(ctx):
+            members: ClumpMembers = TileMembers(ctx, pool)
+            maps: ClumpMaps = TileMaps(ctx, members)
+        else:
+            members = ClumpMembers(ctx, pool)
+            maps = ClumpMaps(ctx, members)
         characters = CharacterMaps(ctx, pool)
         view = ViewSizedMaps(ctx, maps, characters)
         characters.assign(clump_layers=0)
@@ -194,6 +201,9 @@ class ClumpedShadows(ShadowMethod, SharesBudget, ViewSized):
     def set_light(self, light: Light) -> None:
         """A new light invalidates every clump map (and light-space clumps themselves)."""
         self.light = light
+        if tiled(self.ctx) != isinstance(self.members, TileMembers):
+            self.pool, self.members, self.maps, self.characters, self.view = self._parts()
+            return
         self.members.build(self.max_clumps)
         self._clumps_changed()
 
@@ -247,3 +257,13 @@ class ClumpedShadows(ShadowMethod, SharesBudget, ViewSized):
                           render_static=render_static, render_dynamic=render_dynamic,
                           static_pieces=self.maps.pieces, characters=counts,
                           backlog=backlog)
+
+
+def tiled(ctx: LightContext) -> bool:
+    """Whether the statics are tiled (:mod:`.tiles`): clumping in light space under a
+    directional light, without a clump count asked for (tiles cannot be counted out), and
+    with maps of fixed texels (view-sized maps place clumps by the view's need instead) wide
+    enough for a tile and its margins."""
+    s = ctx.settings
+    return (ctx.kind.orthographic and s.clumping == "light" and s.clump_count is None
+            and not s.view_resolution and fits_tiles(s))

@@ -1,0 +1,89 @@
+"""The results page's shading-pass part of the paper's second question: what clumped's camera
+pass costs beside one map's, per scene and frame size, computed from the recorded runs.
+
+A pair is clumped and ``single`` at their defaults on the same scene and frame size in the same
+run. The bench alternates its methods within each repeat, so a pair's figures come from
+interleaved frames.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Callable
+from pathlib import Path
+
+from game.bench.acceptance import is_default
+from game.bench.chart_camera import camera_ms
+from game.bench.rows import row_number
+
+CAMERA_TARGET = 1.15   # clumped's camera pass over single's, at most
+FRAME_TARGET = 0.9     # clumped's frame over single's, at most
+
+
+def shading_pairs(rows: list[dict]) -> list[tuple[dict, dict]]:
+    """(clumped, single) rows at defaults on the same scene and size, in CSV order."""
+    singles = {(r["scene"], r["width"], r["height"]): r for r in rows
+               if r["method"] == "single" and is_default(r)}
+    return [(r, singles[(r["scene"], r["width"], r["height"])]) for r in rows
+            if r["method"] == "clumped" and is_default(r)
+            and (r["scene"], r["width"], r["height"]) in singles]
+
+
+def _ratio(a: float, b: float) -> float:
+    return a / b if b > 0 and math.isfinite(a) and math.isfinite(b) else math.nan
+
+
+def shading_section(runs, here: Path, header: Callable[[object, Path], list[str]]
+                    ) -> list[str]:
+    """The camera pass against one map's, per run that has pairs; ``header`` writes a run's
+    command and renderer."""
+    found = [(run, shading_pairs(run.rows)) for run in runs]
+    every = [p for _, pairs in found for p in pairs]
+    lines = ["### The shading pass: finding and reading many maps", ""]
+    if not every:
+        return lines + ["No recorded run has clumped and `single` at their defaults on one "
+                        "scene.", ""]
+    camera = [_ratio(camera_ms(c), camera_ms(s)) for c, s in every]
+    frames = [_frame_ratio(c, s) for c, s in every]
+    lines += [f"**What the figures say.** Of {len(every)} pairs, clumped's camera pass (cull + "
+              f"shade) is within {CAMERA_TARGET:g}x of `single`'s in "
+              f"{sum(r <= CAMERA_TARGET for r in camera)}, and its frame at most "
+              f"{FRAME_TARGET:g}x of `single`'s in {sum(r <= FRAME_TARGET for r in frames)}. "
+              f"Camera-pass ratios range from {min(camera):.2f}x to {max(camera):.2f}x.", ""]
+    head = ["scene", "size", "camera ms, clumped / single", "camera ratio", "map passes ms",
+            "frame ratio", "maps read per pixel", "map records per pixel"]
+    for run, pairs in found:
+        if not pairs:
+            continue
+        body = [[c["scene"], f"{c['width']}x{c['height']}",
+                 f"{camera_ms(c):.1f} / {camera_ms(s):.1f}",
+                 f"{_ratio(camera_ms(c), camera_ms(s)):.2f}x",
+                 f"{_maps_ms(c):.1f} / {_maps_ms(s):.1f}",
+                 f"{_frame_ratio(c, s):.2f}x",
+                 f"{_share(c, 'maps_per_fragment')} / {_share(s, 'maps_per_fragment')}",
+                 f"{_share(c, 'map_candidates_per_fragment')} / "
+                 f"{_share(s, 'map_candidates_per_fragment')}"] for c, s in pairs]
+        lines += header(run, here) + ["| " + " | ".join(head) + " |",
+                                      "|" + "---|" * len(head)]
+        lines += ["| " + " | ".join(row) + " |" for row in body] + [""]
+        chart = run.folder / "charts" / "camera_maps.png"
+        if chart.is_file():
+            where = Path(os.path.relpath(chart, here)).as_posix()
+            lines += [f"![camera pass against maps, run {run.name}]({where})", ""]
+    lines += ["Why the remaining cost is the depth read and not the search: "
+              "[the architecture](design/architecture.md#many-small-maps-or-one-large-one).", ""]
+    return lines
+
+
+def _frame_ratio(clumped: dict, single: dict) -> float:
+    return _ratio(row_number(clumped, "total_ms_median"), row_number(single, "total_ms_median"))
+
+
+def _maps_ms(row: dict) -> float:
+    return row_number(row, "shadow_static_ms_median") + row_number(row, "shadow_dynamic_ms_median")
+
+
+def _share(row: dict, column: str) -> str:
+    value = row_number(row, column)
+    return f"{value:.2f}" if math.isfinite(value) else "n/a"
