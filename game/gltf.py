@@ -14,6 +14,7 @@ from __future__ import annotations
 import json
 import struct
 from pathlib import Path
+from typing import BinaryIO, NamedTuple
 from urllib.parse import unquote
 
 GLB_MAGIC = b"glTF"
@@ -301,10 +302,11 @@ def check_tree(document: dict, count_nodes: bool = True) -> tuple[int, int, int]
     return drawn[0], drawn[1], drawn[2]
 
 
-def _check_drawn(document: dict, most: int | None) -> None:
-    """The tree is sound and, with ``most`` (a scene's mesh file), has at most
-    :data:`MAX_NODES` nodes and draws at most ``most`` triangles and vertices. A dump's GLB
-    holds a node for each object of its scene, however many; flat, they load in linear time."""
+def _check_drawn(document: dict, most: int | None) -> tuple[int, int]:
+    """The triangles and vertices the tree draws, once it is sound and, with ``most`` (a
+    scene's mesh file), has at most :data:`MAX_NODES` nodes and draws at most ``most``
+    triangles and vertices. A dump's GLB holds a node for each object of its scene, however
+    many; flat, they load in linear time."""
     triangles, vertices, pieces = check_tree(document, count_nodes=most is not None)
     if most is not None and pieces > MAX_NODES:
         # trimesh makes a scene-graph node and a copy of the mesh for each placed primitive
@@ -315,6 +317,7 @@ def _check_drawn(document: dict, most: int | None) -> None:
             if count > most:
                 raise GltfError(f"its nodes draw {count:,} {what}, counting every placement of "
                                 f"a mesh; more than the {most:,} a mesh file may draw")
+    return triangles, vertices
 
 
 def base_colour(material) -> list[float] | None:
@@ -380,23 +383,47 @@ def _checked(check, *args):
         raise GltfError(f"malformed glTF fields ({type(error).__name__}: {error})") from None
 
 
+class Checked(NamedTuple):
+    """A glTF or GLB ready for trimesh (:func:`checked`), and what it draws."""
+
+    data: bytes                         # the GLB, or the .gltf's JSON, unused parts out
+    files: list[tuple[str, Path, int]]  # the buffer files it will read (:func:`check_uris`)
+    triangles: int                      # counting every placement of a mesh by its nodes
+    vertices: int
+
+
+def checked(data: bytes, glb: bool, base: Path | None = None, root: Path | None = None,
+            most: int | None = None) -> Checked:
+    """A GLB (``glb``) or a .gltf's JSON ready for trimesh: URIs checked (see
+    :func:`check_uris`), the node tree checked (with ``most``, what it draws:
+    :func:`check_tree`), unused parts out."""
+    document, binary = split_glb(data) if glb else (_parse_json(data), None)
+    files = _checked(check_uris, document, base, root)
+    _checked(check_accessors, document, None if binary is None else len(binary))
+    triangles, vertices = _checked(_check_drawn, document, most)
+    plain = _checked(geometry_only, document)
+    out = join_glb(plain, binary) if glb else json.dumps(plain).encode()
+    return Checked(out, files, triangles, vertices)
+
+
 def safe_glb(data: bytes, base: Path | None = None, root: Path | None = None,
              most: int | None = None) -> bytes:
-    """GLB bytes ready for trimesh: URIs checked (see :func:`check_uris`), the node tree
-    checked (with ``most``, what it draws: :func:`check_tree`), unused parts out."""
-    document, binary = split_glb(data)
-    _checked(check_uris, document, base, root)
-    _checked(check_accessors, document, len(binary))
-    _checked(_check_drawn, document, most)
-    return join_glb(_checked(geometry_only, document), binary)
+    """GLB bytes ready for trimesh (:func:`checked`)."""
+    return checked(data, True, base, root, most).data
 
 
-def safe_gltf(data: bytes, base: Path, root: Path, most: int | None = None
-              ) -> tuple[bytes, list[tuple[str, Path, int]]]:
-    """A .gltf's JSON ready for trimesh, checked as for :func:`safe_glb`, and the buffer
-    files it will read (:func:`check_uris`)."""
-    document = _parse_json(data)
-    files = _checked(check_uris, document, base, root)
-    _checked(check_accessors, document)
-    _checked(_check_drawn, document, most)
-    return json.dumps(_checked(geometry_only, document)).encode(), files
+def drawn(stream: BinaryIO, glb: bool, most: int) -> tuple[int, int]:
+    """The triangles and vertices a glTF (a GLB with ``glb``) read from ``stream`` draws,
+    counting every placement of a mesh by its nodes, from its JSON alone: a GLB's binary chunk
+    is not read. Raises GltfError where the file is not sound or draws more than ``most``."""
+    if glb:
+        head = stream.read(20)
+        if len(head) < 20 or head[:4] != GLB_MAGIC:
+            raise GltfError("not a GLB file (no glTF header)")
+        length, kind = struct.unpack_from("<II", head, 12)
+        if kind != CHUNK_JSON:
+            raise GltfError("its first chunk is not a JSON chunk")
+        text = stream.read(min(length, MAX_JSON_BYTES + 1))
+    else:
+        text = stream.read(MAX_JSON_BYTES + 1)
+    return _checked(_check_drawn, _parse_json(text), most)

@@ -17,6 +17,7 @@ from game.errors import GameError
 from game.gpu import context
 from game.render.renderer import Frame, Renderer, View
 from game.scene import Scene
+from game.soft.methods import is_raster
 from game.soft.results import COUNTERS, TraceResult
 from game.soft.tracer import TraceSettings
 
@@ -44,7 +45,7 @@ def frame_stats(index: int, t: float, frame: Frame, result: TraceResult) -> dict
             "truncated_points": result.truncated,
             "mean_visibility": round(float(np.nanmean(result.visibility)), 6)
             if covered.any() else None,
-            **means, **headless.resource_stats(frame)}
+            **means, **result.maps, **headless.resource_stats(frame)}
 
 
 def run(ctx, scene: Scene, opts: TraceOptions) -> dict:
@@ -67,16 +68,12 @@ def run(ctx, scene: Scene, opts: TraceOptions) -> dict:
     try:
         frames, interrupted = opts.run_frames(
             scene, view, render, lambda k, t, frame: frame_stats(k, t, frame, frame.soft))
-        tracer = renderer.soft_tracer
         stats = {
-            **context.describe(ctx), "clock": tracer.timer.clock,
+            **context.describe(ctx), **_pass_stats(renderer, opts.settings),
             "scene": scene.given,
             "scene_sha256": scene.sha256,
             "method": opts.settings.method, "samples": opts.settings.samples,
             "size": list(opts.size), "settings": asdict(opts.settings),
-            "grid": tracer.grid.describe(),
-            "memory_bytes": {**tracer.memory_bytes(),
-                             "voxel_cache_per_point": opts.settings.voxel_cache_bytes_per_point},
             "counters": list(COUNTERS),
             "interrupted": interrupted,
             "frames": frames,
@@ -88,9 +85,31 @@ def run(ctx, scene: Scene, opts: TraceOptions) -> dict:
     return stats
 
 
+def _pass_stats(renderer: Renderer, settings: TraceSettings) -> dict:
+    """The clock, and what the pass that ran is made of: the tracer's grid and buffers, or the
+    raster methods' maps and tuning."""
+    if is_raster(settings.method):
+        raster = renderer.traced.raster
+        if raster is None:  # interrupted before the first frame
+            return {"clock": renderer.timer.clock}
+        return {"clock": raster.timer.clock, "maps": raster.describe(),
+                "memory_bytes": raster.memory_bytes()}
+    tracer = renderer.soft_tracer
+    if tracer is None:
+        return {"clock": renderer.timer.clock}
+    return {"clock": tracer.timer.clock, "grid": tracer.grid.describe(),
+            "memory_bytes": {**tracer.memory_bytes(),
+                             "voxel_cache_per_point": settings.voxel_cache_bytes_per_point}}
+
+
 def summary(stats: dict) -> str:
-    """One line: the last frame's times and counters."""
+    """One line: the last frame's times and counters (a raster method: its map passes)."""
     f = stats["frames"][-1]
+    if "soft_maps_rendered" in f:
+        return (f"{stats['method']}: {f['samples_per_dispatch']} light point(s), "
+                f"maps {f['build']:.1f} ms ({f['soft_maps_rendered']} drawn, "
+                f"{f['soft_maps_static_cached']} cached), lookup {f['trace']:.1f} ms, total "
+                f"{f['total']:.1f} ms ({stats['clock']} on {stats['renderer']})")
     return (f"{stats['method']} N={stats['samples']}: build {f['build']:.1f} ms, trace "
             f"{f['trace']:.1f} ms, total {f['total']:.1f} ms; per point: ray-triangle "
             f"{f['ray_triangle_tests']:.2f}, triangle-triangle {f['triangle_triangle_tests']:.2f},"

@@ -18,6 +18,12 @@ from pathlib import Path
 
 from game.app import outputs
 from game.bench.acceptance import is_default
+from game.bench.report_accuracy import (
+    AccuracyRun,
+    accuracy_section,
+    is_accuracy_run,
+    load_accuracy_run,
+)
 from game.bench.report_cache import CacheRun, cache_section, is_cache_run, load_cache_run
 from game.bench.report_shading import shading_section
 from game.bench.rows import read_rows, row_number
@@ -51,11 +57,13 @@ def write_report(root: Path) -> list[Path]:
     runs = load_runs(root / "docs" / "runs")
     caches = [load_cache_run(f) for f in sorted((root / "docs" / "runs").iterdir())
               if f.is_dir() and is_cache_run(f)]
+    sweeps = [load_accuracy_run(f) for f in sorted((root / "docs" / "runs").iterdir())
+              if f.is_dir() and is_accuracy_run(f)]
     results = root / "docs" / "results.md"
     readme = root / "README.md"
     if not readme.is_file():
         raise GameError(f"{readme}: not found (give the checkout's root: bench --report ROOT)")
-    page = results_page(runs, results.parent, caches)
+    page = results_page(runs, results.parent, caches, sweeps)
     text = replace_block(readme.read_text(encoding="utf-8"), readme_block(runs, readme.parent),
                          readme)
     outputs.write_bytes(results, page.encode())
@@ -68,7 +76,8 @@ def load_runs(folder: Path) -> list[RecordedRun]:
     if not folder.is_dir():
         raise GameError(f"{folder}: no recorded runs (record one with python -m game bench "
                         f"--out {folder}/NAME)")
-    runs = [load_run(f) for f in sorted(folder.iterdir()) if f.is_dir() and not is_cache_run(f)]
+    runs = [load_run(f) for f in sorted(folder.iterdir())
+            if f.is_dir() and not is_cache_run(f) and not is_accuracy_run(f)]
     if not runs:
         raise GameError(f"{folder}: no recorded runs (record one with python -m game bench "
                         f"--out {folder}/NAME)")
@@ -265,14 +274,17 @@ the charts this page shows need to be kept.
 """
 
 
-def results_page(runs: list[RecordedRun], here: Path, caches: list[CacheRun] = ()) -> str:
+def results_page(runs: list[RecordedRun], here: Path, caches: list[CacheRun] = (),
+                 sweeps: list[AccuracyRun] = ()) -> str:
     """The whole of ``docs/results.md``: the two questions first, the soft-shadow cache
-    question, then every run."""
+    question, the random scenes, then every run."""
     lines = ["# Results", "", INTRO]
     lines += question_one(runs, here) + question_two(runs, here)
     lines += shading_section(runs, here, header)
     for cache in caches:
         lines += cache_section(cache, here)
+    for sweep in sweeps:
+        lines += accuracy_section(sweep, here)
     lines += ["## Every recorded run", ""]
     for run in runs:
         lines += run_section(run, here)
@@ -389,13 +401,24 @@ def run_section(run: RecordedRun, here: Path) -> list[str]:
 
 # --- the README's block --------------------------------------------------------------------------
 
+WINDOW_SIZE = "960x540"  # the walkaround window's: the size the README's figures are at
+
+
 def readme_block(runs: list[RecordedRun], here: Path) -> str:
-    """The README's headline: clumped at its defaults against ``single`` at its defaults."""
+    """The README's headline: clumped at its defaults against ``single`` at its defaults, at
+    the window's size, on the shipped main scenes and the real corpus, a row per scene (the
+    first run that has it)."""
     head = ["scene", "size", "clumped: frame ms, error", "`single`: frame ms, error",
             "frame, clumped / `single`", "run"]
-    body = []
+    body, seen = [], set()
+    # At the window's size where any run has it, else at every size recorded.
+    sizes = {size_of(c) for run in runs for c, _ in one_map_comparisons(run.rows)}
     for run in runs:
         for c, singles in one_map_comparisons(run.rows):
+            if ((WINDOW_SIZE in sizes and size_of(c) != WINDOW_SIZE)
+                    or c["group"] not in ("main", "real") or c["scene"] in seen):
+                continue
+            seen.add(c["scene"])
             for s in (s for s in singles if is_default(s)):
                 where = Path(os.path.relpath(run.folder, here)).as_posix()
                 body.append([c["scene"], size_of(c),

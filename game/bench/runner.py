@@ -15,6 +15,7 @@ import sys
 import time
 from datetime import UTC, datetime
 from pathlib import Path
+from typing import NoReturn
 
 from game.app import interrupts, outputs
 from game.bench import charts
@@ -25,6 +26,7 @@ from game.bench.runs import BenchOptions, BenchScene, plan_runs
 from game.errors import GameError
 from game.gpu import context
 from game.scene import Scene, parse_scene
+from game.scene.mesh_files import regular_file
 
 
 def run(opts: BenchOptions, ctx=None, command: str = "") -> dict:
@@ -40,6 +42,8 @@ def run(opts: BenchOptions, ctx=None, command: str = "") -> dict:
     (opts.out / "scenes").mkdir(exist_ok=True)
     clean(opts.out)
     csv_path = opts.out / "bench.csv"
+    if csv_path.exists():  # read back to resume: checked again right before the read
+        regular_file(csv_path, str(csv_path), _refuse)
     rows = read_rows(csv_path)
     own = ctx is None
     ctx = context.create_headless() if own else ctx
@@ -172,6 +176,10 @@ def _load(bscene: BenchScene, folder: Path) -> Scene:
     if not path.exists():
         outputs.write_bytes(path, bscene.text.encode())
     return parse_scene(bscene.text, source=path, base_dir=folder)
+
+
+def _refuse(problem: str) -> NoReturn:
+    raise GameError(problem)
 
 
 def _progress(total: int, enabled: bool):

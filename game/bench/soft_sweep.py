@@ -10,6 +10,9 @@ the GPU-pass-on-llvmpipe to Embree ratio is measured side by side, in millisecon
 per second. ``--scenes`` sweeps several scenes in one run (the courtyard and the real level, say)
 and ``--structures`` every acceleration structure; then each scene gets its own charts and
 ``soft_sweep_rays.png`` sets every method's rays per second beside Embree's, scene by scene.
+The raster methods (game/soft/raster.py) run beside them on the same G-buffer: segment-maps at
+every K of ``--maps``, pcss once; the error chart's time axis is each method's whole frame
+but the statics' one-off build (``frame_ms``), so a raster method's walkers' maps count.
 """
 
 from __future__ import annotations
@@ -22,40 +25,48 @@ from pathlib import Path
 import numpy as np
 
 from game.app import dumps, outputs
-from game.bench.chart_axes import plain_log_ticks
 from game.bench.rows import write_table
+from game.bench.soft_charts import write_chart, write_counter_chart, write_rays_chart
 from game.errors import GameError
 from game.gpu import context
 from game.reference import soft as sr
 from game.render.renderer import Renderer, View
 from game.scene import load_scene, reference_scene_path
 from game.soft.grid import DEFAULT_STRUCTURE, STRUCTURES
-from game.soft.methods import SAMPLED_METHODS
+from game.soft.methods import LIMITS, RASTER_METHODS, SAMPLED_METHODS
 from game.soft.results import COUNTERS
 from game.soft.tracer import RAY_OFFSET_DISTANCE, RAY_OFFSET_SCENE, TraceSettings
 
 SAMPLES = (1, 2, 4, 8, 16, 32, 64, 128, 256)
-METHODS = SAMPLED_METHODS  # the analytic reference runs once, beside them
+MAPS = (1, 2, 4, 8, 16, 32, 64)  # segment-maps: the points along the segment it draws maps from
+# The analytic reference runs once, beside them; the raster methods on the first structure only
+# (they use none).
+METHODS = (*SAMPLED_METHODS, *RASTER_METHODS)
+__all__ = ["FIELDS", "METHODS", "sweep", "write_chart", "write_counter_chart", "write_rays_chart"]
 BRUTE_MAX_SAMPLES = 8     # brute force beyond this takes minutes per point set on llvmpipe
 REPEATS = 3               # trace timings: the median of this many runs
 REFERENCE_SAMPLES = 1024
 FIELDS = ("scene", "structure", "method", "samples", "trace_ms", "build_ms", "rounds",
           "step_budget", "samples_per_dispatch", "truncated", "rmse_analytic", "rmse_embree",
           *COUNTERS, "bytes_total", "rays", "rays_per_s", "embree_ms", "embree_rays",
-          "embree_rays_per_s", "trace_over_embree")
+          "embree_rays_per_s", "trace_over_embree", "frame_ms", "soft_maps_rendered",
+          "soft_maps_static_cached", "soft_triangles_to_maps", "soft_triangles_uncached")
 
 
 def _rmse(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.sqrt(np.mean((a.astype(np.float64) - b) ** 2)))
 
 
-def sweep(ctx, scene, size: tuple[int, int], samples=SAMPLES, methods=METHODS,
+def sweep(ctx, scene, size: tuple[int, int], samples=SAMPLES, methods=SAMPLED_METHODS,
           extra: dict | None = None, log=print, brute_max: int = BRUTE_MAX_SAMPLES,
-          structures=(DEFAULT_STRUCTURE,), repeats: int = REPEATS) -> tuple[list[dict], dict]:
+          structures=(DEFAULT_STRUCTURE,), repeats: int = REPEATS,
+          maps=MAPS) -> tuple[list[dict], dict]:
     """Run the sweep on one scene; returns the rows and a header of what was run where.
 
     ``extra`` holds TraceSettings fields to vary (cells_per_triangle, vc_slots, vc_pool); every
-    structure in ``structures`` runs every method at every N on the same G-buffer and rays.
+    structure in ``structures`` runs every traced method at every N on the same G-buffer and
+    rays. The raster methods run once on that G-buffer: segment-maps at every K of ``maps``,
+    pcss at its defaults.
     """
     extra = dict(extra or {})
     renderer = Renderer(ctx, scene, size, gbuffer=True)
@@ -67,8 +78,12 @@ def sweep(ctx, scene, size: tuple[int, int], samples=SAMPLES, methods=METHODS,
         covered = np.isfinite(g["position"]).all(axis=-1)
 
         def timed(settings: TraceSettings):
+            """The last run, and the median ms of the pass and of the frame (all of the
+            method's work but the statics' one-off build: grid or maps)."""
             runs = [renderer.trace(0.0, settings) for _ in range(repeats)]
-            return runs[-1], float(np.median([r.ms["trace"] for r in runs]))
+            return runs[-1], (float(np.median([r.ms["trace"] for r in runs])),
+                              float(np.median([r.ms["total"] - r.ms.get("build_static", 0.0)
+                                               for r in runs])))
 
         first = structures[0]
         exact, exact_ms = timed(TraceSettings(method="analytic", structure=first, **extra))
@@ -85,10 +100,11 @@ def sweep(ctx, scene, size: tuple[int, int], samples=SAMPLES, methods=METHODS,
             row = _row(name, structure, "analytic", 0, result, ms, *scored)
             rows.append(row)
             structure_info[structure] = renderer.soft_tracer.grid.describe()
-            log(f"{name} {structure:9s} analytic: {ms:9.1f} ms, rmse vs Embree "
+            log(f"{name} {structure:9s} analytic: {ms[0]:9.1f} ms, rmse vs Embree "
                 f"{row['rmse_embree']:.6f}, truncated {row['truncated']}")
             rows += _sampled_rows(timed, name, structure, samples, methods, brute_max, extra,
                                   embree, scored, log)
+        rows += _raster_rows(timed, name, maps, methods, scored, log)
         header = {**context.describe(ctx), "clock": renderer.soft_tracer.timer.clock,
                   "scene": scene.given, "scene_name": name,
                   "size": list(size), "shaded_points": int(covered.sum()),
@@ -136,11 +152,12 @@ def _sampled_rows(timed, name: str, structure: str, samples, methods, brute_max:
     for n in samples:
         embree_ms, rays = embree[n]
         for method in methods:
-            if method == "brute" and n > brute_max:
+            if method not in SAMPLED_METHODS or method == "brute" and n > brute_max:
                 continue
             settings = TraceSettings(method=method, samples=n, structure=structure, **extra)
-            result, ms = timed(settings)
-            row = _row(name, structure, method, n, result, ms, *scored)
+            result, both = timed(settings)
+            ms = both[0]
+            row = _row(name, structure, method, n, result, both, *scored)
             row.update(rays=rays, rays_per_s=round(rays / max(ms, 1e-9) * 1e3, 1),
                        embree_ms=round(embree_ms, 3), embree_rays=rays,
                        embree_rays_per_s=round(rays / max(embree_ms, 1e-9) * 1e3, 1),
@@ -154,11 +171,32 @@ def _sampled_rows(timed, name: str, structure: str, samples, methods, brute_max:
     return rows
 
 
+def _raster_rows(timed, name: str, maps, methods, scored: tuple, log) -> list[dict]:
+    """The raster methods' rows: segment-maps at every K (in ``samples``), pcss once (one
+    map); their map passes beside them."""
+    rows = []
+    runs = [("segment-maps", k) for k in maps] + [("pcss", 1)]
+    for method, k in runs:
+        if method not in methods:
+            continue
+        result, both = timed(TraceSettings(method=method, maps=k))
+        row = _row(name, "", method, k, result, both, *scored)
+        rows.append(row)
+        log(f"{name} {method:12s} K={k:4d}: {both[1]:9.1f} ms a frame ({both[0]:.1f} ms "
+            f"lookup), rmse {row['rmse_analytic']:.4f} vs analytic, {row['rmse_embree']:.4f} "
+            f"vs Embree; maps drawn {row['soft_maps_rendered']}, cached "
+            f"{row['soft_maps_static_cached']}")
+    return rows
+
+
 def _row(scene, structure, method, n, result, ms, truth, reference, covered) -> dict:
+    """One row; ``ms`` is the median (pass, frame) ms."""
     vis = result.visibility[covered]
     means = result.means()
+    maps = {k: result.maps.get(k, "") for k in FIELDS if k.startswith("soft_")}
     return {"scene": scene, "structure": structure, "method": method, "samples": n,
-            "trace_ms": round(ms, 3), "build_ms": round(result.ms.get("build", 0.0), 3),
+            "trace_ms": round(ms[0], 3), "frame_ms": round(ms[1], 3),
+            "build_ms": round(result.ms.get("build", 0.0), 3), **maps,
             "rounds": result.rounds, "step_budget": result.step_budget,
             "samples_per_dispatch": result.samples_per_dispatch, "truncated": result.truncated,
             "rmse_analytic": round(_rmse(vis, truth), 6),
@@ -166,153 +204,6 @@ def _row(scene, structure, method, n, result, ms, truth, reference, covered) -> 
             **{k: round(v, 4) for k, v in means.items()},
             "rays": "", "rays_per_s": "", "embree_ms": "", "embree_rays": "",
             "embree_rays_per_s": "", "trace_over_embree": ""}
-
-
-def _series(rows: list[dict]) -> list[tuple[str, str, str, str]]:
-    """(method, structure, label, line style) of every series in ``rows``: one per method, or
-    per method and structure when the rows hold several structures."""
-    structures = list(dict.fromkeys(r["structure"] for r in rows))
-    styles = ("-", "--", ":", "-.")
-    return [(m, st, m if len(structures) == 1 else f"{m}, {st}", styles[i % len(styles)])
-            for i, st in enumerate(structures) for m in METHODS]
-
-
-def _title(header: dict, what: str) -> str:
-    return (f"soft shadows of {header['scene_name']} at {header['size'][0]}x"
-            f"{header['size'][1]}: {what}\n{header['renderer']}, clock {header['clock']}")
-
-
-def write_chart(path: Path, rows: list[dict], header: dict) -> None:
-    """Error versus trace ms, log-log, one line per method (and structure); Embree's any-hit
-    time beside. ``rows`` are one scene's."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    from matplotlib import pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(7.5, 5))
-    floor = 1e-4  # an exact zero error cannot be drawn on a log axis
-    for method, structure, label, style in _series(rows):
-        pts = [(r["trace_ms"], max(r["rmse_embree"], floor), r["samples"]) for r in rows
-               if r["method"] == method and r["structure"] == structure]
-        if pts:
-            ms, err, n = zip(*pts, strict=True)
-            ax.plot(ms, err, "o" + style, label=label, color=COLOURS[method])
-            for x, y, k in pts:
-                if method == "voxel-cache" and structure == rows[0]["structure"]:
-                    ax.annotate(f"N={k}", (x, y), fontsize=7, xytext=(3, 3),
-                                textcoords="offset points")
-    emb = sorted({(r["embree_ms"], max(r["rmse_embree"], floor), r["samples"]) for r in rows
-                  if r["method"] == "grid" and r["embree_ms"] != ""})
-    if emb:
-        ms, err, _ = zip(*emb, strict=True)
-        ax.plot(ms, err, "k--", marker="x", label="Embree any-hit, same rays (CPU)")
-    for r in rows:
-        if r["method"] == "analytic":
-            ax.plot([r["trace_ms"]], [max(r["rmse_embree"], floor)], "*",
-                    color=COLOURS["analytic"], markersize=12,
-                    label=f"analytic (exact), {r['structure']}")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    plain_log_ticks(ax.xaxis)
-    plain_log_ticks(ax.yaxis)
-    ax.set_xlabel("ms per frame (trace pass; Embree: query time)")
-    ax.set_ylabel(f"RMSE vs {header['reference_samples']} stratified Embree samples")
-    counts = ", ".join(str(n) for n in sorted({r["samples"] for r in rows if r["samples"]}))
-    ax.set_title(_title(header, f"error against trace time, each method at N = {counts}"),
-                 fontsize=9)
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    outputs.write_figure(path, fig)
-    plt.close(fig)
-
-
-COLOURS = {"brute": "#1f77b4", "grid": "#ff7f0e", "tri-cache": "#2ca02c",
-           "voxel-cache": "#d62728", "analytic": "#9467bd"}
-
-
-def write_counter_chart(path: Path, rows: list[dict], header: dict) -> None:
-    """The counters per shaded point against N, one line per method (and structure): where
-    each method's work goes (ray-triangle tests; triangle-versus-light-triangle tests, the price
-    of the cull) and the bytes it reads (triangles, structure and candidate lists). ``rows`` are
-    one scene's."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    from matplotlib import pyplot as plt
-
-    panels = (("ray_triangle_tests", "ray-triangle tests per point"),
-              ("triangle_triangle_tests", "triangle-triangle tests per point"),
-              ("bytes_total", "bytes read per point (triangles, cells, candidates)"))
-    fig, axes = plt.subplots(1, 3, figsize=(14, 4.4), sharex=True)
-    for ax, (key, label) in zip(axes, panels, strict=True):
-        for method, structure, name, style in _series(rows):
-            pts = sorted((r["samples"], r[key]) for r in rows
-                         if r["method"] == method and r["structure"] == structure
-                         and r["samples"] > 0)
-            if pts and any(v > 0 for _, v in pts):
-                n, v = zip(*pts, strict=True)
-                # tri-cache and voxel-cache make the same ray tests: draw one hollow and wider.
-                hollow = method == "tri-cache"
-                ax.plot(n, [max(x, 1e-2) for x in v], ("o" if not hollow else "s") + style,
-                        color=COLOURS[method], label=name, markersize=8 if hollow else 5,
-                        markerfacecolor="none" if hollow else COLOURS[method])
-        grid_one = [r[key] for r in rows if r["method"] == "grid" and r["samples"] == 1
-                    and r["structure"] == rows[0]["structure"]]
-        if key != "triangle_triangle_tests" and grid_one:
-            ax.axhline(grid_one[0], color="k", ls=":", lw=1,
-                       label="one point-light ray (grid, N=1)")
-        ax.set_xscale("log", base=2)
-        ax.set_yscale("log")
-        plain_log_ticks(ax.yaxis)
-        ax.set_xlabel("samples N along the segment")
-        ax.set_ylabel(label)
-        ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=6)
-    fig.suptitle(_title(header, "work and memory traffic per shaded point against samples"),
-                 fontsize=9)
-    fig.tight_layout()
-    outputs.write_figure(path, fig)
-    plt.close(fig)
-
-
-def write_rays_chart(path: Path, rows: list[dict], headers: list[dict]) -> None:
-    """Rays per second against N, one panel per scene: every sampled method (and structure),
-    with Embree's any-hit on the very same rays beside them."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    from matplotlib import pyplot as plt
-
-    fig, axes = plt.subplots(1, len(headers), figsize=(6.5 * len(headers), 4.6), sharey=True,
-                             squeeze=False)
-    for ax, header in zip(axes[0], headers, strict=True):
-        mine = [r for r in rows if r["scene"] == header["scene_name"] and r["rays_per_s"] != ""]
-        for method, structure, label, style in _series(mine):
-            pts = sorted((r["samples"], r["rays_per_s"]) for r in mine
-                         if r["method"] == method and r["structure"] == structure)
-            if pts:
-                n, v = zip(*pts, strict=True)
-                ax.plot(n, v, "o" + style, color=COLOURS[method], label=label)
-        emb = sorted({(r["samples"], r["embree_rays_per_s"]) for r in mine})
-        if emb:
-            n, v = zip(*emb, strict=True)
-            ax.plot(n, v, "k--", marker="x", label="Embree any-hit, same rays (CPU)")
-        ax.set_xscale("log", base=2)
-        ax.set_yscale("log")
-        plain_log_ticks(ax.yaxis)
-        ax.set_xlabel("samples N along the segment")
-        ax.set_ylabel("shadow rays per second")
-        ax.set_title(f"{header['scene_name']}, {header['size'][0]}x{header['size'][1]}, "
-                     f"{header['shaded_points']} points", fontsize=9)
-        ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=6)
-    fig.suptitle(f"soft-shadow rays per second, every method beside Embree on the same rays\n"
-                 f"{headers[0]['renderer']}, clock {headers[0]['clock']}", fontsize=9)
-    fig.tight_layout()
-    outputs.write_figure(path, fig)
-    plt.close(fig)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -326,6 +217,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--samples", default=",".join(map(str, SAMPLES)),
                         help="comma-separated sample counts")
     parser.add_argument("--methods", default=",".join(METHODS))
+    parser.add_argument("--maps", default=",".join(map(str, MAPS)),
+                        help="segment-maps: comma-separated counts K of maps along the segment")
     parser.add_argument("--structures", default=DEFAULT_STRUCTURE,
                         help="comma-separated acceleration structures, from "
                              f"{','.join(STRUCTURES)}")
@@ -341,13 +234,16 @@ def main(argv: list[str] | None = None) -> int:
     try:
         w, h = (int(x) for x in args.size.lower().split("x"))
         samples = [int(x) for x in args.samples.split(",")]
+        maps = [int(x) for x in args.maps.split(",")]
         structures = args.structures.split(",")
         unknown = (set(args.methods.split(",")) - set(METHODS)
                    or set(structures) - set(STRUCTURES))
-        if w < 1 or h < 1 or min(samples) < 1 or unknown or args.repeats < 1:
+        if (w < 1 or h < 1 or min(samples) < 1 or unknown or args.repeats < 1
+                or not all(0 < k <= LIMITS["maps"] for k in maps)):
             raise ValueError
     except ValueError:
-        print(f"error: --size WxH, --samples N,N,... (each at least 1), --repeats (at least 1), "
+        print(f"error: --size WxH, --samples N,N,... (each at least 1), --maps K,K,... (each "
+              f"1 to {LIMITS['maps']}), --repeats (at least 1), "
               f"--methods from {','.join(METHODS)} and --structures from "
               f"{','.join(STRUCTURES)}; got {args.size!r}, {args.samples!r}, {args.methods!r}, "
               f"{args.structures!r}", file=sys.stderr)
@@ -368,7 +264,7 @@ def main(argv: list[str] | None = None) -> int:
         for scene in scenes:
             scene_rows, header = sweep(ctx, scene, (w, h), samples, args.methods.split(","),
                                        extra, brute_max=args.brute_max, structures=structures,
-                                       repeats=args.repeats)
+                                       repeats=args.repeats, maps=maps)
             rows += scene_rows
             headers.append(header)
     finally:

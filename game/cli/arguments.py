@@ -8,10 +8,28 @@ from __future__ import annotations
 
 import argparse
 import difflib
-import math
 from pathlib import Path
 
-from game.errors import GameError
+from game.cli.bench_arguments import add_bench_parser
+from game.cli.scenes_arguments import add_scenes_parser
+from game.cli.values import (  # the value types, also for the modules that import them here
+    DEFAULT_OUT,
+    MAX_SCENE_TIME,
+    MAX_SIZE,
+    ArgumentError,
+    at_most,
+    bias_texels,
+    finite,
+    frame_rate,
+    in_range,
+    map_side,
+    positive,
+    positive_int,
+    scene_time,
+    size_value,
+    unit,
+    whole,
+)
 from game.gpu.blocks import DEBUG_VIEWS
 from game.gpu.timing import CLOCKS
 from game.shadows import clumping, registry
@@ -20,12 +38,12 @@ from game.soft import methods as trace_methods
 from game.soft.grid import STRUCTURES
 from game.soft.methods import TraceSettings
 
-MAX_SIZE = 16384
-DEFAULT_OUT = Path("captures")  # runs write to DEFAULT_OUT/<scene folder name>/ by default
+__all__ = ["DEFAULT_OUT", "MAX_SCENE_TIME", "MAX_SIZE", "ArgumentError", "Parser", "at_most",
+           "bias_texels", "build_parser", "finite", "frame_rate", "in_range", "map_side",
+           "positive", "positive_int", "scene_time", "shadow_settings", "size_value",
+           "trace_settings", "unit", "whole"]
 
-
-class ArgumentError(GameError):
-    """A bad command-line value."""
+CLOCK_HELP = "timing clock (auto: CPU around glFinish on llvmpipe, GPU queries elsewhere)"
 
 
 def _shown(value) -> str:
@@ -84,102 +102,6 @@ class Parser(argparse.ArgumentParser):
         return self
 
 
-def size_value(text: str) -> tuple[int, int]:
-    parts = text.lower().split("x")
-    try:
-        w, h = (int(p) for p in parts)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"size must be WxH, like 960x540, got {text!r}") from None
-    if not (1 <= w <= MAX_SIZE and 1 <= h <= MAX_SIZE):
-        raise argparse.ArgumentTypeError(f"size must be 1..{MAX_SIZE} per side, got {text!r}")
-    return w, h
-
-
-def positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
-    return value
-
-
-def finite(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"must be finite, got {text!r}")
-    return value
-
-
-# Scene times stay where float32 (the shaders' time) still counts milliseconds apart.
-MAX_SCENE_TIME = 1e9
-FPS_RANGE = (1e-3, 1e6)
-
-
-def at_most(most: float, kind=positive_int):
-    """A ``kind`` value (positive_int or positive) no larger than ``most``."""
-    def parse(text: str):
-        value = kind(text)
-        if value > most:
-            raise argparse.ArgumentTypeError(f"must be at most {most:g}, got {text!r}")
-        return value
-    parse.__name__ = kind.__name__  # argparse names the type in its messages
-    return parse
-
-
-def positive(text: str) -> float:
-    value = finite(text)
-    if value <= 0:
-        raise argparse.ArgumentTypeError(f"must be positive, got {text!r}")
-    return value
-
-
-def in_range(low: float, high: float, shown: bool = False):
-    """A finite number from ``low`` to ``high`` (``shown``: the bounds end its help)."""
-    def parse(text: str) -> float:
-        value = finite(text)
-        if not low <= value <= high:
-            raise argparse.ArgumentTypeError(f"must be {low:g}..{high:g}, got {text!r}")
-        return value
-    parse.__name__ = "number"  # argparse names the type in its messages
-    if shown:
-        parse.bounds = f"{low:g}..{high:g}"
-    return parse
-
-
-def whole(low: int, high: int):
-    """A whole number from ``low`` to ``high``; the bounds end its help."""
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-        if not low <= value <= high:
-            raise argparse.ArgumentTypeError(f"must be {low}..{high}, got {text!r}")
-        return value
-    parse.__name__, parse.bounds = "whole number", f"{low}..{high}"
-    return parse
-
-
-def unit(text: str) -> float:
-    value = finite(text)
-    if not 0.0 <= value <= 1.0:
-        raise argparse.ArgumentTypeError(f"must be in [0, 1], got {text!r}")
-    return value
-
-
-CLOCK_HELP = "timing clock (auto: CPU around glFinish on llvmpipe, GPU queries elsewhere)"
-scene_time = in_range(-MAX_SCENE_TIME, MAX_SCENE_TIME)
-frame_rate = in_range(*FPS_RANGE)
-# A map narrower than 16 texels has no texel left inside its margins; one side past the GL's
-# GL_MAX_TEXTURE_SIZE is clamped to it with a note, so the top only keeps the number sane.
-map_side = whole(16, 1_000_000)
-# Biases and texel ratios past these reach float32's range in the shaders' blocks.
-bias_texels = in_range(0.0, 1000.0, shown=True)
 
 
 def _add_method_option(parser) -> None:
@@ -356,6 +278,14 @@ def _add_trace_parser(sub) -> None:
                         f"{most['vc_pool']})")
     g.add_argument("--mailbox", type=at_most(most["mailbox"]), default=d.mailbox,
                    help=f"triangles remembered per ray, mailboxing (at most {most['mailbox']})")
+    r = trace.add_argument_group("raster methods' parameters")
+    r.add_argument("--maps", type=at_most(most["maps"]), default=d.maps, metavar="K",
+                   help=f"segment-maps: depth maps from K points along the segment (at most "
+                        f"{most['maps']})")
+    r.add_argument("--map-resolution", type=at_most(most["map_resolution"]),
+                   default=d.map_resolution, metavar="N",
+                   help="segment-maps, pcss: texels per side of each depth map (at most "
+                        f"{most['map_resolution']})")
 
 
 def trace_settings(args) -> TraceSettings:
@@ -364,58 +294,8 @@ def trace_settings(args) -> TraceSettings:
     return TraceSettings(method=args.method, samples=args.samples,
                          structure=args.structure,
                          cells_per_triangle=args.cells_per_triangle, vc_slots=args.vc_slots,
-                         vc_pool=args.vc_pool, mailbox=args.mailbox)
-
-
-def _add_bench_parser(sub) -> None:
-    bench = sub.add_parser(
-        "bench", help="speed-versus-accuracy sweeps and charts",
-        description="Sweep methods x parameters x scenes along a fixed camera path; write "
-                    "OUT/bench.csv (one row per run; finished rows are kept and skipped on a "
-                    "rerun), OUT/charts/*.png|svg and OUT/summary.json. See docs/results.md.")
-    bench.add_argument("--suite", choices=("gpu", "cache"),
-                       help="gpu: the checks meant for a real GPU in one command, within 8 "
-                            "minutes: hard shadows on the default scene, the 1 M-triangle town "
-                            "and a real level; the window's frame rate; the soft-shadow sweep "
-                            "(see docs/results.md). cache: the soft tracer's CPU twin under a "
-                            "cache simulator, natively and beside Embree, on the courtyard and "
-                            "the monastery (OUT/cache.csv; needs numba and valgrind: "
-                            "pip install -e '.[cache]')")
-    bench.add_argument("--quick", action="store_true",
-                       help="the short sweep (default scene, a small town, stability scenes), "
-                            "or the GPU suite made small")
-    bench.add_argument("--out", type=Path, default=None, metavar="DIR",
-                       help="output folder (default: bench, or bench_gpu, bench_cache for "
-                            "--suite gpu, cache)")
-    bench.add_argument("--size", type=size_value, default=(320, 180), metavar="WxH",
-                       help="frame size of every run")
-    bench.add_argument("--frames", type=positive_int, default=None,
-                       help="timed frames per run (default 8, quick 4)")
-    bench.add_argument("--warmup", type=int, default=None,
-                       help="frames before timing (default 2, quick 1)")
-    bench.add_argument("--error-frames", type=int, default=None,
-                       help="frames scored against Embree per run (default 2, quick 1)")
-    bench.add_argument("--flicker-frames", type=int, default=None,
-                       help="frames with only the camera moving, for flicker (default 3, quick 2)")
-    bench.add_argument("--repeat", type=positive_int, default=1,
-                       help="time each run N times, round-robin over the scene's runs, and "
-                            "keep the median (steadier ratios on a loaded machine)")
-    bench.add_argument("--scenes",
-                       help="comma-separated built-in scene keys, patterns (town_*) or paths of "
-                            "scene files (.toml); a scene file gets every method at its "
-                            "defaults plus the --param values (default: the built-in sweep)")
-    bench.add_argument("--methods", help="comma-separated methods (default: all map methods)")
-    bench.add_argument("--param", action="append", default=[], metavar="KEY=V1,V2",
-                       help="also run each value of a method parameter (clump_resolution, "
-                            "single_resolution, clump_count, clumping, ...) with every method "
-                            "that reads it; repeatable; replaces the built-in parameter grid")
-    bench.add_argument("--list", action="store_true", help="print the runs and exit")
-    bench.add_argument("--report", type=Path, nargs="?", const=Path("."), default=None,
-                       metavar="ROOT",
-                       help="measure nothing: write ROOT/docs/results.md and the figure table "
-                            "of ROOT/README.md from the recorded runs in ROOT/docs/runs/*/ "
-                            "(ROOT: the checkout, default: this folder)")
-    bench.add_argument("--no-progress", action="store_true", help="no progress bar")
+                         vc_pool=args.vc_pool, mailbox=args.mailbox, maps=args.maps,
+                         map_resolution=args.map_resolution)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -436,7 +316,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_shadow_options(cap)
 
     _add_trace_parser(sub)
-    _add_bench_parser(sub)
+    add_bench_parser(sub)
+    add_scenes_parser(sub)
 
     verify = sub.add_parser("verify", help="shadow error of dumped frames against Embree")
     verify.add_argument("dumps", type=Path, metavar="DIR", help="a capture or trace --dump folder")
@@ -446,5 +327,3 @@ def build_parser() -> argparse.ArgumentParser:
     verify.add_argument("--images", action="store_true",
                         help="picture where the method and Embree disagree, beside each frame")
     return parser
-
-

@@ -8,22 +8,21 @@ line.
 from __future__ import annotations
 
 import os
-import shlex
-import sys
 import zipfile
 from pathlib import Path
 
-from game.cli.arguments import (
-    DEFAULT_OUT,
-    MAX_SCENE_TIME,
-    MAX_SIZE,
-    ArgumentError,
-    shadow_settings,
-    trace_settings,
-)
-from game.errors import GameError, printable
+from game.cli.arguments import shadow_settings, trace_settings
+from game.cli.checks import check_file as _check_file
+from game.cli.checks import check_out as _check_out
+from game.cli.checks import command_line as _command_line
+from game.cli.checks import say
+from game.cli.sweep_commands import accuracy_suite, cmd_scenes, refuse_accuracy_flags
+from game.cli.values import DEFAULT_OUT, MAX_SCENE_TIME, MAX_SIZE, ArgumentError
+from game.errors import GameError
 from game.shadows import registry
 from game.shadows.method import VISIBILITY_TRACED
+
+DEFAULT_BENCH_SIZE = (320, 180)  # the sweep's and the suites' frames, where --size is not given
 
 
 def cmd_play(args) -> int:
@@ -82,6 +81,11 @@ def cmd_bench(args) -> int:
     from game.bench import runner as bench
     from game.bench import runs
 
+    if args.suite == "accuracy" and args.report is None:
+        return accuracy_suite(args)
+    refuse_accuracy_flags(args, f"--suite {args.suite}" if args.suite else
+                          "--report" if args.report is not None else "the sweep")
+    args.size = args.size or DEFAULT_BENCH_SIZE
     if args.report is not None:
         return _report(args)
     if args.suite == "gpu":
@@ -152,13 +156,6 @@ def cmd_bench(args) -> int:
     return 0
 
 
-def _command_line() -> str:
-    """This process's command line as a user would type it again (recorded in run.json)."""
-    prog = Path(sys.argv[0]).name if sys.argv else ""
-    head = ["python", "-m", "game"] if prog in ("", "__main__.py", "-c") else [prog]
-    return shlex.join(head + sys.argv[1:])
-
-
 def _report(args) -> int:
     from game.bench import report
 
@@ -212,41 +209,10 @@ def _cache_suite(args) -> int:
     return 0
 
 
-def say(line: str, err: bool = False) -> None:
-    """Print one line, user-supplied strings in it escaped (game/errors.py)."""
-    print(printable(line), file=sys.stderr if err else sys.stdout)
-
-
 def _load(scene_arg: str | None):
     from game.scene import default_scene_path, load_scene
 
     return load_scene(Path(scene_arg) if scene_arg else default_scene_path())
-
-
-def _check_out(path: Path | None, flag: str = "--out") -> None:
-    """An output folder: a folder, or a path where one can be made (checked before any work)."""
-    if path is None:
-        return
-    if path.exists() and not path.is_dir():
-        raise ArgumentError(f"{flag} {path}: exists and is not a folder")
-    existing = next((p for p in (path, *path.parents) if p.exists()), Path("."))
-    if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
-        raise ArgumentError(f"{flag} {path}: cannot make or write a folder in {existing}")
-
-
-def _check_file(flag: str, path: Path | None) -> None:
-    """An output file: in an existing folder that can be written (checked before any work)."""
-    if path is None:
-        return
-    if path.is_dir():
-        raise ArgumentError(f"{flag} {path}: is a folder")
-    if path.exists() and not (path.is_file() or path.is_char_device() or path.is_fifo()):
-        raise ArgumentError(f"{flag} {path}: not a regular file, a device or a pipe")
-    folder = path.parent
-    if not folder.is_dir():
-        raise ArgumentError(f"{flag} {path}: folder {folder} does not exist")
-    if not os.access(folder, os.W_OK | os.X_OK):
-        raise ArgumentError(f"{flag} {path}: cannot write in {folder}")
 
 
 def _check_times(args) -> None:
@@ -408,6 +374,6 @@ def cmd_default() -> int:
 
 
 COMMANDS = {"play": cmd_play, "capture": cmd_capture, "trace": cmd_trace, "bench": cmd_bench,
-            "verify": cmd_verify}
+            "verify": cmd_verify, "scenes": cmd_scenes}
 
 

@@ -56,6 +56,8 @@ TEXTURE_UNITS = {
     "upsample_sample_normals": 8,  # visibility, normal, and where the samples agree
     "upsample_agreed": 9,
     "upsample_accumulated": 10,  # its per-pixel mean while nothing moves (game/soft/upsample.py)
+    "soft_maps": 0,          # the raster soft methods' depth array, compared (game/soft/raster.py)
+    "soft_maps_depth": 4,    # the same array read as depth (pcss's blocker search)
     "layer_view": 0,         # the overlay's layer viewer reads the depth array
     "present_frame": 0,      # the window's picture of the frame
 }

@@ -29,7 +29,8 @@ from game.render.target import FrameTarget
 from game.scene.geometry import PackedGeometry
 from game.scene.model import Scene
 from game.soft.composite import SoftComposite
-from game.soft.methods import EXACT_HARD, TraceSettings, hard_light
+from game.soft.methods import EXACT_HARD, TraceSettings, hard_light, is_raster
+from game.soft.raster import RasterSoft
 from game.soft.tracer import SoftTracer, TraceResult
 from game.soft.upsample import ReducedState, ReducedTrace, Upsampling
 
@@ -50,6 +51,7 @@ class TracedLighting:
         self.scene = scene
         self.timer = timer
         self.tracer: SoftTracer | None = None
+        self.raster: RasterSoft | None = None  # the raster soft methods, made on first use
         self.composite = SoftComposite(ctx, defines)
         # The window's reduced soft trace (made on first use and kept) and what it is asked for.
         self.reduced: ReducedTrace | None = None
@@ -90,7 +92,11 @@ class TracedLighting:
             return self._trace_in_bands(target, geom, models, settings, light)
         return self._tracer(geom, settings).trace(textures, target.size, models, settings, light)
 
-    def _tracer(self, geom: PackedGeometry, settings: TraceSettings) -> SoftTracer:
+    def _tracer(self, geom: PackedGeometry, settings: TraceSettings) -> SoftTracer | RasterSoft:
+        if is_raster(settings.method):
+            if self.raster is None:
+                self.raster = RasterSoft(self.ctx, geom, self.scene, self.timer.clock)
+            return self.raster
         tracer = self.tracer
         if tracer is None or tracer.grid.cells_per_triangle != settings.cells_per_triangle:
             if tracer is not None:
@@ -231,6 +237,9 @@ class TracedLighting:
         if self.tracer is not None:
             self.tracer.release()
             self.tracer = None
+        if self.raster is not None:
+            self.raster.release()
+            self.raster = None
         if self.reduced is not None:
             self.reduced.restart()
 
@@ -238,6 +247,8 @@ class TracedLighting:
         counts = {"composite": self.composite.gl_objects()}
         if self.tracer is not None:
             counts["tracer"] = self.tracer.gl_objects()
+        if self.raster is not None:
+            counts["raster_soft"] = self.raster.gl_objects()
         if self.reduced is not None:
             counts["upsample"] = self.reduced.gl_objects()
         return counts

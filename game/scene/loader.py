@@ -23,7 +23,8 @@ import trimesh
 
 from game.data import ASSET_DIR
 from game.errors import SceneError
-from game.scene.mesh_files import load_mesh_file
+from game.scene.budget import DrawBudget
+from game.scene.mesh_files import open_regular
 from game.scene.model import (
     DEFAULT_FAR,
     DEFAULT_FOV_DEG,
@@ -79,8 +80,9 @@ LINEAR_LIGHT_KEYS = ("a", "b")
 BODY_KEYS = ("shape", "position", "rotation", "scale", "color")
 CHARACTER_KEYS = ("shape", "path", "speed", "phase", "rotation", "scale", "color")
 
-def _shape_mesh(table: Table, extra_keys: Iterable[str]) -> trimesh.Trimesh:
-    """The local mesh of a floor, static or character table, checking its keys."""
+def _shape_mesh(table: Table, extra_keys: Iterable[str], budget: DrawBudget) -> trimesh.Trimesh:
+    """The local mesh of a floor, static or character table, checking its keys; a mesh file
+    whose count is known passes the scene's budget before it is read."""
     shape = table.string("shape", choices=list(SHAPE_KEYS))
     own = SHAPE_KEYS[shape]
     misplaced = {k: f"not a key of shape '{shape}' ({shape} takes: {', '.join(own)})"
@@ -91,7 +93,7 @@ def _shape_mesh(table: Table, extra_keys: Iterable[str]) -> trimesh.Trimesh:
     if shape == "sphere":
         return sphere_mesh(table.number("radius", positive=True))
     if shape == "mesh":
-        return _mesh_file(table)
+        return _mesh_file(table, budget)
     radius = table.number("radius", positive=True)
     height = table.number("height", positive=True)
     if shape == "cylinder":
@@ -104,7 +106,7 @@ def _shape_mesh(table: Table, extra_keys: Iterable[str]) -> trimesh.Trimesh:
     return capsule_mesh(radius, height)
 
 
-def _mesh_file(table: Table) -> trimesh.Trimesh:
+def _mesh_file(table: Table, budget: DrawBudget) -> trimesh.Trimesh:
     relative = table.require("file")
     if not isinstance(relative, str):
         table.fail("file", f"must be a string, got {describe(relative)}")
@@ -112,7 +114,16 @@ def _mesh_file(table: Table) -> trimesh.Trimesh:
     def fail(problem: str) -> NoReturn:
         table.fail("file", problem)
 
-    return load_mesh_file(relative, table.ctx.base_dir, table.ctx.label, fail)
+    return budget.mesh_file(relative, table.ctx.base_dir, table.ctx.label, fail)
+
+
+def _count(table: Table, mesh: trimesh.Trimesh, budget: DrawBudget) -> None:
+    """Count what an entry draws towards the scene's total."""
+
+    def fail(problem: str) -> NoReturn:
+        table.fail("file" if table.has("file") else "shape", problem)
+
+    budget.add(len(mesh.faces), len(mesh.vertices), fail)
 
 
 # --------------------------------------------------------------------------------------------
@@ -194,15 +205,16 @@ def _entries(ctx: Context, data: dict[str, Any], kind: str) -> list[Any]:
     return value
 
 
-def _parse_body(ctx: Context, kind: str, index: int, data: Any) -> Body:
+def _parse_body(ctx: Context, kind: str, index: int, data: Any, budget: DrawBudget) -> Body:
     table = Table(ctx, kind, index, data)
-    local = _shape_mesh(table, BODY_KEYS)
+    local = _shape_mesh(table, BODY_KEYS, budget)
     position = table.vec3("position", (0.0, 0.0, 0.0))
     rotation = table.vec3("rotation", (0.0, 0.0, 0.0))
     scale = table.scale()
     linear = euler_xyz(rotation) @ np.diag(scale)
     mesh = transform_mesh(local, linear, position)
     _check_extent(table, mesh)
+    _count(table, mesh, budget)
     return Body(name=f"{kind}_{index}", kind=kind, mesh=mesh, colour=_colour(table))
 
 
@@ -241,9 +253,9 @@ def _point(table: Table, i: int, value: Any) -> np.ndarray:
     return np.array(value, dtype=np.float64)
 
 
-def _parse_character(ctx: Context, index: int, data: Any) -> Character:
+def _parse_character(ctx: Context, index: int, data: Any, budget: DrawBudget) -> Character:
     table = Table(ctx, "character", index, data)
-    local = _shape_mesh(table, CHARACTER_KEYS)
+    local = _shape_mesh(table, CHARACTER_KEYS, budget)
     path = _parse_path(table)
     speed = table.number("speed", DEFAULT_SPEED, non_negative=True)
     phase = table.number("phase", 0.0)
@@ -251,6 +263,7 @@ def _parse_character(ctx: Context, index: int, data: Any) -> Character:
     scale = table.scale()
     mesh = transform_mesh(local, euler_xyz(rotation) @ np.diag(scale))
     _check_extent(table, mesh)
+    _count(table, mesh, budget)
     return Character(name=f"character_{index}", mesh=mesh, path=path, speed=speed, phase=phase,
                      colour=_colour(table))
 
@@ -267,9 +280,10 @@ def _colour(table: Table) -> np.ndarray | None:
 
 
 def _add_generated(ctx: Context, data: Any, floors: list[Body], statics: list[Body],
-                   characters: list[Character], lights: list[Light]) -> None:
+                   characters: list[Character], lights: list[Light], budget: DrawBudget) -> None:
     """Append the procedural town of a ``[generate]`` table, continuing the numbering; its
-    street lamps' lights follow the file's lights."""
+    street lamps' lights follow the file's lights. The town counts towards the scene's total
+    once it is built (its own limit bounds what building it takes)."""
     # Imported here: the generator builds its shapes with this module's helpers.
     from game.scene import generate
 
@@ -279,6 +293,9 @@ def _add_generated(ctx: Context, data: Any, floors: list[Body], statics: list[Bo
         table.fail("lamps", f"{params.lamps} lamps and the file's {len(lights)} light(s) make "
                             f"more than the {MAX_LIGHTS} lights a scene may have")
     town = generate.generate_town(params)
+    meshes = [*town.floors, *town.statics, *(walker.mesh for walker in town.walkers)]
+    budget.add(sum(len(m.faces) for m in meshes), sum(len(m.vertices) for m in meshes),
+               lambda problem: table.fail(None, f"its town {problem}"))
     for mesh in town.floors:
         floors.append(Body(name=f"floor_{len(floors)}", kind="floor", mesh=mesh))
     for mesh in town.statics:
@@ -350,17 +367,20 @@ def parse_scene(text: str, source: Path | None = None, base_dir: Path | None = N
     lights = _parse_lights(ctx, data["light"])
     linear_light = (_parse_linear_light(ctx, data["linear_light"])
                     if "linear_light" in data else None)
-    floors = [_parse_body(ctx, "floor", i, d) for i, d in enumerate(_entries(ctx, data, "floor"))]
-    statics = [_parse_body(ctx, "static", i, d)
-               for i, d in enumerate(_entries(ctx, data, "static"))]
     written = _entries(ctx, data, "character")
     if len(written) > MAX_CHARACTERS:
         ctx.fail("character", MAX_CHARACTERS, None,
                  f"at most {MAX_CHARACTERS:,} characters, got {len(written):,} (a [generate] "
                  "town's walkers are counted apart)")
-    characters = [_parse_character(ctx, i, d) for i, d in enumerate(written)]
+    budget = DrawBudget()
+    budget.count_ahead(data, ctx.base_dir, ctx.fail)
+    floors = [_parse_body(ctx, "floor", i, d, budget)
+              for i, d in enumerate(_entries(ctx, data, "floor"))]
+    statics = [_parse_body(ctx, "static", i, d, budget)
+               for i, d in enumerate(_entries(ctx, data, "static"))]
+    characters = [_parse_character(ctx, i, d, budget) for i, d in enumerate(written)]
     if "generate" in data:
-        _add_generated(ctx, data["generate"], floors, statics, characters, lights)
+        _add_generated(ctx, data["generate"], floors, statics, characters, lights, budget)
     return Scene(name=name, source=source, camera=camera, lights=lights, linear_light=linear_light,
                  floors=floors, statics=statics, characters=characters,
                  sha256=hashlib.sha256(text.encode("utf-8")).hexdigest())
@@ -369,14 +389,15 @@ def parse_scene(text: str, source: Path | None = None, base_dir: Path | None = N
 def load_scene(path: str | Path) -> Scene:
     """Read and validate a scene file; raises SceneError with a one-line message."""
     path = Path(path)
+
+    def fail(problem: str) -> NoReturn:
+        raise SceneError(problem)
+
     try:
-        if path.exists() and not path.is_file():
-            raise SceneError(f"{path}: not a regular file (a scene is a TOML file)")
-        with path.open("rb") as f:
+        with open_regular(path, str(path), fail) as f:
             raw = f.read(MAX_SCENE_BYTES + 1)
-    except (OSError, ValueError) as error:  # ValueError: a NUL byte in the path
-        raise SceneError(f"{path}: cannot read scene file: "
-                         f"{getattr(error, 'strerror', None) or error}") from None
+    except OSError as error:
+        raise SceneError(f"cannot read {path}: {error.strerror or error}") from None
     if len(raw) > MAX_SCENE_BYTES:
         raise SceneError(f"{path}: larger than the {MAX_SCENE_BYTES // 2**20} MiB a scene file "
                          "may be (meshes belong in mesh files)")

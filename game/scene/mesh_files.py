@@ -13,7 +13,7 @@ import stat
 import warnings
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import Any, BinaryIO, NoReturn
 
 import numpy as np
 import trimesh
@@ -69,20 +69,46 @@ def inside(base_dir: Path, relative: str, fail: Callable[[str], NoReturn]) -> Pa
 
 
 def regular_file(path: Path, shown: str, fail: Callable[[str], NoReturn]) -> Path:
-    """``path`` (already resolved inside the scene's folder) if it is a regular file; every file
-    a scene or a glTF names passes here before it is opened. A FIFO would block the read for
-    good, and a device or a folder never gives a mesh."""
+    """``path`` if it is a regular file; every file a scene, a glTF or a bench folder names
+    passes here, or through :func:`open_regular`, before it is read. A FIFO would block the read
+    for good, and a device or a folder never gives what the reader expects."""
     try:
-        mode = path.stat().st_mode
+        mode = os.stat(path).st_mode
     except FileNotFoundError:
-        fail(f"file not found: {shown} (looked for at {path})")
+        fail(f"file not found: {shown}" + (f" (looked for at {path})" if str(path) != shown
+                                           else ""))
+    except (OSError, ValueError) as error:  # ValueError: a NUL byte in the path
+        fail(f"cannot open {shown}: {getattr(error, 'strerror', None) or error}")
+    _refuse_special(mode, shown, fail)
+    return path
+
+
+def open_regular(path: Path, shown: str, fail: Callable[[str], NoReturn]) -> BinaryIO:
+    """``path`` opened for reading, once :func:`regular_file` passes it and its open handle is
+    a regular file too: opened without waiting (opening a FIFO waits for a writer), so a file
+    swapped for a FIFO after the check still cannot block the read."""
+    regular_file(path, shown, fail)
+    try:
+        handle = open(path, "rb", opener=_without_waiting)  # noqa: SIM115 - the caller closes it
     except OSError as error:
         fail(f"cannot open {shown}: {error.strerror or error}")
+    try:
+        _refuse_special(os.fstat(handle.fileno()).st_mode, shown, fail)
+    except BaseException:
+        handle.close()
+        raise
+    return handle
+
+
+def _without_waiting(path: str, flags: int) -> int:
+    return os.open(path, flags | os.O_NONBLOCK)
+
+
+def _refuse_special(mode: int, shown: str, fail: Callable[[str], NoReturn]) -> None:
     if not stat.S_ISREG(mode):
         kind = ("a folder" if stat.S_ISDIR(mode) else "a FIFO" if stat.S_ISFIFO(mode)
                 else "a device or socket")
         fail(f"{shown}: not a regular file ({kind})")
-    return path
 
 
 class CheckedFiles(trimesh.resolvers.Resolver):
@@ -94,11 +120,8 @@ class CheckedFiles(trimesh.resolvers.Resolver):
         self.files = files
 
     def get(self, key: str) -> bytes:
-        # Opened without blocking and checked again, in case the file was swapped since.
-        handle = os.open(self.files[key], os.O_RDONLY | os.O_NONBLOCK)
-        with os.fdopen(handle, "rb") as buffer:
-            if not stat.S_ISREG(os.fstat(handle).st_mode):
-                raise OSError(f"{key}: not a regular file")
+        # Checked again as it is opened, in case the file was swapped since.
+        with open_regular(self.files[key], key, _raise_os_error) as buffer:
             return buffer.read()
 
     def keys(self):
@@ -109,6 +132,40 @@ class CheckedFiles(trimesh.resolvers.Resolver):
 
     def namespaced(self, namespace: str) -> CheckedFiles:
         return self
+
+
+def _raise_os_error(problem: str) -> NoReturn:
+    raise OSError(problem)
+
+
+class _Unknown(Exception):
+    """A file whose count :func:`known_draw` leaves to the loader, which says what is wrong."""
+
+
+def _unknown(problem: str) -> NoReturn:
+    raise _Unknown(problem)
+
+
+def known_draw(relative: str, base_dir: Path) -> tuple[Path, tuple[int, int]] | None:
+    """The path of mesh file ``relative`` and the triangles and vertices it draws, where its
+    header says so before any mesh is read: a glTF's node tree (every placement of a mesh), a
+    binary STL's triangle count. None for other formats, and for a file that
+    :func:`load_mesh_file` refuses: it says why, in the scene's order."""
+    try:
+        path, suffix = _checked_path(relative, base_dir, _unknown)
+        if suffix not in (".glb", ".gltf", ".stl"):
+            return None
+        with open_regular(path, relative, _unknown) as handle:
+            size = os.fstat(handle.fileno()).st_size
+            if size > MAX_MESH_FILE_BYTES:
+                return None
+            if suffix != ".stl":
+                return path, gltf.drawn(handle, suffix == ".glb", MAX_INSTANCED_TRIANGLES)
+            count = int.from_bytes(handle.read(84)[80:84], "little")
+            # trimesh keeps a binary STL's three corners per triangle, unshared
+            return (path, (count, 3 * count)) if size == 84 + 50 * count else None
+    except (_Unknown, gltf.GltfError, OSError):
+        return None
 
 
 def binary_stl_damage(head: bytes, size: int) -> str | None:
@@ -141,9 +198,12 @@ def load_mesh_file(relative: str, base_dir: Path, label: str,
     dropped, in file coordinates, each face's structural part in
     ``face_attributes[FILE_PART]``. ``fail`` raises the scene's one-line error; ``label`` names
     the scene file in warnings."""
-    path, suffix, size = _checked_file(relative, base_dir, fail)
-    source, kwargs = _trimesh_source(path, relative, suffix, size, base_dir, fail)
-    pieces, piece_normals = _read_pieces(source, relative, suffix, kwargs, fail)
+    path, suffix = _checked_path(relative, base_dir, fail)
+    # One handle, checked as it was opened, serves every read: nothing opens the path again.
+    with open_regular(path, relative, fail) as handle:
+        size = _checked_size(handle, relative, fail)
+        source, kwargs = _trimesh_source(handle, path, relative, suffix, size, base_dir, fail)
+        pieces, piece_normals = _read_pieces(source, relative, suffix, kwargs, fail)
     vertices, faces, parts, colours = _joined(pieces, relative, fail)
     keep = _nonzero_area(vertices, faces)
     if not keep.all():
@@ -162,75 +222,75 @@ def load_mesh_file(relative: str, base_dir: Path, label: str,
                                               if np.isfinite(normals).any() else {}))
 
 
-def _checked_file(relative: str, base_dir: Path,
-                  fail: Callable[[str], NoReturn]) -> tuple[Path, str, int]:
-    """The mesh file's path, its suffix (lower case) and size, once it is known to be a
-    supported, non-empty file of at most MAX_MESH_FILE_BYTES inside ``base_dir``."""
+def _checked_path(relative: str, base_dir: Path,
+                  fail: Callable[[str], NoReturn]) -> tuple[Path, str]:
+    """The mesh file's path inside ``base_dir`` and its suffix (lower case), once the suffix is
+    a supported format."""
     path = inside(base_dir, relative, fail)
     suffix = Path(relative).suffix.lower()
     if suffix not in MESH_SUFFIXES:
         fail(f"unsupported mesh format '{suffix or relative}' "
              f"(expected {', '.join(MESH_SUFFIXES)})")
-    regular_file(path, relative, fail)
+    return path, suffix
+
+
+def _checked_size(handle: BinaryIO, relative: str, fail: Callable[[str], NoReturn]) -> int:
+    """The open file's size, once it is known to be non-empty and at most
+    MAX_MESH_FILE_BYTES; the handle is left at its start."""
     try:
-        with path.open("rb") as probe:
-            empty = not probe.read(1)
+        empty = not handle.read(1)
+        handle.seek(0)
     except OSError as error:
         fail(f"cannot open {relative}: {error.strerror or error}")
     if empty:
         fail(f"empty file: {relative}")
-    size = path.stat().st_size
+    size = os.fstat(handle.fileno()).st_size
     if size > MAX_MESH_FILE_BYTES:
         fail(f"{relative} is {size / 2**20:.0f} MiB, more than the {MAX_MESH_FILE_BYTES // 2**20} "
              "MiB a mesh file may hold")
-    return path, suffix, size
+    return size
 
 
-def _trimesh_source(path: Path, relative: str, suffix: str, size: int, base_dir: Path,
-                    fail: Callable[[str], NoReturn]) -> tuple[Any, dict[str, Any]]:
-    """What to hand ``trimesh.load`` for the file (its path, or the checked bytes of a glTF or
-    GLB) and the keyword arguments its format needs; a damaged binary STL, or an OBJ of more
-    groups than a mesh may have parts, fails here."""
+def _trimesh_source(handle: BinaryIO, path: Path, relative: str, suffix: str, size: int,
+                    base_dir: Path, fail: Callable[[str], NoReturn]
+                    ) -> tuple[Any, dict[str, Any]]:
+    """What to hand ``trimesh.load`` for the open file (the handle itself, or the checked bytes
+    of a glTF or GLB) and the keyword arguments its format needs; a damaged binary STL, or an
+    OBJ of more groups than a mesh may have parts, fails here."""
     kwargs: dict[str, Any] = {}
-    source: Any = str(path)
     if suffix in (".glb", ".gltf"):
-        return _gltf_source(path, relative, suffix, base_dir, fail)
+        return _gltf_source(handle.read(), path, relative, suffix, base_dir, fail)
     if suffix == ".stl":
-        with path.open("rb") as stl:
-            damage = binary_stl_damage(stl.read(84), size)
+        damage = binary_stl_damage(handle.read(84), size)
         if damage:
             fail(f"cannot read mesh {relative}: {damage}")
     elif suffix == ".obj":
         # trimesh splits the file by these before any limit could apply, in time and memory
         # that grow with their number: counted first, in one streaming pass.
-        parts = obj_part_count(path, MAX_PARTS)
+        parts = obj_part_count(handle, MAX_PARTS)
         if parts > MAX_PARTS:
             fail(f"{relative} has more than {MAX_PARTS:,} objects and groups with faces (o, g "
                  f"and usemtl); a mesh file may have at most {MAX_PARTS:,} parts")
         # Materials are not used (flat shading), and an mtllib could name a file outside the folder.
         kwargs["skip_materials"] = True
         kwargs.update(split_objects=True, split_groups=True)  # its parts (game/scene/parts.py)
-    return source, kwargs
+    handle.seek(0)
+    return handle, kwargs
 
 
-def _gltf_source(path: Path, relative: str, suffix: str, base_dir: Path,
+def _gltf_source(data: bytes, path: Path, relative: str, suffix: str, base_dir: Path,
                  fail: Callable[[str], NoReturn]) -> tuple[Any, dict[str, Any]]:
     """A glTF or GLB read here, URIs, node tree and sizes checked and images left out, before
     trimesh sees any of it; trimesh reads its buffer files through :class:`CheckedFiles`."""
     try:
-        if suffix == ".glb":
-            text = gltf.safe_glb(path.read_bytes(), path.parent, base_dir,
-                                 MAX_INSTANCED_TRIANGLES)
-            buffers = gltf.check_uris(gltf.split_glb(text)[0], path.parent, base_dir)
-        else:
-            text, buffers = gltf.safe_gltf(path.read_bytes(), path.parent, base_dir,
-                                           MAX_INSTANCED_TRIANGLES)
+        checked = gltf.checked(data, suffix == ".glb", path.parent, base_dir,
+                               MAX_INSTANCED_TRIANGLES)
     except gltf.GltfError as error:
         fail(f"cannot read mesh {relative}: {error}")
     files, total = {}, 0
-    for uri, full, declared in buffers:
+    for uri, full, declared in checked.files:
         shown = full.relative_to(base_dir.resolve()).as_posix()
-        size = regular_file(full, shown, fail).stat().st_size
+        size = os.stat(regular_file(full, shown, fail)).st_size
         if size < declared:
             fail(f"cannot read mesh {relative}: its buffer file {shown} holds {size:,} bytes; "
                  f"the buffer declares {declared:,}")
@@ -238,7 +298,7 @@ def _gltf_source(path: Path, relative: str, suffix: str, base_dir: Path,
         files[uri] = full
     if total > MAX_MESH_FILE_BYTES:
         fail(f"the buffers of {relative} hold more than {MAX_MESH_FILE_BYTES // 2**20} MiB")
-    return io.BytesIO(text), {"resolver": CheckedFiles(files)}
+    return io.BytesIO(checked.data), {"resolver": CheckedFiles(files)}
 
 
 def _read_pieces(source: Any, relative: str, suffix: str, kwargs: dict[str, Any],

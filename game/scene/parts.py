@@ -13,7 +13,7 @@ works on stays bounded whatever the file holds.
 from __future__ import annotations
 
 import re
-from pathlib import Path
+from typing import BinaryIO
 
 import numpy as np
 
@@ -114,27 +114,27 @@ def mesh_parts(vertices: np.ndarray, faces: np.ndarray, file_parts: np.ndarray |
     return median_groups(centres, limit)[components]
 
 
-def obj_part_count(path: Path, limit: int) -> int:
-    """How many parts trimesh would split an OBJ file into, by object (``o``), group (``g``)
-    and material (``usemtl``): the distinct (object, group, material) names that hold faces.
-    One streaming pass over the file, stopping once the count passes ``limit``."""
+def obj_part_count(obj: BinaryIO, limit: int) -> int:
+    """How many parts trimesh would split an OBJ file (open for reading at its start) into, by
+    object (``o``), group (``g``) and material (``usemtl``): the distinct (object, group,
+    material) names that hold faces. One streaming pass over the file, stopping once the count
+    passes ``limit``."""
     current: dict[bytes, bytes | None] = {b"o": None, b"g": None, b"usemtl": None}
     seen: set[tuple] = set()
     carry = b""
-    with path.open("rb") as obj:
-        while len(seen) <= limit:
-            block = obj.read(OBJ_SCAN_BYTES)
-            text = carry + block
-            cut = text.rfind(b"\n") + 1 if block else len(text)
-            text, carry = text[:cut], text[cut:]
-            start = 0
-            for statement in _OBJ_STATEMENT.finditer(text):
-                if _OBJ_FACE.search(text, start, statement.start()):
-                    seen.add(tuple(current.values()))
-                current[statement.group(1)] = (statement.group(2) or b"").strip()
-                start = statement.end()
-            if _OBJ_FACE.search(text, start):
+    while len(seen) <= limit:
+        block = obj.read(OBJ_SCAN_BYTES)
+        text = carry + block
+        cut = text.rfind(b"\n") + 1 if block else len(text)
+        text, carry = text[:cut], text[cut:]
+        start = 0
+        for statement in _OBJ_STATEMENT.finditer(text):
+            if _OBJ_FACE.search(text, start, statement.start()):
                 seen.add(tuple(current.values()))
-            if not block:
-                break
+            current[statement.group(1)] = (statement.group(2) or b"").strip()
+            start = statement.end()
+        if _OBJ_FACE.search(text, start):
+            seen.add(tuple(current.values()))
+        if not block:
+            break
     return len(seen)

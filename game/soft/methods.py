@@ -1,7 +1,9 @@
-"""The soft-shadow tracer's methods by name, and the settings of one trace.
+"""The soft-shadow methods by name, and the settings of one trace.
 
-The one list of trace method names: the command line, the sweep and the docs read it. Every
-method runs in shaders/trace.comp, picked by ``#define METHOD`` (the ``shader_id``).
+The one list of soft method names: the command line, the sweep and the docs read it. A method's
+kind is its type. A :class:`TraceMethod` runs in shaders/trace.comp, picked by ``#define METHOD``
+(the ``shader_id``); a :class:`RasterMethod` draws depth maps from points of the segment and looks
+them up (game/soft/raster.py). Both give the same visibility image.
 """
 
 from __future__ import annotations
@@ -17,13 +19,23 @@ from game.soft.grid import CELLS_PER_TRIANGLE, DEFAULT_STRUCTURE, STRUCTURES
 
 @dataclass(frozen=True)
 class TraceMethod:
+    """A method of the compute tracer: rays (or exact intervals) through the grid."""
+
     name: str
     shader_id: int
     sampled: bool   # False: exact, its result does not depend on the number of samples
     summary: str
 
 
-METHODS: dict[str, TraceMethod] = {m.name: m for m in (
+@dataclass(frozen=True)
+class RasterMethod:
+    """A method that rasterises depth maps from points of the segment instead of tracing."""
+
+    name: str
+    summary: str
+
+
+TRACED_METHODS: dict[str, TraceMethod] = {m.name: m for m in (
     TraceMethod("brute", 0, True, "every sample ray against every triangle (the oracle)"),
     TraceMethod("grid", 1, True, "3D-DDA through the uniform grid, a small per-ray mailbox"),
     TraceMethod("tri-cache", 2, True,
@@ -36,8 +48,23 @@ METHODS: dict[str, TraceMethod] = {m.name: m for m in (
                 "exact: the union of the segment intervals that the triangles meeting the "
                 "light triangle hide"),
 )}
+RASTER_METHODS: dict[str, RasterMethod] = {m.name: m for m in (
+    RasterMethod("segment-maps",
+                 "the mean of depth-map tests from K points along the segment (--maps K); the "
+                 "statics' maps are drawn once and cached, the walkers' every frame"),
+    RasterMethod("pcss",
+                 "percentage-closer soft shadows: one map from the segment's centre, a blocker "
+                 "search and a filter along the segment's image, sized by the penumbra"),
+)}
+METHODS: dict[str, TraceMethod | RasterMethod] = {**TRACED_METHODS, **RASTER_METHODS}
 DEFAULT_METHOD = "voxel-cache"
-SAMPLED_METHODS = tuple(name for name, m in METHODS.items() if m.sampled)
+SAMPLED_METHODS = tuple(name for name, m in TRACED_METHODS.items() if m.sampled)
+
+
+def is_raster(method: str) -> bool:
+    """Whether the soft method ``method`` draws depth maps rather than tracing."""
+    return isinstance(METHODS[method], RasterMethod)
+
 
 
 # The most each tracer parameter may be. The voxel cache, its pool and the mailbox are arrays
@@ -45,7 +72,11 @@ SAMPLED_METHODS = tuple(name for name, m in METHODS.items() if m.sampled)
 # fails or the driver runs out of stack (llvmpipe), and the per-point reset alone takes
 # seconds. The bounds are checked before anything is allocated.
 LIMITS = {"samples": 4096, "vc_slots": 1024, "vc_pool": 4096, "mailbox": 64,
-          "cells_per_triangle": 64.0}
+          "cells_per_triangle": 64.0, "maps": 64, "map_resolution": 4096}
+# The raster methods' defaults (docs/design/raster-soft.md says how they were measured): the
+# maps segment-maps draws along the segment, and the side of every raster method's maps.
+SEGMENT_MAPS = 16
+MAP_RESOLUTION = 1024
 
 
 @dataclass(frozen=True)
@@ -60,6 +91,8 @@ class TraceSettings:
     vc_pool: int = 256       # voxel-cache: candidate ids cached per shaded point
     mailbox: int = 8         # triangles remembered per ray
     max_intervals: int = 32  # analytic: disjoint hidden intervals kept per point
+    maps: int = SEGMENT_MAPS  # segment-maps: points along the segment, one map each
+    map_resolution: int = MAP_RESOLUTION  # raster methods: texels per side of each map
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:

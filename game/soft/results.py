@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from game.gpu import blocks
-from game.soft.methods import METHODS, TraceSettings
+from game.soft.methods import TRACED_METHODS, TraceSettings
 
 COUNTERS = ("ray_triangle_tests", "triangle_triangle_tests", "voxels_visited", "candidates",
             "overflows", "bytes_triangles", "bytes_cells", "bytes_candidates", "dispatches")
@@ -31,6 +31,8 @@ class TraceResult:
     samples_per_dispatch: int = 0
     rounds: int = 0                   # dispatches the trace took
     step_budget: int = 0              # loop iterations each point was given per dispatch
+    # The raster methods' map passes this frame, by name (game/soft/light_maps.py MapCounts).
+    maps: dict[str, int] = field(default_factory=dict)
 
     @property
     def covered(self) -> np.ndarray:
@@ -60,7 +62,7 @@ def decode_results(raw: np.ndarray, settings: TraceSettings, mode: int, ms: dict
         counters[name] = np.ascontiguousarray(v)
     covered = np.isfinite(vis)
     most = int(counters["dispatches"][covered].max()) if covered.any() else 1
-    exact = not METHODS[settings.method].sampled and mode == blocks.TRACE_LIGHT_SEGMENT
+    exact = not TRACED_METHODS[settings.method].sampled and mode == blocks.TRACE_LIGHT_SEGMENT
     per_dispatch = settings.samples if exact else -(-settings.samples // max(1, most))
     return TraceResult(visibility=vis, counters=counters, ms=ms,
                        truncated=int(raw["truncated"][covered].sum()),

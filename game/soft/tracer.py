@@ -30,7 +30,7 @@ from game.soft.grid import (
     SUB_DIMS_BITS,
     SceneGrid,
 )
-from game.soft.methods import METHODS, TraceSettings
+from game.soft.methods import TRACED_METHODS, TraceSettings
 from game.soft.results import TraceResult, decode_results
 
 TRIANGLE_BYTES = 48       # three vec4 per triangle in the Triangles buffer
@@ -387,9 +387,9 @@ def _defines(settings: TraceSettings) -> dict:
     """The ``#define``s of trace.comp for ``settings``: the method, its sizes and the constants
     the shader shares with this module."""
     defines = {f"METHOD_{name.upper().replace('-', '_')}": method.shader_id
-               for name, method in METHODS.items()}
+               for name, method in TRACED_METHODS.items()}
     defines.update(
-        METHOD=METHODS[settings.method].shader_id, MAILBOX_SIZE=settings.mailbox,
+        METHOD=TRACED_METHODS[settings.method].shader_id, MAILBOX_SIZE=settings.mailbox,
         VC_SLOTS=settings.vc_slots, VC_POOL=settings.vc_pool,
         MAX_INTERVALS=settings.max_intervals, BIN_PAD_CELLS=BIN_PAD_CELLS,
         TRIANGLE_BYTES=TRIANGLE_BYTES, VC_BIG_LEAF=VC_BIG_LEAF,

@@ -18,6 +18,7 @@ import pytest
 from game.gpu import resources
 from game.render.renderer import Renderer, View
 from game.scene import load_scene
+from tests.cli.cli_helpers import run_here
 from tests.helpers import ROOT, TINY
 
 SIZE = (64, 36)
@@ -47,12 +48,10 @@ def test_gl_objects_are_constant_and_counted_by_their_owners(ctx):
     assert resources.live_gl_names() == before  # release frees every object
 
 
-def test_stats_record_gl_objects_and_memory_per_frame(tmp_path):
+def test_stats_record_gl_objects_and_memory_per_frame(tmp_path, capsys):
     stats = tmp_path / "stats.json"
-    result = subprocess.run(
-        [sys.executable, "-m", "game", "capture", str(TINY), "--size", "32x18", "--frames", "3",
-         "--out", str(tmp_path / "out"), "--stats", str(stats)],
-        cwd=ROOT, capture_output=True, text=True, timeout=300)
+    result = run_here(capsys, "capture", TINY, "--size", "32x18", "--frames", "3", "--out",
+                      tmp_path / "out", "--stats", stats)
     assert result.returncode == 0, result.stderr
     frames = json.loads(stats.read_text())["frames"]
     assert len(frames) == 3

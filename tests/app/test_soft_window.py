@@ -11,6 +11,7 @@ import sys
 import numpy as np
 import pytest
 
+from game import cli
 from tests.app.window_helpers import NO_WINDOW, run_game, window_env
 from tests.helpers import ROOT, TINY, read_png
 
@@ -59,15 +60,22 @@ def test_a_still_view_accumulates_until_converged_then_traces_nothing(soft_run):
     assert all(f["traced"] and f["trace_ms"] > 0 and "moving" in f["note"] for f in moving)
 
 
+@pytest.fixture(scope="module")
+def soft_capture(tmp_path_factory):
+    """The headless capture of the window's first frame, soft shadows on (no window: in this
+    process)."""
+    out = tmp_path_factory.mktemp("soft_capture")
+    assert cli.main(["capture", str(TINY), "--soft", "--time", "0", "--size",
+                     f"{SIZE[0]}x{SIZE[1]}", "--out", str(out)]) == 0
+    return read_png(out / "frame_0000.png").astype(int)
+
+
 @pytest.mark.parametrize("name, mean, far", [("first", 1.0, 0.01), ("still", 0.5, 0.002)])
-def test_the_window_matches_a_capture_of_every_pixel(soft_run, tmp_path, name, mean, far):
+def test_the_window_matches_a_capture_of_every_pixel(soft_run, soft_capture, name, mean, far):
     # first: one pixel in each block traced, upsampled; still: every pixel, rounds averaged.
     _, out = soft_run
     window = np.load(out / f"{name}.npy").astype(int)
-    result = run_game("capture", TINY, "--soft", "--time", "0", "--size",
-                      f"{SIZE[0]}x{SIZE[1]}", "--out", tmp_path)
-    assert result.returncode == 0, result.stderr
-    captured = read_png(tmp_path / "frame_0000.png").astype(int)
+    captured = soft_capture
     diff = np.abs(window - captured).max(axis=2)
     # The capture traces every pixel with its own samples; the window, with fewer samples per
     # pass, averages neighbours on the same surface: they differ by noise in the penumbrae.

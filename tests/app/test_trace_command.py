@@ -1,25 +1,20 @@
 """``python -m game trace``, ``capture --method traced`` and ``capture --soft`` end to end."""
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 
 from game.reference import hard as reference
 from game.scene import load_scene
+from tests.cli.cli_helpers import in_process
 from tests.helpers import POINT, ROOT, TINY
 
 
-def run(*args):
-    return subprocess.run([sys.executable, "-m", "game", *map(str, args)], cwd=ROOT,
-                          capture_output=True, text=True, timeout=300)
-
-
-def test_trace_writes_frames_dumps_and_stats(tmp_path):
+def test_trace_writes_frames_dumps_and_stats(capsys, tmp_path):
+    game = in_process(capsys)
     out = tmp_path / "out"
-    result = run("trace", TINY, "--method", "voxel-cache", "--samples", "8", "--size", "64x36",
+    result = game("trace", TINY, "--method", "voxel-cache", "--samples", "8", "--size", "64x36",
                  "--frames", "2", "--out", out, "--dump", "--stats", tmp_path / "s.json")
     assert result.returncode == 0, result.stderr
     for k in range(2):
@@ -49,19 +44,37 @@ def test_trace_writes_frames_dumps_and_stats(tmp_path):
     assert stats["frames"][0]["build_static"] > 0 and stats["frames"][1]["build_static"] == 0
 
 
-@pytest.mark.skipif(not (ROOT / "assets" / "real" / "monastery.toml").exists(),
-                    reason="the real level is fetched by assets/fetch_real.py")
+REAL_LEVEL = ROOT / "assets" / "real" / "monastery.toml"
+
+
+@pytest.fixture(scope="module")
+def real_level_tracer(gl_session):
+    """The real level in one renderer at 48x27, its G-buffer and static grid made once for
+    every method traced on it (the command line's trace, on the tiny scene, is tested above)."""
+    from game.render.renderer import Renderer, View
+
+    if not REAL_LEVEL.exists():
+        pytest.skip("the real level is fetched by assets/fetch_real.py")
+    scene = load_scene(REAL_LEVEL)
+    size = (48, 27)
+    # Made current around each use: commands run in this process make contexts of their own.
+    with gl_session:
+        renderer = Renderer(gl_session, scene, size, gbuffer=True)
+    yield renderer, View.from_camera(scene.camera, size)
+    with gl_session:
+        renderer.release()
+
+
 @pytest.mark.parametrize("method", ["analytic", "voxel-cache"])
-def test_trace_of_the_real_level_cuts_no_point_short(tmp_path, method):
+def test_trace_of_the_real_level_cuts_no_point_short(real_level_tracer, ctx, method):
     # Before its work was split, analytic ran out of llvmpipe's loop budget on most points of
     # this level (125,000 triangles, a light triangle spanning the whole compound).
-    result = run("trace", ROOT / "assets" / "real" / "monastery.toml", "--method", method,
-                 "--samples", "8", "--size", "48x27", "--out", tmp_path / "o", "--stats",
-                 tmp_path / "s.json")
-    assert result.returncode == 0, result.stderr
-    assert "loop budget" not in result.stderr
-    frame = json.loads((tmp_path / "s.json").read_text())["frames"][0]
-    assert frame["shaded_points"] > 500 and frame["truncated_points"] == 0
+    from game.soft.tracer import TraceSettings
+
+    renderer, view = real_level_tracer
+    with ctx:
+        result = renderer.render(0.0, view, soft=TraceSettings(method=method, samples=8)).soft
+    assert int(result.covered.sum()) > 500 and result.truncated == 0 and result.rounds >= 1
 
 
 @pytest.mark.parametrize("args, fragment, status", [
@@ -70,29 +83,32 @@ def test_trace_of_the_real_level_cuts_no_point_short(tmp_path, method):
     (["--vc-slots", "3"], "--vc-slots", 2),
     (["--cells-per-triangle", "-1"], "--cells-per-triangle", 2),
 ])
-def test_trace_bad_arguments_are_one_line(args, fragment, status, tmp_path):
-    result = run("trace", TINY, "--out", tmp_path / "o", *args)
+def test_trace_bad_arguments_are_one_line(capsys, args, fragment, status, tmp_path):
+    game = in_process(capsys)
+    result = game("trace", TINY, "--out", tmp_path / "o", *args)
     assert result.returncode == status
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and fragment in lines[0] and "Traceback" not in result.stderr
 
 
-def test_trace_without_a_linear_light_is_one_line(tmp_path):
+def test_trace_without_a_linear_light_is_one_line(capsys, tmp_path):
+    game = in_process(capsys)
     scene = tmp_path / "nolight.toml"
     text = TINY.read_text()
     start = text.index("[linear_light]")
     end = text.index("[[floor]]")
     scene.write_text(text[:start] + text[end:])
     for args in (["trace", scene], ["capture", scene, "--soft"]):
-        result = run(*args, "--out", tmp_path / "o", "--size", "32x18")
+        result = game(*args, "--out", tmp_path / "o", "--size", "32x18")
         assert result.returncode == 1
         lines = result.stderr.strip().splitlines()
         assert len(lines) == 1 and "linear_light" in lines[0]
 
 
-def test_capture_traced_matches_embree_hard_shadows(tmp_path):
+def test_capture_traced_matches_embree_hard_shadows(capsys, tmp_path):
+    game = in_process(capsys)
     out = tmp_path / "out"
-    result = run("capture", POINT, "--method", "traced", "--size", "160x90", "--out", out,
+    result = game("capture", POINT, "--method", "traced", "--size", "160x90", "--out", out,
                  "--dump")
     assert result.returncode == 0, result.stderr
     frame = reference.load_frame(out / "frame_0000.npz")
@@ -105,10 +121,11 @@ def test_capture_traced_matches_embree_hard_shadows(tmp_path):
     assert err["misclassified"] <= 0.002 * err["considered"]
 
 
-def test_capture_soft_changes_the_image_and_dumps_soft(tmp_path):
+def test_capture_soft_changes_the_image_and_dumps_soft(capsys, tmp_path):
+    game = in_process(capsys)
     hard, soft = tmp_path / "hard", tmp_path / "soft"
-    assert run("capture", TINY, "--size", "64x36", "--out", hard, "--dump").returncode == 0
-    result = run("capture", TINY, "--size", "64x36", "--out", soft, "--dump", "--soft",
+    assert game("capture", TINY, "--size", "64x36", "--out", hard, "--dump").returncode == 0
+    result = game("capture", TINY, "--size", "64x36", "--out", soft, "--dump", "--soft",
                  "--stats", tmp_path / "s.json")
     assert result.returncode == 0, result.stderr
     a = np.load(hard / "frame_0000.npz")
@@ -120,12 +137,12 @@ def test_capture_soft_changes_the_image_and_dumps_soft(tmp_path):
     assert ms["total"] >= ms["soft_trace"] > 0
 
 
-def test_sweep_writes_csv_json_and_chart(tmp_path):
-    result = subprocess.run(
-        [sys.executable, "-m", "game.bench.soft_sweep", str(TINY), "--size", "48x27", "--samples",
-         "1,4", "--methods", "grid,voxel-cache", "--out", str(tmp_path), "--name", "s"],
-        cwd=ROOT, capture_output=True, text=True, timeout=300)
-    assert result.returncode == 0, result.stderr
+def test_sweep_writes_csv_json_and_chart(capsys, tmp_path):
+    from game.bench import soft_sweep
+
+    assert soft_sweep.main([str(TINY), "--size", "48x27", "--samples", "1,4", "--methods",
+                            "grid,voxel-cache", "--out", str(tmp_path), "--name", "s"]) == 0, \
+        capsys.readouterr().err
     stats = json.loads((tmp_path / "s.json").read_text())
     rows = stats["rows"]
     assert [(r["method"], r["samples"]) for r in rows] == [
@@ -138,15 +155,15 @@ def test_sweep_writes_csv_json_and_chart(tmp_path):
         assert (tmp_path / chart).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
-def test_sweep_of_several_scenes_and_structures_sets_rays_per_second_beside_embree(tmp_path):
+def test_sweep_of_several_scenes_and_structures_sets_rays_per_second_beside_embree(capsys,
+                                                                                  tmp_path):
+    from game.bench import soft_sweep
     from tests.helpers import COURTYARD
 
-    result = subprocess.run(
-        [sys.executable, "-m", "game.bench.soft_sweep", "--scenes", f"{TINY},{COURTYARD}",
-         "--structures", "uniform,two-level", "--size", "40x24", "--samples", "2",
-         "--methods", "grid,voxel-cache", "--repeats", "1", "--out", str(tmp_path),
-         "--name", "s"], cwd=ROOT, capture_output=True, text=True, timeout=600)
-    assert result.returncode == 0, result.stderr
+    assert soft_sweep.main(["--scenes", f"{TINY},{COURTYARD}", "--structures",
+                            "uniform,two-level", "--size", "40x24", "--samples", "2",
+                            "--methods", "grid,voxel-cache", "--repeats", "1", "--out",
+                            str(tmp_path), "--name", "s"]) == 0, capsys.readouterr().err
     rows = json.loads((tmp_path / "s.json").read_text())["rows"]
     assert {(r["scene"], r["structure"]) for r in rows} == {
         (scene, structure) for scene in ("tiny", "courtyard")
@@ -165,11 +182,12 @@ def test_sweep_of_several_scenes_and_structures_sets_rays_per_second_beside_embr
         assert (tmp_path / chart).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
-def test_sweep_refuses_bad_values_in_one_line():
-    for args, code in ((["--size", "abc"], 2), (["--samples", "0,4"], 2),
-                       (["--methods", "grid,nope"], 2), (["--structures", "octree"], 2),
-                       (["missing.toml"], 1)):
-        result = subprocess.run([sys.executable, "-m", "game.bench.soft_sweep", *args], cwd=ROOT,
-                                capture_output=True, text=True, timeout=60)
-        assert result.returncode == code, (args, result.stderr)
-        assert len(result.stderr.strip().splitlines()) == 1 and "Traceback" not in result.stderr
+@pytest.mark.parametrize("args, code", [(["--size", "abc"], 2), (["--samples", "0,4"], 2),
+                                         (["--methods", "grid,nope"], 2),
+                                         (["--structures", "octree"], 2),
+                                         (["missing.toml"], 1)])
+def test_sweep_refuses_bad_values_in_one_line(capsys, args, code):
+    from game.bench import soft_sweep
+
+    assert soft_sweep.main(args) == code, args
+    assert len(capsys.readouterr().err.strip().splitlines()) == 1

@@ -18,7 +18,8 @@ import pytest
 from game import transforms
 from game.app.window import camera_control
 from game.scene import Camera
-from tests.app.window_helpers import DRIVER, NO_WINDOW, run_game, window_env
+from tests.app.window_helpers import DRIVER, NO_WINDOW, WIDE, run_game, window_env
+from tests.cli.cli_helpers import in_process
 from tests.helpers import ROOT, TINY, read_png
 
 # -- the controller, no GL --------------------------------------------------------------------
@@ -180,7 +181,8 @@ def test_resize_and_minimise_cycles(driven):
     assert driven["frames"] > 30
 
 
-def test_screenshot_matches_a_headless_capture_outside_the_overlay(tmp_path):
+def test_screenshot_matches_a_headless_capture_outside_the_overlay(capsys, tmp_path):
+    capture = in_process(capsys)   # no window: in this process
     shot, stats = tmp_path / "shot.png", tmp_path / "play.json"
     # With the capture's settings: no FXAA on the picture, no PCF on the shadows.
     result = run_game("play", TINY, "--platform", "null", "--frames", "3", "--fps", "10",
@@ -194,8 +196,8 @@ def test_screenshot_matches_a_headless_capture_outside_the_overlay(tmp_path):
     assert len(play["frames"]) == 3 and play["fps"] > 0
     assert play["frames"][-1]["time"] == pytest.approx(0.2)
     out = tmp_path / "cap"
-    result = run_game("capture", TINY, "--frames", "1", "--time", "0.2", "--size", "640x360",
-                      "--out", out)
+    result = capture("capture", TINY, "--frames", "1", "--time", "0.2", "--size", "640x360",
+                     "--out", out)
     assert result.returncode == 0, result.stderr
     window = read_png(shot)
     headless = read_png(out / "frame_0000.png")
@@ -210,11 +212,12 @@ def test_screenshot_matches_a_headless_capture_outside_the_overlay(tmp_path):
     assert (diff[~outside] > 8).mean() > 0.2
 
 
-def test_capture_overlay_draws_the_panel_into_headless_frames(tmp_path):
+def test_capture_overlay_draws_the_panel_into_headless_frames(capsys, tmp_path):
+    capture = in_process(capsys)   # no window: in this process
     plain, over = tmp_path / "plain", tmp_path / "over"
     for out, extra in ((plain, []), (over, ["--overlay"])):
-        result = run_game("capture", TINY, "--frames", "2", "--size", "640x360", "--out", out,
-                          *extra)
+        result = capture("capture", TINY, "--frames", "2", "--size", "640x360", "--out", out,
+                         *extra)
         assert result.returncode == 0, result.stderr
     a = read_png(plain / "frame_0001.png").astype(int)
     b = read_png(over / "frame_0001.png").astype(int)
@@ -265,17 +268,18 @@ def _outside_panel(seen: dict, shape) -> np.ndarray:
 
 
 def test_m_cycles_to_traced_and_its_shadows_match_a_headless_traced_capture(traced_soft,
-                                                                           tmp_path):
+                                                                           tmp_path, capsys):
+    capture = in_process(capsys)   # no window: in this process
     seen, out = traced_soft
     assert seen["methods"] == ["single", "static-dynamic", "csm", "traced"]
     assert seen["after_traced"] == "clumped"      # the cycle wraps
     traced = seen["traced"]
-    assert traced["method"] == "traced" and traced["render_size"] == [1280, 720]
+    assert traced["method"] == "traced" and traced["render_size"] == list(WIDE)
     assert traced["ms"]["traced_trace"] > 0 and traced["ms"]["composite"] > 0
     window = np.load(out / "traced.npy")
     outside = _outside_panel(traced, window.shape)
-    result = run_game("capture", TINY, "--method", "traced", "--time", "0", "--size",
-                      "1280x720", "--out", tmp_path)
+    result = capture("capture", TINY, "--method", "traced", "--time", "0", "--size",
+                     "{}x{}".format(*WIDE), "--out", tmp_path)
     assert result.returncode == 0, result.stderr
     captured = read_png(tmp_path / "frame_0000.png").astype(int)
     diff = np.abs(window.astype(int) - captured).max(axis=2)
@@ -293,10 +297,12 @@ def test_soft_shadows_change_the_image_and_show_their_trace_time(traced_soft):
     assert soft["ms"]["total"] >= soft["ms"]["soft_trace"]
     assert "soft_trace" not in hard["ms"]
     # The frame at the window's resolution, traced at a quarter of it per side and upsampled.
-    assert soft["render_size"] == [1280, 720] == hard["render_size"]
-    assert soft["trace_size"] == [320, 180] and hard["trace_size"] is None
+    quarter = [WIDE[0] // 4, WIDE[1] // 4]
+    assert soft["render_size"] == list(WIDE) == hard["render_size"]
+    assert soft["trace_size"] == quarter and hard["trace_size"] is None
     # The HUD says at what resolution the trace ran, and how long it took.
-    assert re.search(r"\+ soft 320x180 \d+\.\d ms", soft["hud"][-1]), soft["hud"]
+    assert re.search(rf"\+ soft {quarter[0]}x{quarter[1]} \d+\.\d ms", soft["hud"][-1]), \
+        soft["hud"]
     a, b = np.load(out / "soft.npy").astype(int), np.load(out / "clumped.npy").astype(int)
     outside = _outside_panel(hard, a.shape)
     assert (np.abs(a - b).max(axis=2)[outside] > 8).mean() > 0.05
@@ -392,9 +398,10 @@ def test_cache_debug_view_colours_re_rendered_and_cached_maps(ctx):
     assert green1 > 0.01 and red1 > 0
 
 
-def test_capture_takes_the_cache_debug_view(tmp_path):
-    result = run_game("capture", TINY, "--frames", "2", "--size", "160x90", "--debug-view",
-                      "cache", "--out", tmp_path)
+def test_capture_takes_the_cache_debug_view(capsys, tmp_path):
+    capture = in_process(capsys)   # no window: in this process
+    result = capture("capture", TINY, "--frames", "2", "--size", "160x90", "--debug-view",
+                     "cache", "--out", tmp_path)
     assert result.returncode == 0, result.stderr
     first = read_png(tmp_path / "frame_0000.png").astype(int)
     second = read_png(tmp_path / "frame_0001.png").astype(int)

@@ -21,9 +21,9 @@ from game.app.window.walkaround import PlayOptions, Walkaround
 from game.errors import GameError
 from game.scene import load_scene
 from game.shadows.plan import ShadowSettings
+from tests.app.window_helpers import WIDE
 
 SIZE = (320, 180)
-WIDE = (1280, 720)  # room beside the overlay's panel for comparing shadows
 COARSE = 64         # texels per side of the maps in traced_and_soft
 STEP_S = 1.0 / 30.0
 MODES_SIZES = ((640, 360), (960, 540))  # the window before and after a resize, overlay_modes

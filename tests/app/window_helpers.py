@@ -11,6 +11,7 @@ from tests.helpers import ROOT
 
 DRIVER = ROOT / "tests" / "app" / "window_driver.py"
 NO_WINDOW = 77  # a driver's exit status: this machine cannot open a null-platform EGL window
+WIDE = (1280, 720)  # the traced-and-soft run's window: room beside the overlay's panel
 
 
 def window_env(**extra) -> dict:

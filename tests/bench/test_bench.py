@@ -1,11 +1,9 @@
 """The benchmark at tiny scale: CSV columns, resuming and skipping rows, charts, flicker, Pareto."""
 
-import subprocess
-import sys
-
 import numpy as np
 import pytest
 
+from game import cli
 from game.bench import acceptance, charts, measure, runs
 from game.bench import runner as bench
 from game.bench.rows import read_rows
@@ -147,17 +145,14 @@ def test_pareto_front_and_comparison():
     assert c["clumped_error_lower"]
 
 
-def test_cli_lists_runs_and_rejects_a_bad_method(tmp_path):
-    ok = subprocess.run([sys.executable, "-m", "game", "bench", "--quick", "--list",
-                         "--out", str(tmp_path)], capture_output=True, text=True)
-    assert ok.returncode == 0
-    runs = ok.stdout.split()
-    assert "default|clumped|defaults|320x180" in runs
-    assert any(r.startswith("stab_elevation_90|csm|") for r in runs)
-    bad = subprocess.run([sys.executable, "-m", "game", "bench", "--methods", "nope"],
-                         capture_output=True, text=True)
-    assert bad.returncode == 2 and "unknown method 'nope'" in bad.stderr
-    assert "Traceback" not in bad.stderr
+def test_cli_lists_runs_and_rejects_a_bad_method(tmp_path, capsys):
+    assert cli.main(["bench", "--quick", "--list", "--out", str(tmp_path)]) == 0
+    listed = capsys.readouterr().out.split()
+    assert "default|clumped|defaults|320x180" in listed
+    assert any(r.startswith("stab_elevation_90|csm|") for r in listed)
+    assert cli.main(["bench", "--methods", "nope"]) == 2
+    err = capsys.readouterr().err
+    assert "unknown method 'nope'" in err and "Traceback" not in err
 
 
 def test_repeated_timings_take_turns_frame_by_frame_and_are_combined(ctx, tmp_path, monkeypatch):

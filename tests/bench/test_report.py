@@ -59,8 +59,9 @@ def test_each_table_is_headed_by_its_run(root):
     head = ("Run [`fake`](runs/fake/run.json): `python -m game bench --scenes courtyard "
             "--repeat 3 --out docs/runs/fake`; llvmpipe (LLVM 15.0.6, 256 bits), OpenGL 4.5 "
             "(Core Profile); 2026-01-02 03:04 UTC; code `0123456789`.")
-    # Question 1, question 2, and the run's own table: three tables, each under the header.
-    assert text.count(head) == 3
+    # Question 1, question 2, its shading pass, and the run's own table: four tables, each
+    # under the header.
+    assert text.count(head) == 4
     assert text.index("## Question 1") < text.index("## Question 2") < text.index(
         "## Every recorded run")
 

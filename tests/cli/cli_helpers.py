@@ -3,6 +3,8 @@ an error is one line. Not a test module."""
 
 from __future__ import annotations
 
+import contextlib
+import functools
 import subprocess
 import sys
 from pathlib import Path
@@ -28,6 +30,26 @@ def assert_one_line_error(result, *fragments):
     assert "Traceback" not in result.stderr
     for fragment in fragments:
         assert fragment in lines[0], lines[0]
+
+
+def run_here(capsys, *args, cwd=None) -> subprocess.CompletedProcess:
+    """``python -m game ARGS`` in this process, from ``cwd``, reported as :func:`run` reports a
+    child: its exit status, standard output and standard error. Quicker than a child by the
+    interpreter's start and the imports; where a command must meet a real process (signals, a
+    window, the interpreter's own exit), use :func:`run`."""
+    capsys.readouterr()
+    with contextlib.chdir(cwd or Path.cwd()):
+        try:
+            code = cli.main([str(a) for a in args])
+        except SystemExit as done:   # argparse's --help
+            code = done.code or 0
+    out, err = capsys.readouterr()
+    return subprocess.CompletedProcess(list(args), code, out, err)
+
+
+def in_process(capsys):
+    """:func:`run_here` bound to ``capsys``: called as :func:`run` is."""
+    return functools.partial(run_here, capsys)
 
 
 def run_main(capsys, *args) -> tuple[int, list[str]]:

@@ -8,6 +8,7 @@ table in docs/reliability.md lists the same cases with their messages.
 
 from __future__ import annotations
 
+import os
 import re
 from pathlib import Path
 
@@ -132,14 +133,14 @@ def test_unreadable_mesh_file(capsys, mesh_folder, monkeypatch):
     # chmod 000 does not stop root (CI containers), so make the open itself fail.
     target = mesh_folder / "locked.obj"
     trimesh.creation.box().export(target)
-    real_open = Path.open
+    real_open = os.open
 
-    def refuse(self, *args, **kwargs):
-        if self.name == "locked.obj":
+    def refuse(path, *args, **kwargs):
+        if Path(path).name == "locked.obj":
             raise PermissionError(13, "Permission denied")
-        return real_open(self, *args, **kwargs)
+        return real_open(path, *args, **kwargs)
 
-    monkeypatch.setattr(Path, "open", refuse)
+    monkeypatch.setattr(os, "open", refuse)
     expect_scene_error(capsys, mesh_folder, write_mesh_scene(mesh_folder, "locked.obj"),
                        MESH_LINE, "static[2].file", "cannot open", "Permission denied")
 

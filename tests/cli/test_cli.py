@@ -6,7 +6,7 @@ import os
 import numpy as np
 import pytest
 
-from tests.cli.cli_helpers import assert_one_line_error, run
+from tests.cli.cli_helpers import assert_one_line_error, in_process, run
 from tests.helpers import TINY
 
 
@@ -24,9 +24,10 @@ from tests.helpers import TINY
     (["capture", "missing.toml"], "missing.toml"),
     (["frobnicate"], "frobnicate"),
 ])
-def test_bad_arguments(args, fragment, tmp_path):
-    assert_one_line_error(run(*args, "--out", tmp_path / "out") if args[0] == "capture"
-                          else run(*args), fragment)
+def test_bad_arguments(capsys, args, fragment, tmp_path):
+    game = in_process(capsys)
+    assert_one_line_error(game(*args, "--out", tmp_path / "out") if args[0] == "capture"
+                          else game(*args), fragment)
 
 
 def test_bad_scene_is_one_line_naming_file_line_and_key(tmp_path):
@@ -37,16 +38,18 @@ def test_bad_scene_is_one_line_naming_file_line_and_key(tmp_path):
     assert_one_line_error(result, "bad.toml:", "radius")
 
 
-def test_out_that_is_a_file(tmp_path):
+def test_out_that_is_a_file(capsys, tmp_path):
+    game = in_process(capsys)
     target = tmp_path / "file"
     target.write_text("keep me")
-    assert_one_line_error(run("capture", TINY, "--out", target), "--out")
+    assert_one_line_error(game("capture", TINY, "--out", target), "--out")
     assert target.read_text() == "keep me"
 
 
-def test_capture_writes_frames_dumps_and_stats(tmp_path):
+def test_capture_writes_frames_dumps_and_stats(capsys, tmp_path):
+    game = in_process(capsys)
     out = tmp_path / "out"
-    result = run("capture", TINY, "--frames", "2", "--size", "64x36", "--out", out, "--dump",
+    result = game("capture", TINY, "--frames", "2", "--size", "64x36", "--out", out, "--dump",
                  "--stats", tmp_path / "stats.json", "--time", "1.5", "--fps", "10")
     assert result.returncode == 0, result.stderr
     for k in range(2):
@@ -87,12 +90,13 @@ def test_default_command_renders_headless_and_says_where(tmp_path):
     assert (tmp_path / "captures" / "square" / "frame_0000.png").exists()
 
 
-def test_verify_reports_the_error_of_each_dumped_frame(tmp_path):
+def test_verify_reports_the_error_of_each_dumped_frame(capsys, tmp_path):
+    game = in_process(capsys)
     pytest.importorskip("embreex")
     out = tmp_path / "dumps"
-    assert run("capture", TINY, "--frames", "2", "--size", "96x54", "--out", out,
+    assert game("capture", TINY, "--frames", "2", "--size", "96x54", "--out", out,
                "--dump").returncode == 0
-    result = run("verify", out, TINY, "--out", tmp_path / "verify.json")
+    result = game("verify", out, TINY, "--out", tmp_path / "verify.json")
     assert result.returncode == 0, result.stderr
     lines = result.stdout.strip().splitlines()
     assert [line.split(":")[0] for line in lines] == ["frame_0000", "frame_0001"]
@@ -101,8 +105,9 @@ def test_verify_reports_the_error_of_each_dumped_frame(tmp_path):
     assert all(0 <= f["error"] <= 0.2 and f["shadowed"] > 0 for f in report["frames"])
 
 
-def test_verify_without_dumps_is_one_line(tmp_path):
-    assert_one_line_error(run("verify", tmp_path), "no frame_*.npz")
+def test_verify_without_dumps_is_one_line(capsys, tmp_path):
+    game = in_process(capsys)
+    assert_one_line_error(game("verify", tmp_path), "no frame_*.npz")
 
 
 def test_a_warning_is_one_line(tmp_path):
@@ -121,22 +126,24 @@ def test_a_warning_is_one_line(tmp_path):
     ["capture", "--method", "traced", "--debug-view", "map"],
     ["capture", "--soft", "--debug-view", "cache"],
 ])
-def test_refused_combinations_get_one_line(args, tmp_path):
-    result = run(*args, cwd=tmp_path)
+def test_refused_combinations_get_one_line(capsys, args, tmp_path):
+    game = in_process(capsys)
+    result = game(*args, cwd=tmp_path)
     assert result.returncode == 2
     assert len(result.stderr.strip().splitlines()) == 1 and "Traceback" not in result.stderr
 
 
-def test_a_depth_array_past_every_budget_is_never_asked_of_the_driver(tmp_path):
+def test_a_depth_array_past_every_budget_is_never_asked_of_the_driver(capsys, tmp_path):
+    game = in_process(capsys)
     # 1,000 cascades: past the bound of the flag, one line before anything is made.
-    result = run("capture", str(TINY), "--method", "csm", "--cascades", "1000",
+    result = game("capture", str(TINY), "--method", "csm", "--cascades", "1000",
                  "--cascade-resolution", "16384", "--size", "32x18", "--out", str(tmp_path),
                  cwd=tmp_path)
     assert result.returncode == 2
     assert result.stderr.strip().splitlines() == [
         "error: python -m game capture: argument --cascades: must be 1..64, got '1000'"]
     # 64 cascades of 16384² (64 GiB): the baselines' budget halves the maps, and says so.
-    result = run("capture", str(TINY), "--method", "csm", "--cascades", "64",
+    result = game("capture", str(TINY), "--method", "csm", "--cascades", "64",
                  "--cascade-resolution", "16384", "--size", "32x18", "--out", str(tmp_path),
                  cwd=tmp_path)
     assert result.returncode == 0, result.stderr

@@ -73,8 +73,7 @@ def test_a_generated_town_past_the_triangle_limit_is_refused_at_once(capsys, tmp
 
 def test_a_scene_file_that_is_not_a_regular_file_or_too_large(capsys, tmp_path):
     code, lines = run_main(capsys, "capture", "/dev/zero", "--out", tmp_path / "o")
-    assert code == 1 and lines == ["error: /dev/zero: not a regular file (a scene is a TOML "
-                                   "file)"]
+    assert code == 1 and lines == ["error: /dev/zero: not a regular file (a device or socket)"]
     big = tmp_path / "big.toml"
     big.write_text(TINY + "#" * (5 * 2**20))
     code, lines = run_main(capsys, "capture", big, "--out", tmp_path / "o")

@@ -10,6 +10,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -229,6 +230,35 @@ def test_a_bench_csv_that_is_a_pipe_is_refused_not_read(tmp_path):
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and "bench.csv" in lines[0] and "not a regular file" in lines[0], \
         lines
+
+
+def test_a_bench_csv_swapped_for_a_pipe_after_the_first_check_is_still_not_read(
+        capsys, tmp_path, monkeypatch):
+    from game.bench import runner
+    from game.gpu import context
+
+    def no_gl(*args, **kw):
+        raise AssertionError("GL work before bench.csv was read")
+
+    out = tmp_path / "b"
+    # Were the pipe opened to read, this writer would let the read end, empty, not hang.
+    writer = threading.Timer(10.0, lambda: os.close(os.open(out / "bench.csv", os.O_WRONLY)))
+    writer.daemon = True
+    real_clean = runner.clean
+
+    def swap(folder):   # between the up-front check of the outputs and the read to resume
+        real_clean(folder)
+        os.mkfifo(folder / "bench.csv")
+        writer.start()
+
+    monkeypatch.setattr(context, "create_headless", no_gl)
+    monkeypatch.setattr(runner, "clean", swap)
+    try:
+        code, lines = run_main(capsys, "bench", *BENCH, "--methods", "single", "--out", out,
+                               "--no-progress")
+    finally:
+        writer.cancel()
+    assert code == 1 and lines == [f"error: {out / 'bench.csv'}: not a regular file (a FIFO)"]
 
 
 @pytest.mark.parametrize("name", ["summary.md", "summary.json", "window.json"])

@@ -4,6 +4,7 @@ mesh paths that leave the folder; colours."""
 from __future__ import annotations
 
 import json
+import os
 import re
 import warnings
 from pathlib import Path
@@ -15,6 +16,7 @@ import trimesh
 from game.errors import SceneError
 from game.scene import (
     load_scene,
+    mesh_files,
     parse_scene,
 )
 from game.scene.loader import MAX_LIGHTS
@@ -284,7 +286,7 @@ def test_in_memory_errors_name_the_scene():
 
 
 def test_unreadable_scene_file(tmp_path):
-    with pytest.raises(SceneError, match="cannot read scene file"):
+    with pytest.raises(SceneError, match=r"^file not found: .*missing\.toml$"):
         load_scene(tmp_path / "missing.toml")
     (tmp_path / "binary.toml").write_bytes(b"name = 'x'\n\xff\xfe")
     with pytest.raises(SceneError, match=r"binary\.toml:2: not a UTF-8"):
@@ -336,3 +338,41 @@ def test_a_material_whose_colour_is_not_four_numbers_is_left_out(tmp_path):
     assert kept["materials"] == [{"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5,
                                                                                 1.0]}}]
     assert [p.get("material") for p in kept["meshes"][0]["primitives"]] == [None, 0, None]
+
+
+# --------------------------------------------------------------------------------------------
+# Every file a scene names is checked by one helper before it is read
+
+
+@pytest.mark.parametrize("special, kind", [("fifo", "a FIFO"), ("folder", "a folder"),
+                                           ("device", "a device or socket")])
+def test_a_scene_file_that_is_not_a_regular_file_says_what_it_is(tmp_path, special, kind):
+    path = tmp_path / "s.toml"
+    if special == "fifo":
+        os.mkfifo(path)   # opening it to read would wait for a writer for good
+    elif special == "folder":
+        path.mkdir()
+    else:
+        path = Path("/dev/null")
+    with pytest.raises(SceneError) as info:
+        load_scene(path)
+    assert str(info.value) == f"{path}: not a regular file ({kind})"   # as for a mesh file
+
+
+def test_every_file_a_scene_names_passes_the_one_check(tmp_path, monkeypatch):
+    checked = []
+    real = mesh_files.regular_file
+
+    def spy(path, shown, fail):
+        checked.append(Path(path).name)
+        return real(path, shown, fail)
+
+    monkeypatch.setattr(mesh_files, "regular_file", spy)
+    trimesh.creation.box().export(tmp_path / "box.obj")
+    trimesh.creation.box().export(tmp_path / "box.gltf")   # with its buffer file beside it
+    buffers = json.loads((tmp_path / "box.gltf").read_text())["buffers"]
+    scene = tmp_path / "s.toml"
+    scene.write_text(HEAD + '[[static]]\nshape = "mesh"\nfile = "box.obj"\n'
+                     '[[static]]\nshape = "mesh"\nfile = "box.gltf"\n')
+    load_scene(scene)
+    assert {"s.toml", "box.obj", "box.gltf", *(b["uri"] for b in buffers)} <= set(checked)

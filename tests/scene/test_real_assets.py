@@ -9,7 +9,6 @@ from __future__ import annotations
 import importlib.util
 import io
 import json
-import subprocess
 import sys
 import tarfile
 import warnings
@@ -18,8 +17,9 @@ from pathlib import Path
 
 import pytest
 
+from game import cli
 from game.scene import load_scene
-from tests.helpers import ASSETS, ROOT
+from tests.helpers import ASSETS
 
 FETCH = ASSETS / "fetch_real.py"
 REAL = ASSETS / "real"
@@ -176,23 +176,25 @@ def test_the_fetched_scenes_load():
         assert len(scene.statics) >= 5
 
 
-def _game(*args) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "game", *map(str, args)], cwd=ROOT,
-                          capture_output=True, text=True, timeout=300)
+def _game(capsys, *args) -> tuple[int, str]:
+    """``python -m game ARGS`` in this process: its exit status and its standard error."""
+    code = cli.main([str(a) for a in args])
+    return code, capsys.readouterr().err
 
 
 @needs_real
 @pytest.mark.parametrize("name, method", [("monastery", "clumped"), ("monastery", "traced"),
                                           ("monastery_parts", "clumped"),
                                           ("props_spot", "clumped"), ("props_point", "clumped")])
-def test_the_fetched_scenes_capture_within_their_error_bound(tmp_path, gl_session, name, method):
+def test_the_fetched_scenes_capture_within_their_error_bound(tmp_path, gl_session, capsys, name,
+                                                             method):
     pytest.importorskip("embreex")
     scene, out = REAL / f"{name}.toml", tmp_path / "frames"
-    captured = _game("capture", scene, "--method", method, "--size", "160x90", "--dump",
-                     "--out", out)
-    assert captured.returncode == 0, captured.stderr
-    verified = _game("verify", out, scene, "--out", tmp_path / "verify.json")
-    assert verified.returncode == 0, verified.stderr
+    code, err = _game(capsys, "capture", scene, "--method", method, "--size", "160x90",
+                      "--dump", "--out", out)
+    assert code == 0, err
+    code, err = _game(capsys, "verify", out, scene, "--out", tmp_path / "verify.json")
+    assert code == 0, err
     frame = json.loads((tmp_path / "verify.json").read_text())["frames"][0]
     assert frame["considered"] > 5000
     assert frame["error"] <= (0.0 if method == "traced" else MAX_ERROR[name]), frame

@@ -10,7 +10,8 @@ from game.render.renderer import Renderer, View
 from game.scene import Camera, load_scene
 from game.shadows.methods import cascaded
 from game.shadows.plan import ShadowSettings
-from tests.helpers import ACCURACY_SCENES, POINT_AMONG
+from tests.cli.cli_helpers import in_process
+from tests.helpers import ACCURACY_SCENES, POINT_AMONG, TINY
 
 # csm's cascades are coarser than clumped's maps near the camera, so its bar is a little higher;
 # both bars leave room for llvmpipe versions, and a broken method (a missing caster, a wrong
@@ -126,24 +127,18 @@ def test_cascade_origin_moves_in_whole_texels():
     assert np.allclose(shift, np.round(shift), atol=1e-6)
 
 
-def _cli(*args):
-    import subprocess
-    import sys
-
-    return subprocess.run([sys.executable, "-m", "game", *args], capture_output=True, text=True)
-
-
-def test_cli_runs_the_baselines_with_their_flags(tmp_path):
+def test_cli_runs_the_baselines_with_their_flags(tmp_path, capsys):
     import json
 
+    _cli = in_process(capsys)
     stats = tmp_path / "s.json"
-    r = _cli("capture", "tests/scenes/tiny.toml", "--method", "csm", "--cascades", "2",
+    r = _cli("capture", TINY, "--method", "csm", "--cascades", "2",
              "--cascade-lambda", "0.5", "--cascade-resolution", "512", "--size", "80x45",
              "--out", str(tmp_path), "--stats", str(stats))
     assert r.returncode == 0, r.stderr
     doc = json.loads(stats.read_text())
     assert doc["settings"]["cascades"] == 2 and doc["frames"][0]["maps_total"] == 2
-    r = _cli("capture", "tests/scenes/tiny.toml", "--method", "static-dynamic", "--size",
+    r = _cli("capture", TINY, "--method", "static-dynamic", "--size",
              "80x45", "--out", str(tmp_path))
     assert r.returncode == 0, r.stderr
     bad = _cli("capture", "--method", "csm", "--cascade-lambda", "1.5", "--out", str(tmp_path))
@@ -151,9 +146,10 @@ def test_cli_runs_the_baselines_with_their_flags(tmp_path):
     assert "Traceback" not in bad.stderr
 
 
-def test_capture_warns_about_a_raised_floor(tmp_path):
+def test_capture_warns_about_a_raised_floor(tmp_path, capsys):
     from game.bench import stability
 
+    _cli = in_process(capsys)
     case = {c.name: c for c in stability.cases()}["raised_floor"]
     scene = tmp_path / "raised.toml"
     scene.write_text(case.text)

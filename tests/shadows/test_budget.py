@@ -18,7 +18,7 @@ from game.scene import parse_scene
 from game.shadows.budget import fit_settings
 from game.shadows.plan import KIND_CHARACTER, ShadowSettings
 from tests.helpers import ACCURACY_SIZE as SIZE
-from tests.helpers import MAX_ERROR, ROOT
+from tests.helpers import MAX_ERROR
 from tests.helpers import TINY as TINY_PATH
 from tests.shadow_check import render_and_check
 
@@ -186,14 +186,11 @@ def test_small_max_texture_size_and_budget(ctx):
         renderer.release()
 
 
-def test_capture_clamps_a_resolution_above_the_gl_limit(tmp_path):
-    import subprocess
-    import sys
+def test_capture_clamps_a_resolution_above_the_gl_limit(tmp_path, capsys):
+    from tests.cli.cli_helpers import run_here
 
-    result = subprocess.run(
-        [sys.executable, "-m", "game", "capture", str(TINY_PATH), "--size", "32x18",
-         "--clump-resolution", "99999", "--out", str(tmp_path)],
-        cwd=ROOT, capture_output=True, text=True, timeout=300)
+    result = run_here(capsys, "capture", TINY_PATH, "--size", "32x18", "--clump-resolution",
+                      "99999", "--out", tmp_path)
     assert result.returncode == 0, result.stderr
     notes = result.stderr.strip().splitlines()
     assert notes and all(n.startswith("note: ") for n in notes)

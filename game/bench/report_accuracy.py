@@ -1,0 +1,110 @@
+"""The results page's section on random scenes, from a recorded accuracy sweep.
+
+An accuracy run (``python -m game bench --suite accuracy --seeds A..B --out docs/runs/NAME``)
+holds ``accuracy.csv``: per seed and map method, the misclassified pixels against Embree and
+the error. Everything said here is computed from that file (game/bench/accuracy_summary.py).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+from game.bench.accuracy_summary import BASELINES, summarise
+from game.errors import GameError
+
+ACCURACY_COLUMNS = ("seed", "method", "misclassified", "shadowed_either", "error_pct", "notes",
+                    "status")
+
+
+@dataclass(frozen=True)
+class AccuracyRun:
+    """One accuracy sweep's folder, its record (``run.json``) and its rows."""
+
+    name: str
+    folder: Path
+    record: dict
+    rows: list[dict]
+
+
+def is_accuracy_run(folder: Path) -> bool:
+    return (folder / "accuracy.csv").is_file()
+
+
+def load_accuracy_run(folder: Path) -> AccuracyRun:
+    """An accuracy sweep's folder; a missing or garbled file is refused in one line."""
+    path, record_path = folder / "accuracy.csv", folder / "run.json"
+    if not record_path.is_file():
+        raise GameError(f"{folder}: not a recorded accuracy sweep: no run.json (python -m game "
+                        f"bench --suite accuracy --out {folder} writes both)")
+    try:
+        record = json.loads(record_path.read_text(encoding="utf-8"))
+        with path.open(newline="", encoding="utf-8") as f:
+            rows = list(csv.DictReader(f))
+    except (UnicodeDecodeError, json.JSONDecodeError, csv.Error) as error:
+        raise GameError(f"{folder}: not a recorded accuracy sweep ({error})") from None
+    if not isinstance(record, dict) or not all(isinstance(record.get(k), str)
+                                               for k in ("command", "date")):
+        raise GameError(f"{record_path}: not a run record (no command or date)")
+    if not rows or any(c not in rows[0] for c in ACCURACY_COLUMNS):
+        raise GameError(f"{path}: not the accuracy suite's columns")
+    return AccuracyRun(folder.name, folder, record, _recorded(rows, record))
+
+
+def _recorded(rows: list[dict], record: dict) -> list[dict]:
+    """The rows of the sweep the record describes: a CSV also keeps the rows of earlier,
+    longer sweeps into the same folder."""
+    seeds = record.get("seeds")
+    if not (isinstance(seeds, list) and len(seeds) == 2):
+        return rows
+    first, last = seeds
+    return [r for r in rows if r["seed"].isdigit() and first <= int(r["seed"]) <= last]
+
+
+def _pct(value: float | None) -> str:
+    return "-" if value is None or math.isnan(value) else f"{value:.2f}%"
+
+
+def accuracy_section(run: AccuracyRun, here: Path) -> list[str]:
+    """The section of the results page: the targets' counts first, then the figures per
+    method and the worst seeds."""
+    methods = tuple(dict.fromkeys(r["method"] for r in run.rows))
+    s = summarise(run.rows, methods)
+    t = s["targets"]
+    rec = run.record
+    where = Path(os.path.relpath(run.folder, here)).as_posix()
+    lines = [
+        "## Accuracy on random scenes", "",
+        "Every map method at its defaults on seeded random scenes (`python -m game scenes "
+        "random --seed N`: crowds of capsules and real meshes, statics of every shape, real "
+        "props, the real level, suns, spot and point lamps, street-level and high cameras), "
+        "each run scored against Embree as `verify` scores it.", "",
+        f"**What the figures say.** On {s['compared']} scenes `clumped` misclassifies at most "
+        f"{t['ratio']:g}x the pixels of the better of {' and '.join(f'`{b}`' for b in BASELINES)}"
+        f" plus {t['slack_px']:g} on {s['within_target']} "
+        f"({_pct(100 * s['within_share'])}; the target is {100 * t['share']:g}%), and more "
+        f"than {t['ceiling_ratio']:g}x plus {t['ceiling_slack_px']:g} on {s['over_ceiling']}.",
+        "",
+        f"Run [`{run.name}`]({where}/run.json): `{rec['command']}`; "
+        f"{rec.get('renderer', '')}; {rec['date']}.", "",
+        f"![error per method and clumped against the better baseline]({where}/accuracy.png)", "",
+        "| method | scenes | median error | 95th percentile | largest | over "
+        f"{t['max_error_pct']:g}% | of them without a note |",
+        "|---|---|---|---|---|---|---|"]
+    for f in s["methods"]:
+        lines.append(f"| `{f['method']}` | {f['runs']} | {_pct(f['median_error_pct'])} | "
+                     f"{_pct(f['p95_error_pct'])} | {_pct(f['max_error_pct'])} | "
+                     f"{f['over_max']} | {f['over_max_without_note']} |")
+    lines += ["", "The seeds where `clumped` is furthest above the target (misclassified "
+              "pixels, the frames and lights pooled):", "",
+              "| seed | clumped | the better baseline | target | scene |",
+              "|---|---|---|---|---|"]
+    for p in s["worst_against_baseline"]:
+        lines.append(f"| {p['seed']} | {p['clumped']} | `{p['baseline']}`: "
+                     f"{p['baseline_misclassified']} | {p['bound']:.0f} | {p['scene']} |")
+    lines.append("")
+    return lines

@@ -1,0 +1,171 @@
+"""The raster soft methods' depth maps: one per point of the segment for the statics, cached, and
+one per point for the walkers, drawn every frame.
+
+:class:`LightMaps` owns a depth array (game/gpu/depth_array.py) of ``2 K`` layers (``K`` when the
+scene has no characters), the casters' vertex buffers and the depth program, and releases them in
+:meth:`LightMaps.release`. Layer ``k`` holds the floors and statics seen from point ``k``, layer
+``K + k`` the characters seen from the same point through the same frustum, so a lookup reads
+both at one texel and takes the nearer. The statics' layers are drawn again only when the frusta
+change (game/soft/map_frusta.py snaps them, so a still or slowly moving view keeps them).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import moderngl
+import numpy as np
+
+from game import transforms
+from game.errors import GameError
+from game.gpu import glsl, resources
+from game.gpu.depth_array import DepthArray
+from game.scene.geometry import PackedGeometry
+from game.soft.grid import character_triangles, static_triangles
+from game.soft.map_frusta import MapFrustum, frusta_key
+
+# The most the raster methods' depth maps may take, in bytes: the maps at the largest K and
+# resolution the settings allow would take far more than a frame does.
+MAX_MAP_BYTES = 1 << 30
+
+
+@dataclass
+class MapCounts:
+    """The map passes of one frame: what the cache saved is ``static_cached``, each of which
+    would otherwise have drawn every static triangle again."""
+
+    static_rendered: int = 0     # statics' maps drawn this frame
+    static_cached: int = 0       # statics' maps reused from an earlier frame
+    dynamic_rendered: int = 0    # walkers' maps drawn this frame
+    triangles_to_maps: int = 0   # triangles drawn into the maps this frame
+    triangles_uncached: int = 0  # what redrawing every map with every caster would draw
+
+    def stats(self) -> dict[str, int]:
+        """The counts under the names of the trace stats (docs/reference.md, section 4)."""
+        out = {f"soft_maps_{k}" if not k.startswith("triangles") else f"soft_{k}": v
+               for k, v in asdict(self).items()}
+        out["soft_maps_rendered"] = self.static_rendered + self.dynamic_rendered
+        out["soft_maps_if_uncached"] = self.static_rendered + self.static_cached
+        return out
+
+
+class LightMaps:
+    """Depth maps from ``count`` points along the segment, for the statics and the walkers."""
+
+    def __init__(self, ctx, geom: PackedGeometry, count: int, resolution: int):
+        self.ctx = ctx
+        self.geom = geom
+        self.count = int(count)
+        self.resolution = int(resolution)
+        self.dynamic = geom.n_characters > 0
+        layers = self.count * (2 if self.dynamic else 1)
+        need = layers * self.resolution ** 2 * 4
+        if need > MAX_MAP_BYTES:
+            raise GameError(f"{layers} soft-shadow maps of {self.resolution}^2 texels need "
+                            f"{need / 2**20:.0f} MiB; at most {MAX_MAP_BYTES / 2**20:.0f} MiB "
+                            "(fewer maps or a smaller --map-resolution)")
+        self.array: DepthArray | None = DepthArray(ctx, self.resolution, layers)
+        self._objects: list = []
+        self.program = self.static_vao = self.dynamic_vao = self.dynamic_vbo = None
+        self.dynamic_triangles = 0
+        try:
+            self.program = ctx.program(vertex_shader=glsl.build("soft_maps.vert"),
+                                       fragment_shader=glsl.build("depth.frag"))
+            self._objects.append(self.program)
+            statics = static_triangles(geom).reshape(-1, 3)
+            self.static_triangles = len(statics) // 3
+            self.static_vbo = ctx.buffer(np.ascontiguousarray(statics, np.float32).tobytes()
+                                         if len(statics) else np.zeros(3, np.float32).tobytes())
+            self._objects.append(self.static_vbo)
+            self.static_vao = ctx.vertex_array(self.program, [(self.static_vbo, "3f",
+                                                               "in_position")])
+            self._objects.append(self.static_vao)
+        except BaseException:
+            self.release()
+            raise
+        self._static_key: bytes | None = None
+
+    def gl_objects(self) -> int:
+        """The depth array's texture and framebuffers, the program (and its shaders), the
+        vertex buffers and arrays."""
+        programs = [self.program] if self.program is not None else []
+        return (self.array.gl_objects() + len(self._objects)
+                + resources.attached_shaders(programs))
+
+    def release(self) -> None:
+        for obj in reversed(self._objects):
+            obj.release()
+        self._objects = []
+        self.program = self.static_vao = self.dynamic_vao = self.dynamic_vbo = None
+        if self.array is not None:
+            self.array.release()
+            self.array = None
+
+    def bind(self, unit: int) -> None:
+        """Bind the depth array for sampling (the lookups' samplers set the filtering)."""
+        self.array.bind(unit)
+
+    def draw_statics(self, frusta: list[MapFrustum], cached: bool = True) -> MapCounts:
+        """Draw the statics' maps if the frusta changed since they were drawn (always, without
+        ``cached``: what the cache saves is measured so); returns the frame's counts so far."""
+        if len(frusta) != self.count:
+            raise ValueError(f"{len(frusta)} frusta for {self.count} maps")
+        counts = MapCounts()
+        key = frusta_key(frusta, self.resolution)
+        if key != self._static_key or not cached:
+            self._draw(self.static_vao, self.static_triangles, frusta, 0)
+            self._static_key = key
+            counts.static_rendered = self.count
+            counts.triangles_to_maps += self.count * self.static_triangles
+        else:
+            counts.static_cached = self.count
+        counts.triangles_uncached = self.count * self.static_triangles
+        return counts
+
+    def draw_walkers(self, frusta: list[MapFrustum], models: np.ndarray,
+                     counts: MapCounts) -> None:
+        """Draw the walkers' maps at their poses ``models`` through the same frusta, and add
+        them to ``counts``."""
+        if not self.dynamic:
+            return
+        self._upload_characters(models)
+        self._draw(self.dynamic_vao, self.dynamic_triangles, frusta, self.count)
+        counts.dynamic_rendered = self.count
+        counts.triangles_to_maps += self.count * self.dynamic_triangles
+        counts.triangles_uncached += self.count * self.dynamic_triangles
+
+    def _upload_characters(self, models: np.ndarray) -> None:
+        tris = np.ascontiguousarray(character_triangles(self.geom, models), np.float32)
+        data = tris.tobytes() if len(tris) else np.zeros(9, np.float32).tobytes()
+        if self.dynamic_vbo is None or self.dynamic_vbo.size != len(data):
+            if self.dynamic_vbo is not None:
+                self._objects.remove(self.dynamic_vao)
+                self._objects.remove(self.dynamic_vbo)
+                self.dynamic_vao.release()
+                self.dynamic_vbo.release()
+            self.dynamic_vbo = self.ctx.buffer(data)
+            self._objects.append(self.dynamic_vbo)
+            self.dynamic_vao = self.ctx.vertex_array(self.program, [(self.dynamic_vbo, "3f",
+                                                                     "in_position")])
+            self._objects.append(self.dynamic_vao)
+        else:
+            self.dynamic_vbo.write(data)
+        self.dynamic_triangles = len(tris)
+
+    def _draw(self, vao, triangles: int, frusta: list[MapFrustum], first_layer: int) -> None:
+        """Clear layers ``first_layer ..`` and draw ``vao``'s triangles into each through its
+        frustum."""
+        res = self.resolution
+        self.ctx.enable(moderngl.DEPTH_TEST)
+        self.ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
+        for k, frustum in enumerate(frusta):
+            layer = first_layer + k
+            self.array.clear(layer, res)
+            if not triangles:
+                continue
+            fb = self.array.framebuffers[layer]
+            fb.use()
+            fb.viewport = (0, 0, res, res)
+            self.program["u_view_proj"].write(transforms.gl_bytes(frustum.view_proj))
+            vao.render(moderngl.TRIANGLES, vertices=3 * triangles)
+        self.ctx.detect_framebuffer(0).use()

@@ -1,0 +1,167 @@
+"""Where the raster soft methods' depth maps look: one perspective frustum from each point of the
+segment, fitted around the frame's receivers.
+
+Planning only, numpy, no GL: :func:`plan` turns the G-buffer's covered points into one
+:class:`MapFrustum` per light point, and the maps are drawn by game/soft/light_maps.py. Every map
+of a frame covers the same receivers, so a receiver is inside all of them or none.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from game import transforms
+
+# The nearest a near plane may be, as a share of the far one: a 32-bit float depth keeps
+# millimetres at this ratio over the scenes' tens of metres.
+NEAR_SHARE = 1e-3
+# The widest a map may look, as the tangent of its half-angle (about 72 degrees). Receivers
+# beside or behind a light point fall outside its map, and a lookup outside a map reads lit.
+MAX_TAN = 3.0
+# The receivers' hull is made of the cells of a grid of the scene's diagonal over this many
+# cells, so a camera that moves a little keeps the same frusta, and the statics' maps cached.
+SNAP_CELLS = 32
+# Texels of margin around the receivers on each side of a map, so that the lookups' filters
+# near a map's edge still read inside it.
+EDGE_TEXELS = 2.0
+FAR_MARGIN = 1.01  # the far plane beyond the farthest receiver corner
+CONE_PASSES = 16   # passes of the cone around the receivers (each takes in the farthest corner)
+
+
+@dataclass(frozen=True)
+class MapFrustum:
+    """One perspective depth map from a point of the segment."""
+
+    eye: np.ndarray         # (3,) the light point
+    view_proj: np.ndarray   # (4, 4) world -> clip
+    near: float
+    far: float
+    texel: float            # metres per texel per metre of depth (the map's wider side)
+
+
+def segment_points(a: np.ndarray, b: np.ndarray, count: int) -> np.ndarray:
+    """``count`` points along the segment, at the centres of equal parts: (count, 3)."""
+    t = (np.arange(count) + 0.5) / count
+    a = np.asarray(a, np.float64)
+    return a + t[:, None] * (np.asarray(b, np.float64) - a)
+
+
+def receiver_bounds(positions: np.ndarray, covered: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The box (lo, hi) of the covered G-buffer points; an empty frame gives a unit box at the
+    origin (nothing reads its maps)."""
+    points = _covered_points(positions, covered)
+    if not len(points):
+        return np.zeros(3), np.ones(3)
+    return points.min(axis=0).astype(np.float64), points.max(axis=0).astype(np.float64)
+
+
+def _covered_points(positions: np.ndarray, covered: np.ndarray) -> np.ndarray:
+    points = positions[covered][:, :3]
+    return points[np.isfinite(points).all(axis=1)]
+
+
+def receiver_cells(positions: np.ndarray, covered: np.ndarray, cell: float) -> np.ndarray:
+    """The corners (M, 3) of the grid cells of ``cell`` metres that hold a covered G-buffer
+    point: a hull of the receivers that follows their shape (a box around a wide floor and a
+    tall tower would take in the empty air beside the tower), snapped to the grid so that a
+    camera that moves a little keeps the same corners. An empty frame gives a unit cell at the
+    origin (nothing reads its maps)."""
+    points = _covered_points(positions, covered)
+    if not len(points):
+        return box_corners(np.zeros(3), np.ones(3))
+    cells = np.floor(points.astype(np.float64) / cell).astype(np.int64)
+    lo = cells.min(axis=0)
+    span = cells.max(axis=0) - lo + 2  # room for the far corners too
+    # One integer per cell: np.unique on integers is a sort, where on rows it is many times
+    # slower.
+    keys = np.unique(((cells - lo) * np.array([span[1] * span[2], span[2], 1])).sum(axis=1))
+    offsets = box_corners(np.zeros(3), np.ones(3)).astype(np.int64)
+    keys = np.unique((keys[:, None] + (offsets * np.array([span[1] * span[2], span[2], 1])
+                                       ).sum(axis=1)[None]).ravel())
+    corners = np.stack([keys // (span[1] * span[2]), keys // span[2] % span[1], keys % span[2]],
+                       axis=1) + lo
+    return corners * cell
+
+
+def box_corners(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """The 8 corners of an axis-aligned box, (8, 3)."""
+    pick = np.array([[(i >> k) & 1 for k in range(3)] for i in range(8)], bool)
+    return np.where(pick, hi, lo)
+
+
+def _distance_to_box(p: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> float:
+    return float(np.linalg.norm(np.maximum(np.maximum(lo - p, p - hi), 0.0)))
+
+
+def _axis(eye: np.ndarray, corners: np.ndarray) -> np.ndarray:
+    """Where a map from ``eye`` looks: the axis of a narrow cone around the directions to the
+    corners (Ritter's bounding sphere, "An Efficient Bounding Sphere", 1990, on the unit sphere),
+    so the widest corner is as near the axis as it can be; the direction to the corners' centre
+    would leave a light above one side of a wide floor looking past the floor's near edge."""
+    to = corners - eye
+    length = np.linalg.norm(to, axis=1)
+    to = to[length > 1e-9] / length[length > 1e-9, None]
+    if not len(to):
+        return -transforms.WORLD_UP
+    axis = to.sum(axis=0)
+    axis = axis / np.linalg.norm(axis) if np.linalg.norm(axis) > 1e-9 else to[0]
+    angle = 0.0
+    for _ in range(CONE_PASSES):
+        cos = np.clip(to @ axis, -1.0, 1.0)
+        far = int(np.argmin(cos))
+        widest = float(np.arccos(cos[far]))
+        if widest <= angle:
+            break
+        # Grow the cone just enough to hold the farthest direction, turning its axis toward it.
+        turn = (widest - angle) / 2
+        angle = (widest + angle) / 2
+        side = to[far] - cos[far] * axis
+        if np.linalg.norm(side) < 1e-12:
+            break
+        side = side / np.linalg.norm(side)
+        axis = np.cos(turn) * axis + np.sin(turn) * side
+    return axis / np.linalg.norm(axis)
+
+
+def fit(eye: np.ndarray, corners: np.ndarray, casters: tuple[np.ndarray, np.ndarray],
+        resolution: int) -> MapFrustum:
+    """The tightest perspective map from ``eye`` around the receivers' hull ``corners`` (M, 3),
+    with its near plane no farther than the casters' box (no caster between a receiver and the
+    eye is clipped)."""
+    eye = np.asarray(eye, np.float64)
+    view = transforms.look_at(eye, eye + _axis(eye, corners))
+    local = transforms.transform_points(view, corners)
+    depth = -local[:, 2]
+    far = max(float(depth.max()), 1e-3) * FAR_MARGIN
+    if (depth > far * NEAR_SHARE).all():
+        tx, ty = local[:, 0] / depth, local[:, 1] / depth
+        left, right = max(tx.min(), -MAX_TAN), min(tx.max(), MAX_TAN)
+        bottom, top = max(ty.min(), -MAX_TAN), min(ty.max(), MAX_TAN)
+    else:  # the receivers reach beside or behind the eye: as wide as a map may look
+        left = bottom = -MAX_TAN
+        right = top = MAX_TAN
+    pad = EDGE_TEXELS / resolution
+    grow_x, grow_y = (right - left) * pad, (top - bottom) * pad
+    left, right, bottom, top = left - grow_x, right + grow_x, bottom - grow_y, top + grow_y
+    # A point at distance d from the eye inside the frustum is at depth d * cos(angle) or more.
+    widest = max(abs(left), abs(right)) ** 2 + max(abs(bottom), abs(top)) ** 2
+    nearest = _distance_to_box(eye, *casters) / np.sqrt(1.0 + widest)
+    near = min(max(nearest, far * NEAR_SHARE), far * 0.5)
+    proj = transforms.frustum(left * near, right * near, bottom * near, top * near, near, far)
+    return MapFrustum(eye=eye, view_proj=proj @ view, near=near, far=far,
+                      texel=max(right - left, top - bottom) / resolution)
+
+
+def plan(points: np.ndarray, corners: np.ndarray, casters: tuple[np.ndarray, np.ndarray],
+         resolution: int) -> list[MapFrustum]:
+    """One frustum per light point (rows of ``points``), each around the same receivers."""
+    return [fit(p, corners, casters, resolution) for p in points]
+
+
+def frusta_key(frusta: list[MapFrustum], resolution: int) -> bytes:
+    """What the statics' maps depend on: every map's matrix and the resolution."""
+    parts = [np.asarray(resolution, np.int64).tobytes()]
+    parts += [np.ascontiguousarray(f.view_proj).tobytes() for f in frusta]
+    return b"".join(parts)
