@@ -27,12 +27,10 @@ def gl_session():
 
 @pytest.fixture
 def ctx(gl_session):
-    """The session context, with no GL error before the test and none after it; current for
-    the test, as commands run in this process make and release contexts of their own."""
-    with gl_session:
-        assert gl_session.error == "GL_NO_ERROR", "a GL error was left by an earlier test"
-        yield gl_session
-        assert gl_session.error == "GL_NO_ERROR"
+    """The session context, with no GL error before the test and none after it."""
+    assert gl_session.error == "GL_NO_ERROR", "a GL error was left by an earlier test"
+    yield gl_session
+    assert gl_session.error == "GL_NO_ERROR"
 
 
 @pytest.fixture

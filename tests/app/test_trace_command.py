@@ -47,34 +47,27 @@ def test_trace_writes_frames_dumps_and_stats(capsys, tmp_path):
 REAL_LEVEL = ROOT / "assets" / "real" / "monastery.toml"
 
 
-@pytest.fixture(scope="module")
-def real_level_tracer(gl_session):
-    """The real level in one renderer at 48x27, its G-buffer and static grid made once for
-    every method traced on it (the command line's trace, on the tiny scene, is tested above)."""
-    from game.render.renderer import Renderer, View
-
-    if not REAL_LEVEL.exists():
-        pytest.skip("the real level is fetched by assets/fetch_real.py")
-    scene = load_scene(REAL_LEVEL)
-    size = (48, 27)
-    # Made current around each use: commands run in this process make contexts of their own.
-    with gl_session:
-        renderer = Renderer(gl_session, scene, size, gbuffer=True)
-    yield renderer, View.from_camera(scene.camera, size)
-    with gl_session:
-        renderer.release()
-
-
-@pytest.mark.parametrize("method", ["analytic", "voxel-cache"])
-def test_trace_of_the_real_level_cuts_no_point_short(real_level_tracer, ctx, method):
+@pytest.mark.skipif(not REAL_LEVEL.exists(), reason="the real level is fetched by "
+                    "assets/fetch_real.py")
+def test_trace_of_the_real_level_cuts_no_point_short(ctx):
     # Before its work was split, analytic ran out of llvmpipe's loop budget on most points of
-    # this level (125,000 triangles, a light triangle spanning the whole compound).
+    # this level (125,000 triangles, a light triangle spanning the whole compound). Both
+    # methods in one renderer, which makes the G-buffer and the statics' grid once (the command
+    # line's trace is tested above, on the tiny scene).
+    from game.render.renderer import Renderer, View
     from game.soft.tracer import TraceSettings
 
-    renderer, view = real_level_tracer
-    with ctx:
-        result = renderer.render(0.0, view, soft=TraceSettings(method=method, samples=8)).soft
-    assert int(result.covered.sum()) > 500 and result.truncated == 0 and result.rounds >= 1
+    scene = load_scene(REAL_LEVEL)
+    size = (48, 27)
+    renderer = Renderer(ctx, scene, size, gbuffer=True)
+    try:
+        view = View.from_camera(scene.camera, size)
+        for method in ("analytic", "voxel-cache"):
+            result = renderer.render(0.0, view, soft=TraceSettings(method=method, samples=8)).soft
+            assert int(result.covered.sum()) > 500, method
+            assert result.truncated == 0 and result.rounds >= 1, method
+    finally:
+        renderer.release()
 
 
 @pytest.mark.parametrize("args, fragment, status", [

@@ -36,6 +36,7 @@ Tile = tuple[int, int]  # (column, row) on the light plane's lattice
 # scenes, and tiles at the target's span would give that accuracy away; finer tiles cost the
 # shading pass more memory traffic, so no more than one halving.
 FINER_HALVINGS = 1
+MAX_PAIRS = 1_000_000  # (tile, unit) pairs listed at most while the tiles are sized
 
 
 def fits_tiles(settings: ShadowSettings) -> bool:
@@ -80,13 +81,27 @@ class TileMembers(ClumpMembers):
             side - 2 * MARGIN_TEXELS - 1 - 2 * reach, 1.0)
         return reach * texel
 
+    def _cells(self, span: float, origin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Each unit's first and last tile (columns, rows) at side ``span`` from ``origin``,
+        its rectangle grown by the map's margin."""
+        grow = self.margin(self.ctx.settings.clump_resolution, span)
+        rects = self.unit_rects
+        lo = np.floor((rects[:, :2] - grow - origin) / span)
+        hi = np.floor((rects[:, 2:] + grow - origin) / span)
+        return lo, hi
+
+    def _pairs(self, span: float, origin: np.ndarray) -> float:
+        """How many (tile, unit) pairs tiles of side ``span`` would hold: counted before any
+        is listed, as a density target far above the scene's scale asks for billions."""
+        with np.errstate(over="ignore", invalid="ignore"):  # inf: more than any budget holds
+            lo, hi = self._cells(span, origin)
+            pairs = float(np.prod(hi - lo + 1, axis=1).sum())
+        return pairs if math.isfinite(pairs) else math.inf
+
     def _tiles_at(self, span: float, origin: np.ndarray) -> dict[Tile, list[int]]:
         """Per tile of side ``span`` from ``origin``, the units whose rectangles meet it grown
         by the map's margin."""
-        grow = self.margin(self.ctx.settings.clump_resolution, span)
-        rects = self.unit_rects
-        lo = np.floor((rects[:, :2] - grow - origin) / span).astype(np.int64)
-        hi = np.floor((rects[:, 2:] + grow - origin) / span).astype(np.int64)
+        lo, hi = (a.astype(np.int64) for a in self._cells(span, origin))
         out: dict[Tile, list[int]] = {}
         for u, ((x0, y0), (x1, y1)) in enumerate(zip(lo.tolist(), hi.tolist(), strict=True)):
             for y in range(y0, y1 + 1):
@@ -119,9 +134,16 @@ class TileMembers(ClumpMembers):
         # hold them all.
         lo = self.unit_rects[:, :2].min(axis=0)
         room = max(1, max_clumps)
+        # One tile this wide holds every caster, its margins included (fits_tiles).
+        whole = 4.0 * max(float((self.unit_rects[:, 2:].max(axis=0) - lo).max()), 1e-6)
+        pairs = self._pairs(span, lo - self.margin(res, span))
+        needed = int(min(pairs, MAX_PAIRS + 1))
+        while pairs > MAX_PAIRS:  # far more tiles than layers: wider before listing any
+            span = min(span * math.sqrt(pairs / MAX_PAIRS), whole)
+            pairs = self._pairs(span, lo - self.margin(res, span))
         tiles = self._tiles_at(span, lo - self.margin(res, span))
-        needed = len(tiles)
-        for _ in range(FINER_HALVINGS):
+        needed = len(tiles) if needed <= MAX_PAIRS else needed
+        for _ in range(FINER_HALVINGS if needed <= MAX_PAIRS else 0):
             finer = self._tiles_at(span / 2, lo - self.margin(res, span / 2))
             if len(finer) > room:
                 break
@@ -134,7 +156,8 @@ class TileMembers(ClumpMembers):
         if needed > room:
             self.short = True
             ctx.notes.append(
-                f"{needed} tiles would meet {s.texels_per_metre:g} texels/m; {max_clumps} "
+                f"{needed if needed <= MAX_PAIRS else f'over {MAX_PAIRS:,}'} tiles would "
+                f"meet {s.texels_per_metre:g} texels/m; {max_clumps} "
                 f"layers fit the {s.budget_mib:g} MiB budget and the GL's layers, so texels "
                 "are coarser")
         self._assign(tiles)
