@@ -24,6 +24,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from game.app import outputs
 from game.bench.runs import ERROR_SPACING_S
 from game.errors import GameError
 from game.scene import random_scene
@@ -138,7 +139,7 @@ def _run(task: AccuracyTask, tmp: Path) -> dict:
     folder = tmp / "scene"
     folder.mkdir()
     for name, data in random_scene.scene_files(scene).items():
-        (folder / name).write_bytes(data)
+        outputs.write_bytes(folder / name, data)
     frames = tmp / "frames"
     frames.mkdir()
     w, h = task.size

@@ -293,7 +293,7 @@ def write_chart(path: Path, rows: list[dict], suite: CacheSuite) -> None:
     from matplotlib import pyplot as plt
 
     from game.bench.chart_axes import plain_log_ticks
-    from game.bench.soft_sweep import COLOURS
+    from game.bench.soft_charts import COLOURS
 
     scenes = list(dict.fromkeys(r["scene"] for r in rows))
     panels = (("d1_misses_per_ray", "L1 data misses per ray (simulated)"),

@@ -95,16 +95,6 @@ class DepthArray:
         # Leave moderngl's idea of the bound framebuffer true.
         ctx.detect_framebuffer(0).use()
 
-    def copy_layers_from(self, other: DepthArray) -> None:
-        """Copy every layer both arrays have from ``other`` (same resolution): an array grown
-        for more maps keeps the cached ones."""
-        count = min(self.layers, other.layers)
-        if other.resolution != self.resolution or count < 1:
-            raise ValueError("depth arrays of different resolutions cannot share layers")
-        self._gl.glCopyImageSubData(other.texture, self._gl.GL_TEXTURE_2D_ARRAY, 0, 0, 0, 0,
-                                    self.texture, self._gl.GL_TEXTURE_2D_ARRAY, 0, 0, 0, 0,
-                                    self.resolution, self.resolution, count)
-
     @property
     def bytes(self) -> int:
         """GPU memory of the depth texels."""

@@ -63,23 +63,16 @@ class ShadowMapPass:
         self.array: DepthArray | None = None
 
     def prepare(self, resolution: int, layers: int) -> bool:
-        """Make sure the array holds ``layers`` layers of ``resolution``; True when every
-        cached map in it is lost (a new resolution). An array grown for more layers keeps the
-        ones it had, so that a scene edit which adds a map redraws only that map."""
+        """Make sure the array holds ``layers`` layers of ``resolution``; True when it was made
+        anew (every cached map in it is lost)."""
         a = self.array
         if a is not None and a.resolution == resolution and a.layers >= layers:
             return False
-        self.array = None  # a refused new array must not leave the released one
-        try:
-            grown = DepthArray(self.ctx, resolution, layers)
-            kept = a is not None and a.resolution == resolution
-            if kept:
-                grown.copy_layers_from(a)
-        finally:
-            if a is not None:
-                a.release()
-        self.array = grown
-        return not kept
+        if a is not None:
+            a.release()
+            self.array = None  # a refused new array must not leave the released one
+        self.array = DepthArray(self.ctx, resolution, layers)
+        return True
 
     def draw_maps(self, plan: ShadowPlan, indices: list[int]) -> int:
         """Render the listed maps into their layers, one framebuffer each; returns the

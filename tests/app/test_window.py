@@ -286,7 +286,7 @@ def test_m_cycles_to_traced_and_its_shadows_match_a_headless_traced_capture(trac
     assert (diff[outside] <= 1).mean() > 0.999, diff[outside].max()
     # ... and not the maps' shadows: the driver's coarse maps shadow other pixels.
     maps = np.load(out / "clumped.npy").astype(int)
-    assert (np.abs(window.astype(int) - maps).max(axis=2)[outside] > 8).sum() > 40
+    assert (np.abs(window.astype(int) - maps).max(axis=2)[outside] > 8).sum() > 10
 
 
 def test_soft_shadows_change_the_image_and_show_their_trace_time(traced_soft):

@@ -110,6 +110,7 @@ def test_moving_a_static_re_renders_its_old_and_new_clumps(renderer):
     offset[1] = 0.0
     offset[0] += 1.5  # beside it, not inside
     was = {m.name for m in method.static_maps if index in m.objects}
+    array = renderer.shadow_array
     touched = renderer.move_static(name, transforms.translation(offset))
     now = {m.name for m in method.static_maps if index in m.objects}
     # The maps it leaves and the maps it joins are drawn again (its tiles under the sun), and
@@ -117,7 +118,12 @@ def test_moving_a_static_re_renders_its_old_and_new_clumps(renderer):
     drawn = {method.static_maps[i].name for k in touched for i in method.maps.of_clump[k]}
     assert was | now == drawn
     after, _ = good(renderer)
-    assert static_maps_drawn(after, renderer) == len(touched) < len(method.static_maps)
+    assert len(touched) < len(method.static_maps)
+    # A new tile that needs a layer beyond the array's makes the array anew, and that loses
+    # every cached map; otherwise only the touched maps are drawn.
+    grown = renderer.shadow_array is not array
+    assert static_maps_drawn(after, renderer) == (len(method.static_maps) if grown
+                                                  else len(touched))
     assert (shadowed(before) != shadowed(after)).sum() > 100
 
 
