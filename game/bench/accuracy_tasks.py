@@ -1,12 +1,13 @@
-"""One run of the accuracy sweep as a task that runs anywhere: a seed's random scene, one map
-method at its defaults, captured with dumps and scored against Embree.
+"""One run of the accuracy sweep as a task that runs anywhere: one random scene, one map method
+at its defaults, captured with dumps and scored against Embree.
 
-A task draws its scene again from the seed (so a worker on another machine needs nothing but
-this project and the real corpus), refuses it where it is not byte for byte the scene the suite
-drew, and runs ``python -m game capture`` and ``python -m game verify`` as processes of their own:
-every run gets its own EGL context and its own memory, and a crash is one failed row. It returns
-its CSV row and the files to keep (the stats, the scores, the first frame and its error
-pictures). :func:`run_task` is what the local workers and a Dask cluster both call.
+A task draws its scene again from the scene's number (so a worker on another machine needs
+nothing but this project and the real corpus), refuses it where it is not byte for byte the
+scene the suite drew, and runs ``python -m game capture`` and ``python -m game verify`` as
+processes of their own: every run gets its own EGL context and its own memory, and a crash is
+one failed row. It returns its CSV row and the files to keep (the stats, the scores, the first
+frame and its error pictures). :func:`run_task` is what the local workers and a Dask cluster
+both call.
 """
 
 from __future__ import annotations

@@ -11,16 +11,11 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
-from game.bench.rows import row_number
+from game.bench.rows import camera_ms, row_number
 from game.bench.runs import COMPARED_GROUPS
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
-
-
-def camera_ms(row: dict) -> float:
-    """The camera pass of a run's frames: triangle culling plus shading, medians."""
-    return row_number(row, "cull_ms_median") + row_number(row, "shade_ms_median")
 
 
 def camera_figure(plt, rows: list[dict], colours: dict[str, str], markers: dict[str, str],

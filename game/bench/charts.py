@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING
 from game.app import outputs
 from game.bench.chart_axes import place_labels, plain_log_ticks, pyplot
 from game.bench.chart_camera import camera_figure
-from game.bench.rows import row_number
+from game.bench.rows import maps_ms, row_number
 from game.bench.runs import COMPARED_GROUPS
 
 if TYPE_CHECKING:
@@ -186,10 +186,6 @@ def scaling_figure(plt, rows: list[dict], axis: str) -> Figure | None:
     return fig
 
 
-def _shadow_ms(row: dict) -> float:
-    return row_number(row, "shadow_static_ms_median") + row_number(row, "shadow_dynamic_ms_median")
-
-
 def shadow_scaling_figure(plt, rows: list[dict]) -> Figure | None:
     """Shadow-map ms per frame against walkers on the 4 x 4 town, every method at defaults and
     clumped with every character map at the most; a line proportional to the walkers beside
@@ -197,14 +193,14 @@ def shadow_scaling_figure(plt, rows: list[dict]) -> Figure | None:
     picked = [r for r in rows if r["group"] == "town" and _ok(r)
               and (r["scene"] == "town_4x4" or r["scene"].startswith("town_4x4_c"))
               and (_default(r) or _label(r).endswith("char maps all at most"))
-              and math.isfinite(row_number(r, "characters")) and math.isfinite(_shadow_ms(r))]
+              and math.isfinite(row_number(r, "characters")) and math.isfinite(maps_ms(r))]
     if not picked:
         return None
     _need_two(row_number(r, "characters") for r in picked)
     fig, ax = plt.subplots(figsize=(6.5, 4.2))
     series: dict[str, list] = defaultdict(list)
     for r in picked:
-        series[_label(r)].append((row_number(r, "characters"), _shadow_ms(r)))
+        series[_label(r)].append((row_number(r, "characters"), maps_ms(r)))
     for name, pts in sorted(series.items()):
         pts.sort()
         method = name.split()[0]
@@ -338,7 +334,7 @@ def lights_figure(plt, rows: list[dict]) -> Figure | None:
         return None
     _need_two(row_number(r, "lights") for r in picked)
     fig, axes = plt.subplots(1, 3, figsize=(12.0, 4.0))
-    panels = (("shadow-map passes, ms (median)", _shadow_ms),
+    panels = (("shadow-map passes, ms (median)", maps_ms),
               ("whole frame, ms (median)", lambda r: row_number(r, "total_ms_median")),
               ("shadow error, % (all lights pooled)",
                lambda r: 100.0 * row_number(r, "error")))

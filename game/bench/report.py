@@ -26,7 +26,7 @@ from game.bench.report_accuracy import (
 )
 from game.bench.report_cache import CacheRun, cache_section, is_cache_run, load_cache_run
 from game.bench.report_shading import shading_section
-from game.bench.rows import read_rows, row_number
+from game.bench.rows import camera_ms, maps_ms, read_rows, row_number
 from game.bench.runs import COMPARED_GROUPS, PARAM_KEYS, RERENDER
 from game.errors import GameError
 
@@ -109,16 +109,6 @@ def load_run(folder: Path) -> RecordedRun:
 
 
 # --- figures -------------------------------------------------------------------------------------
-
-def maps_ms(row: dict) -> float:
-    """The shadow-map passes of a frame: the cached statics' and the characters'."""
-    return row_number(row, "shadow_static_ms_median") + row_number(row, "shadow_dynamic_ms_median")
-
-
-def camera_ms(row: dict) -> float:
-    """The camera pass of a frame: triangle culling and shading."""
-    return row_number(row, "cull_ms_median") + row_number(row, "shade_ms_median")
-
 
 def size_of(row: dict) -> str:
     return f"{row['width']}x{row['height']}"

@@ -7,15 +7,13 @@ the error. Everything said here is computed from that file (game/bench/accuracy_
 
 from __future__ import annotations
 
-import csv
-import json
 import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
 
 from game.bench.accuracy_summary import BASELINES, summarise
-from game.errors import GameError
+from game.bench.suite_records import read_suite_run
 
 ACCURACY_COLUMNS = ("seed", "method", "misclassified", "shadowed_either", "error_pct", "notes",
                     "status")
@@ -37,21 +35,8 @@ def is_accuracy_run(folder: Path) -> bool:
 
 def load_accuracy_run(folder: Path) -> AccuracyRun:
     """An accuracy sweep's folder; a missing or garbled file is refused in one line."""
-    path, record_path = folder / "accuracy.csv", folder / "run.json"
-    if not record_path.is_file():
-        raise GameError(f"{folder}: not a recorded accuracy sweep: no run.json (python -m game "
-                        f"bench --suite accuracy --out {folder} writes both)")
-    try:
-        record = json.loads(record_path.read_text(encoding="utf-8"))
-        with path.open(newline="", encoding="utf-8") as f:
-            rows = list(csv.DictReader(f))
-    except (UnicodeDecodeError, json.JSONDecodeError, csv.Error) as error:
-        raise GameError(f"{folder}: not a recorded accuracy sweep ({error})") from None
-    if not isinstance(record, dict) or not all(isinstance(record.get(k), str)
-                                               for k in ("command", "date")):
-        raise GameError(f"{record_path}: not a run record (no command or date)")
-    if not rows or any(c not in rows[0] for c in ACCURACY_COLUMNS):
-        raise GameError(f"{path}: not the accuracy suite's columns")
+    record, rows = read_suite_run(folder, "accuracy.csv", ACCURACY_COLUMNS, "accuracy sweep",
+                                  "accuracy")
     return AccuracyRun(folder.name, folder, record, _recorded(rows, record))
 
 

@@ -8,14 +8,12 @@ visibility equals the GPU tracer's. Everything said here is computed from that f
 
 from __future__ import annotations
 
-import csv
-import json
 import os
 from dataclasses import dataclass
 from pathlib import Path
 
 from game.bench.rows import row_number
-from game.errors import GameError
+from game.bench.suite_records import read_suite_run
 
 CACHED = ("grid", "tri-cache", "voxel-cache")  # the methods compared; brute is the oracle
 CACHE_COLUMNS = ("scene", "method", "samples", "d1_misses_per_ray", "ll_misses_per_ray",
@@ -38,21 +36,7 @@ def is_cache_run(folder: Path) -> bool:
 
 def load_cache_run(folder: Path) -> CacheRun:
     """A cache run's folder; a missing or garbled file is refused in one line."""
-    path, record_path = folder / "cache.csv", folder / "run.json"
-    if not record_path.is_file():
-        raise GameError(f"{folder}: not a recorded cache run: no run.json (python -m game bench "
-                        f"--suite cache --out {folder} writes both)")
-    try:
-        record = json.loads(record_path.read_text(encoding="utf-8"))
-        with path.open(newline="", encoding="utf-8") as f:
-            rows = list(csv.DictReader(f))
-    except (UnicodeDecodeError, json.JSONDecodeError, csv.Error) as error:
-        raise GameError(f"{folder}: not a recorded cache run ({error})") from None
-    if not isinstance(record, dict) or not all(isinstance(record.get(k), str)
-                                               for k in ("command", "date")):
-        raise GameError(f"{record_path}: not a run record (no command or date)")
-    if not rows or any(c not in rows[0] for c in CACHE_COLUMNS):
-        raise GameError(f"{path}: not the cache suite's columns")
+    record, rows = read_suite_run(folder, "cache.csv", CACHE_COLUMNS, "cache run", "cache")
     return CacheRun(folder.name, folder, record, rows)
 
 

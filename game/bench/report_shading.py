@@ -14,8 +14,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from game.bench.acceptance import is_default
-from game.bench.chart_camera import camera_ms
-from game.bench.rows import row_number
+from game.bench.rows import camera_ms, maps_ms, row_number
 
 CAMERA_TARGET = 1.15   # clumped's camera pass over single's, at most
 FRAME_TARGET = 0.9     # clumped's frame over single's, at most
@@ -59,7 +58,7 @@ def shading_section(runs, here: Path, header: Callable[[object, Path], list[str]
         body = [[c["scene"], f"{c['width']}x{c['height']}",
                  f"{camera_ms(c):.1f} / {camera_ms(s):.1f}",
                  f"{_ratio(camera_ms(c), camera_ms(s)):.2f}x",
-                 f"{_maps_ms(c):.1f} / {_maps_ms(s):.1f}",
+                 f"{maps_ms(c):.1f} / {maps_ms(s):.1f}",
                  f"{_frame_ratio(c, s):.2f}x",
                  f"{_share(c, 'maps_per_fragment')} / {_share(s, 'maps_per_fragment')}",
                  f"{_share(c, 'map_candidates_per_fragment')} / "
@@ -78,10 +77,6 @@ def shading_section(runs, here: Path, header: Callable[[object, Path], list[str]
 
 def _frame_ratio(clumped: dict, single: dict) -> float:
     return _ratio(row_number(clumped, "total_ms_median"), row_number(single, "total_ms_median"))
-
-
-def _maps_ms(row: dict) -> float:
-    return row_number(row, "shadow_static_ms_median") + row_number(row, "shadow_dynamic_ms_median")
 
 
 def _share(row: dict, column: str) -> str:

@@ -64,3 +64,14 @@ def row_number(row: dict, key: str) -> float:
         return float(row.get(key, ""))
     except (TypeError, ValueError):
         return float("nan")
+
+
+def maps_ms(row: dict) -> float:
+    """The shadow-map passes of a run's frames: the cached statics' and the characters',
+    medians."""
+    return row_number(row, "shadow_static_ms_median") + row_number(row, "shadow_dynamic_ms_median")
+
+
+def camera_ms(row: dict) -> float:
+    """The camera pass of a run's frames: triangle culling plus shading, medians."""
+    return row_number(row, "cull_ms_median") + row_number(row, "shade_ms_median")

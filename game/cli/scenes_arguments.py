@@ -25,6 +25,6 @@ def add_scenes_parser(sub) -> None:
                     "The same seed always writes the same bytes. Needs the real corpus "
                     "(python assets/fetch_real.py).")
     random.add_argument("--seed", type=whole(0, MAX_SEED), required=True, metavar="N",
-                        help="the seed")
+                        help="the number the scene is drawn from: one number, one scene")
     random.add_argument("--out", type=Path, default=None, metavar="DIR",
                         help=f"output folder (default: {DEFAULT_SCENES_OUT}/random_<seed>/)")

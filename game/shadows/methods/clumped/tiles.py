@@ -238,7 +238,7 @@ class TileMaps(ClumpMaps):
             statics = sorted({units.pieces[u][0] for u in members})
             self.records.append(MapRecord(
                 name=f"tile_{m.tiles[k][0]}_{m.tiles[k][1]}", kind=KIND_CLUMP,
-                fit=self.fits_at(k, res)[0], layer=m.layers[k][0], viewport=res,
+                fit=self._fit(k, self.clumps[k].rect, res), layer=m.layers[k][0], viewport=res,
                 objects=[ctx.geom.static_object(i) for i in statics], cover=cover,
                 pieces=[piece_of[u] for u in members], tile=m.tile_rect(k)))
         self.density = self._density_reached()
@@ -256,11 +256,14 @@ class TileMaps(ClumpMaps):
     def fits_at(self, k: int, side: int) -> list[MapFit]:
         """Tile ``k``'s map at ``side`` texels: its casters' square, cut to the tile and the
         reach at that side."""
-        rect = clumping.union_rect(self._cover(k, self.clumps[k].members, side))
+        return [self._fit(k, clumping.union_rect(self._cover(k, self.clumps[k].members, side)),
+                          side)]
+
+    def _fit(self, k: int, rect: np.ndarray, side: int) -> MapFit:
+        """Tile ``k``'s map of ``side`` texels over the light-space rectangle ``rect``."""
         z_lo, z_hi = self.depths[k]
         centre = (rect[:2] + rect[2:]) / 2
         half = max(float(rect[2] - rect[0]), float(rect[3] - rect[1]), 1e-6) / 2
         return fit_squares(self.ctx.rotation, centre[None], np.array([half]),
                            np.array([z_lo]), np.array([z_hi]), np.array([side]),
-                           np.array([np.nan]))
-
+                           np.array([np.nan]))[0]
