@@ -26,8 +26,9 @@ print("default_maps.png:", ", ".join(f"{k} {frame[k]}" for k in keys),
       "|", ", ".join(f"{k} {v}" for k, v in frame.items() if k.startswith("character")))
 PY
 
-# The same view lit by the scene's linear light, soft shadows traced by the voxel-cache tracer
-# with 32 samples per point, at 480x270 to stay quick on a CPU renderer.
+# The same view with the scene's linear light added to its lights (which keep their hard
+# shadows), its soft shadows traced by the voxel-cache tracer with 32 samples per point, at
+# 480x270 to stay quick on a CPU renderer.
 python -m game trace --size 480x270 --samples 32 --time 3 --out "$work/soft"
 cp "$work/soft/frame_0000.png" "$images/soft_default.png"
 

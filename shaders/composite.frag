@@ -1,21 +1,58 @@
 #version 430
 // The soft composite: the frame lit again through a traced visibility, from its G-buffer alone
-// (the scene is not drawn again). HARD 0: the linear light's soft shadows, its direction taken
-// from the segment's midpoint, in the first light's colour; HARD 1: the first hard light's exact
-// shadows (the traced method).
+// (the scene is not drawn again). HARD 0: the linear light is one more light. The shading pass's
+// picture, every scene light with its hard shadows, is taken back to linear radiance
+// (undisplay), and the linear light's diffuse term, through its soft visibility, is added to
+// it; its direction is taken from the segment's midpoint, its radiance is u_soft_radiance.
+// HARD 1: the first hard light's exact shadows (the traced method) replace its maps'.
 // The arithmetic is the shading pass's (shade.frag, lighting.glsl), so a pixel lit by the same
 // visibility gets the same colour.
+// Where the visibility comes from (VIS_SOURCE): VIS_TEXTURE, a texture of the frame's size (the
+// tracer's, or the window's accumulation); or VIS_RUNS, drawn over runs of blocks
+// (soft_blocks.vert, game/soft/direct.py), by what the run says: the value its blocks agree on
+// (>= 0) or the points' visibility interpolated bilinearly (RUN_POINTS: a smooth stretch); or,
+// with LOOKUP_RUNS, the raster method's own lookup at the pixel (LOOKUP 0: segment-maps,
+// segment_maps.glsl; 1: pcss, pcss.glsl).
+// OUT_VISIBILITY writes the visibility instead of the colour (to measure it).
+#define VIS_TEXTURE 0
+#define VIS_RUNS 1
+#define RUN_POINTS -3.0
 #include "blocks/frame.glsl"
 #include "lighting.glsl"
+#if LOOKUP_RUNS && LOOKUP == 0
+#include "segment_maps.glsl"
+#elif LOOKUP_RUNS
+#include "pcss.glsl"
+#endif
 
 uniform sampler2D u_position;    // xyz world position; w object index
 uniform sampler2D u_normal;      // xyz geometric unit normal facing the camera
 uniform sampler2D u_colour;      // the shaded frame: a > 0 where geometry covers the pixel
 uniform sampler2D u_shading;     // xyz shading normal
 uniform sampler2D u_albedo;      // rgb sqrt of the linear base colour
+#if VIS_SOURCE == VIS_TEXTURE
 uniform sampler2D u_visibility;  // the traced visibility of the pixel's surface point
+#else
+flat in float v_vis;             // the run's value, or RUN_POINTS
+uniform sampler2D u_points;      // the points' visibility, one per block, bilinear
+uniform vec2 u_point_at;         // divisor, and the pixel of its block each point lies on
+#endif
 #if !HARD
 uniform vec3 u_soft_light;       // the segment's midpoint
+uniform vec3 u_soft_radiance;    // the linear light's radiance, linear RGB
+
+// The inverse of ``display`` (lighting.glsl): the sRGB transfer undone, then the tone map's
+// quadratic solved for its non-negative root. A value at the tone map's ceiling stays there:
+// adding light to it cannot show.
+vec3 undisplay(vec3 shown) {
+    vec3 y = mix(shown / 12.92, pow((shown + 0.055) / 1.055, vec3(2.4)),
+                 step(0.04045, shown));
+    y = min(y, vec3(0.999));
+    vec3 a = 2.43 * y - 2.51;
+    vec3 b = 0.59 * y - 0.03;
+    vec3 c = 0.14 * y;
+    return max((-b - sqrt(b * b - 4.0 * a * c)) / (2.0 * a), vec3(0.0));
+}
 #endif
 
 out vec4 out_color;
@@ -24,6 +61,10 @@ void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
     vec4 frame = texelFetch(u_colour, px, 0);
     if (frame.a == 0.0) {
+#if OUT_VISIBILITY
+        out_color = vec4(-1.0);
+        return;
+#endif
         out_color = frame;   // no geometry: the sky, as the shading pass cleared it
         return;
     }
@@ -31,17 +72,33 @@ void main() {
     vec3 g = texelFetch(u_normal, px, 0).xyz;
     vec3 n = texelFetch(u_shading, px, 0).xyz;
     vec3 albedo = texelFetch(u_albedo, px, 0).rgb;
+#if VIS_SOURCE == VIS_TEXTURE
     float vis = texelFetch(u_visibility, px, 0).r;
-    LightRecord light = u_lights[0];
+#elif LOOKUP_RUNS && LOOKUP == 0
+    float vis = segment_visibility(p, normalize(g));
+#elif LOOKUP_RUNS
+    float vis = pcss_visibility(px, p, normalize(g));
+#else
+    vec2 cell = (vec2(px) - u_point_at.y) / u_point_at.x + 0.5;
+    float smooth_vis = texture(u_points, cell / vec2(textureSize(u_points, 0))).r;
+    float vis = v_vis >= 0.0 ? v_vis : smooth_vis;
+#endif
+#if OUT_VISIBILITY
+    out_color = vec4(vis, 0.0, 0.0, 1.0);
+    return;
+#endif
 #if HARD
+    LightRecord light = u_lights[0];
     vec3 l = to_light(light, p);
     float reached = reach(light, p, l);
-#else
-    vec3 l = normalize(u_soft_light - p);
-    float reached = 1.0;
-#endif
     albedo *= albedo;
     vec3 colour = ambient_colour(albedo, n)
         + light_colour(albedo, n, l, direct_light(g, l, vis, reached), light.radiance);
+#else
+    vec3 l = normalize(u_soft_light - p);
+    albedo *= albedo;
+    vec3 colour = undisplay(frame.rgb)
+        + light_colour(albedo, n, l, direct_light(g, l, vis, 1.0), u_soft_radiance);
+#endif
     out_color = vec4(display(colour), frame.a);
 }

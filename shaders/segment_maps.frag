@@ -1,9 +1,12 @@
 #version 430
-// segment-maps: the linear light's visibility as the mean, over K points along the segment, of
-// a depth-map test from each (brute accumulation of point-light shadow maps; Heidrich, Brabec
-// and Seidel, "Soft Shadow Maps for Linear Lights", 2000, sample the same maps). A point below
-// the receiver's horizon is hidden, as the tracer's samples are.
-#include "soft_maps.glsl"
+// segment-maps' lookup over a G-buffer into an R32F target (segment_maps.glsl).
+#include "segment_maps.glsl"
+
+uniform sampler2D u_position;  // xyz world position
+uniform sampler2D u_normal;    // xyz unit normal facing the camera
+uniform sampler2D u_colour;    // a > 0 where geometry covers the pixel
+
+layout(location = 0) out float f_visibility;   // -1 where no geometry
 
 void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
@@ -12,14 +15,5 @@ void main() {
         return;
     }
     vec3 p = texelFetch(u_position, px, 0).xyz;
-    vec3 n = normalize(texelFetch(u_normal, px, 0).xyz);
-    float sum = 0.0;
-    for (int k = 0; k < u_maps; ++k) {
-        vec3 to_light = u_map_eye[k].xyz - p;
-        float cos_n = dot(n, to_light) / max(length(to_light), 1e-9);
-        if (cos_n > 0.0) {
-            sum += map_test(k, p, n, cos_n);
-        }
-    }
-    f_visibility = sum / float(u_maps);
+    f_visibility = segment_visibility(p, normalize(texelFetch(u_normal, px, 0).xyz));
 }

@@ -24,6 +24,38 @@ vec3 heat(float t) {
     return clamp(vec3(1.5 * t, 1.5 - abs(2.0 * t - 1.0) * 1.5, 1.5 - 1.5 * t), 0.0, 1.0);
 }
 
+// What the lights leave at a fragment: its colour, the maps read, the map that decided light 0
+// (-1: none), the visibility of light 0 (debug views) and of u_frame.dump_light (G-buffer), and
+// the lights that reach it but are blocked.
+struct Shaded {
+    vec3 colour;
+    int sampled, used;
+    float kept, shown;
+    int shadowed;
+};
+
+// Light k's share at the fragment, with g its geometric normal and n its shading normal.
+void add_light(int k, vec3 g, vec3 n, inout Shaded o) {
+    LightRecord light = u_lights[k];
+    vec3 l = to_light(light, v_world);
+    float reached = reach(light, v_world, l);
+    int decider = -1;
+    float vis = 0.0;
+    // A light that cannot reach the fragment reads no map (its visibility counts as 0).
+    if (reached > 0.0) {
+        vis = shadow_visibility(light, v_world, g, v_object, o.sampled, decider);
+    }
+    o.colour += light_colour(v_colour, n, l, direct_light(g, l, vis, reached), light.radiance);
+    o.shadowed += reached > 0.0 && dot(g, l) > 0.0 && vis < 0.5 ? 1 : 0;
+    if (k == u_frame.dump_light) {
+        o.kept = vis;
+    }
+    if (k == 0) {
+        o.used = decider;
+        o.shown = vis;
+    }
+}
+
 void main() {
     // The geometric normal from the screen derivatives of the world position (exact for a
     // triangle's plane), turned to face the camera.
@@ -33,67 +65,51 @@ void main() {
     if (dot(g, u_frame.camera_pos - v_world) < 0.0) {
         g = -g;
     }
-    int sampled = 0, used = -1;
+    Shaded o;
+    o.sampled = 0;
+    o.used = -1;
     vec3 n = shading_normal(v_normal, g);
-    vec3 colour = ambient_colour(v_colour, n);
-    float kept = 0.0;   // the visibility of u_frame.dump_light, for the G-buffer
-    float shown = 1.0;  // the first light's, for the debug views
-    int shadowed = 0;   // lights that reach the fragment but are blocked
+    o.colour = ambient_colour(v_colour, n);
+    o.kept = 0.0;
+    o.shown = 1.0;
+    o.shadowed = 0;
 #if MANY_LIGHTS
     // Only the lights that can reach the fragment's screen tile (game/render/frame_blocks.py).
     // The count is read, not a #define: a loop of known length would be unrolled into one
-    // copy of the lookup per light, a long shader to compile anew for each count.
+    // copy of the lookup per light, a long shader to compile anew for each count. A do-while,
+    // as in shaders/shadow.glsl: a for loop would pay for one more light, masked off.
     ivec2 tile = ivec2(gl_FragCoord.xy) / u_frame.tile_size;
     int t = u_frame.tile_base + tile.y * u_frame.tiles_x + tile.x;
-    int first = u_grid[t], end = u_grid[t + 1];
-#else
-    const int first = 0, end = 1;
-#endif
-    for (int j = first; j < end; ++j) {
-#if MANY_LIGHTS
-        int k = u_grid[j];
-#else
-        const int k = 0;
-#endif
-        LightRecord light = u_lights[k];
-        vec3 l = to_light(light, v_world);
-        float reached = reach(light, v_world, l);
-        int decider = -1;
-        float vis = 0.0;
-        // A light that cannot reach the fragment reads no map (its visibility counts as 0).
-        if (reached > 0.0) {
-            vis = shadow_visibility(light, v_world, g, v_object, sampled, decider);
-        }
-        colour += light_colour(v_colour, n, l, direct_light(g, l, vis, reached), light.radiance);
-        shadowed += reached > 0.0 && dot(g, l) > 0.0 && vis < 0.5 ? 1 : 0;
-        if (k == u_frame.dump_light) {
-            kept = vis;
-        }
-        if (k == 0) {
-            used = decider;
-            shown = vis;
-        }
+    int j = u_grid[t], end = u_grid[t + 1];
+    if (j < end) {
+        do {
+            add_light(u_grid[j], g, n, o);
+            ++j;
+        } while (j < end);
     }
-    colour = display(colour);
+#else
+    add_light(0, g, n, o);
+#endif
+    vec3 colour = display(o.colour);
     // The debug view, like the shadow lookup's switches, is a #define (DEBUG_VIEW).
 #if DEBUG_VIEW == DEBUG_MAP
-    colour = (used < 0 ? vec3(0.5) : palette(used + 7)) * (0.55 + 0.45 * shown);
+    colour = (o.used < 0 ? vec3(0.5) : palette(o.used + 7)) * (0.55 + 0.45 * o.shown);
 #elif DEBUG_VIEW == DEBUG_MAP_COUNT
-    colour = heat(float(sampled) / 4.0);
+    colour = heat(float(o.sampled) / 4.0);
 #elif DEBUG_VIEW == DEBUG_SHADOWED_LIGHTS
-    colour = shadowed == 0 ? vec3(0.25) : heat(float(shadowed - 1) / 3.0);
+    colour = o.shadowed == 0 ? vec3(0.25) : heat(float(o.shadowed - 1) / 3.0);
 #elif DEBUG_VIEW == DEBUG_CACHE
     // The map that decided the pixel: red re-rendered this frame, green from the cache.
-    vec3 state = u_maps[max(used, 0)].fresh != 0 ? vec3(0.9, 0.3, 0.25) : vec3(0.3, 0.8, 0.35);
-    colour = (used < 0 ? vec3(0.5) : state) * (0.55 + 0.45 * shown);
+    vec3 state = u_maps[max(o.used, 0)].fresh != 0 ? vec3(0.9, 0.3, 0.25) : vec3(0.3, 0.8, 0.35);
+    colour = (o.used < 0 ? vec3(0.5) : state) * (0.55 + 0.45 * o.shown);
 #endif
-    out_color = vec4(colour, float(1 + sampled) / 255.0);
+    out_color = vec4(colour, float(1 + o.sampled) / 255.0);
 #if COUNT_CANDIDATES
     out_color.a = float(1 + min(g_candidates, 254)) / 255.0;
 #endif
 #if GBUFFER
     out_position = vec4(v_world, float(v_object));
-    out_normal = vec4(g, kept);
+    out_normal = vec4(g, o.kept);
     out_shading = vec4(n, 0.0);
     out_albedo = vec4(sqrt(v_colour), 1.0);
 #endif

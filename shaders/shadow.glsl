@@ -2,8 +2,12 @@
 // A fragment samples only the maps that can shadow it: those whose rectangle holds it and whose
 // caster lies nearer the light. With many maps, a light-space grid lists the candidates per cell
 // so the per-fragment cost stays flat (game/shadows/map_grid.py builds it). Visibility is the
-// minimum. Where a directional light's statics are tiled (GRID_TILES), a cell names its one
-// static map first: one fetch, then one depth read, as a virtual shadow map's page table.
+// minimum. Where a directional light's statics are tiled (GRID_TILES), a cell's list names its
+// one static map first: one fetch, then one depth read, as a virtual shadow map's page table.
+//
+// Loops over maps are do-while loops behind an if. llvmpipe runs a loop's body under a lane
+// mask until no lane is left, and a for loop tests its condition at the top of the next pass:
+// one more body, with every lane masked off, but paid in full. A do-while tests at the bottom.
 //
 // Each light has its own maps, u_maps[first_map, first_map + map_count), and its own grid.
 //
@@ -204,41 +208,37 @@ float shadow_visibility(LightRecord light, vec3 p, vec3 n, int object, inout int
     r.ln = mat3(light.light_rot) * n;
     float vis = 1.0;
     int held = 0;   // clump maps that held the fragment
-    if (GRID_OF(light) == GRID_NONE) {
-        int end = light.first_map + light.map_count;
-        for (int i = light.first_map; i < end && vis > 0.0; ++i) {
-            int before = sampled;
-            consider(light, i, r, vis, sampled, used, held);
-            if (decided(i, before, sampled)) {
-                break;
+    // The candidates: every map of the light (GRID_NONE), or the list of the fragment's cell
+    // of the light's grid. One walk serves both: with several lights the mode is read, not a
+    // #define, and a second walk would cost one more body per light, run with every lane off.
+    bool listed = GRID_OF(light) != GRID_NONE;
+    int k = light.first_map, end = k + light.map_count;
+    if (listed) {
+        vec2 g = GRID_OF(light) != GRID_OCTAHEDRAL ? r.lp.xy
+                                                    : octahedral(normalize(p - light.position));
+        // Outside the grid's rectangle, the nearest edge cell: it lists every map reaching past
+        // that edge (game/shadows/map_grid.py).
+        vec2 f = (g - light.grid_rect.xy) / (light.grid_rect.zw - light.grid_rect.xy);
+        int size = light.grid_size;
+        ivec2 cell = clamp(ivec2(floor(f * float(size))), ivec2(0), ivec2(size - 1));
+        int c = light.grid_base + cell.y * size + cell.x;
+        k = u_grid[c];
+        end = u_grid[c + 1];
+    }
+    // With tiles, a cell's list starts with its one static map (-1: none), then its character
+    // maps, often none: the walk runs once where no walker's map reaches the cell.
+    if (k < end) {
+        do {
+            int i = listed ? u_grid[k] : k;
+            if (i >= 0) {
+                int before = sampled;
+                consider(light, i, r, vis, sampled, used, held);
+                if (decided(i, before, sampled)) {
+                    break;
+                }
             }
-        }
-        return vis;
-    }
-    vec2 g = GRID_OF(light) != GRID_OCTAHEDRAL ? r.lp.xy
-                                                : octahedral(normalize(p - light.position));
-    // Outside the grid's rectangle, the nearest edge cell: it lists every map reaching past
-    // that edge (game/shadows/map_grid.py).
-    vec2 f = (g - light.grid_rect.xy) / (light.grid_rect.zw - light.grid_rect.xy);
-    int size = light.grid_size;
-    ivec2 cell = clamp(ivec2(floor(f * float(size))), ivec2(0), ivec2(size - 1));
-    int c = light.grid_base + cell.y * size + cell.x;
-    int first = u_grid[c], end = u_grid[c + 1];
-    if (GRID_OF(light) == GRID_TILES) {
-        // The cell's tile map, the one static map that can shadow it, read without a loop;
-        // then the cell's character maps, often none.
-        int tile_map = u_grid[first];
-        if (tile_map >= 0) {
-            consider(light, tile_map, r, vis, sampled, used, held);
-        }
-        first += 1;
-    }
-    for (int k = first; k < end && vis > 0.0; ++k) {
-        int before = sampled;
-        consider(light, u_grid[k], r, vis, sampled, used, held);
-        if (decided(u_grid[k], before, sampled)) {
-            break;
-        }
+            ++k;
+        } while (k < end && vis > 0.0);
     }
     return vis;
 }

@@ -1,21 +1,15 @@
-// What the raster soft methods' lookups share (segment_maps.frag, pcss.frag): the G-buffer, the
-// maps' records (game/soft/raster.py sets them from game/soft/map_frusta.py), perspective depth
-// in and out of the window's [0, 1], and a map's lookup, 1.0 outside its bounds.
+// What the raster soft methods' lookups share (segment_maps.glsl, pcss.glsl): the maps' records
+// (game/soft/raster.py sets them from game/soft/map_frusta.py), perspective depth in and out of
+// the window's [0, 1], and a map's lookup, 1.0 outside its bounds.
 // Needs MAX_SOFT_MAPS, NORMAL_BIAS_TEXELS, DEPTH_BIAS_TEXELS, SLOPE_BIAS_TEXELS and MAX_SLOPE.
-
-uniform sampler2D u_position;  // xyz world position
-uniform sampler2D u_normal;    // xyz unit normal facing the camera
-uniform sampler2D u_colour;    // a > 0 where geometry covers the pixel
 
 uniform sampler2DArrayShadow u_maps_compare;  // the depth array, bilinear depth compare
 
 uniform mat4 u_view_proj[MAX_SOFT_MAPS];  // world -> map k's clip space
 uniform vec4 u_map_eye[MAX_SOFT_MAPS];    // xyz the light point; w metres per texel per metre
 uniform vec2 u_map_range[MAX_SOFT_MAPS];  // near, far
-uniform int u_maps;       // K: layers 0..K-1 hold the statics
-uniform bool u_dynamic;   // layers K..2K-1 hold the walkers, through the same frusta
-
-out float f_visibility;   // -1 where no geometry
+uniform int u_map_count;   // K: layers 0..K-1 hold the statics
+uniform bool u_dynamic;   // layers K..2K-1 hold the statics and the walkers (read those)
 
 // PCG hash (Jarzynski and Olano, "Hash Functions for GPU Rendering", JCGT 2020).
 uint soft_hash(uint v) {
@@ -53,8 +47,13 @@ float receiver_bias(float cos_n, float texel_m) {
     return (DEPTH_BIAS_TEXELS + SLOPE_BIAS_TEXELS * min(tan_n, MAX_SLOPE)) * texel_m;
 }
 
+// The layer that holds every caster seen from point k.
+int map_layer(int k) {
+    return u_dynamic ? u_map_count + k : k;
+}
+
 // Map k's test of receiver p (normal n, cos_n toward the map's eye) against the statics' layer
-// and, with walkers, theirs: 1 lit, 0 hidden, a fraction on an edge; 1.0 outside the map.
+// (the walkers' layer when there are walkers): 1 lit, 0 hidden, a fraction on an edge; 1.0 outside the map.
 float map_test(int k, vec3 p, vec3 n, float cos_n) {
     float texel_m = u_map_eye[k].w * max((u_view_proj[k] * vec4(p, 1.0)).w, 0.0);
     vec4 clip = u_view_proj[k] * vec4(p + n * (NORMAL_BIAS_TEXELS * texel_m), 1.0);
@@ -63,9 +62,5 @@ float map_test(int k, vec3 p, vec3 n, float cos_n) {
         return 1.0;
     }
     float ref = window_depth(clip.w - receiver_bias(cos_n, texel_m), u_map_range[k]);
-    float lit = texture(u_maps_compare, vec4(uv, float(k), ref));
-    if (u_dynamic) {
-        lit = min(lit, texture(u_maps_compare, vec4(uv, float(u_maps + k), ref)));
-    }
-    return lit;
+    return texture(u_maps_compare, vec4(uv, float(map_layer(k)), ref));
 }

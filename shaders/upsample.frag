@@ -6,21 +6,16 @@
 // across a depth or normal edge gets next to no weight, so a shadow stops where the geometry
 // changes instead of bleeding across, as a plain bilinear upscale would.
 //
-// FULL 0: the samples are the last trace's, one per block of u_divisor x u_divisor pixels
-//         (subsample.frag picked them: texel x of row y holds block (x + u_shift) mod
-//         u_cells.x), the GATHER x GATHER blocks around the pixel; in two draws, PART 0 and
-//         PART 1 (below).
-// FULL 1: every pixel has been traced (rounds accumulated while nothing moved): its own mean and
-//         its 3 x 3 neighbours', by the same weights.
+// The samples are the last trace's, one per block of u_divisor x u_divisor pixels
+// (subsample.frag picked them: texel x of row y holds block (x + u_shift) mod u_cells.x), the
+// GATHER x GATHER blocks around the pixel; in two draws, PART 0 and PART 1 (below). The
+// accumulation over frames is soft_accumulate.frag's and soft_resolve.frag's.
 // Constants (game/soft/upsample.py): PLANE_SIGMA, NORMAL_POWER, SPATIAL_SIGMA_CELLS,
-// MIN_WEIGHT, GATHER, NO_SAMPLE.
+// MIN_WEIGHT, GATHER, NO_SAMPLE, OWN_ENOUGH.
 
 uniform sampler2D u_position;   // full resolution: xyz world position
 uniform sampler2D u_normal;     // xyz geometric unit normal facing the camera
 uniform sampler2D u_colour;     // a > 0 where geometry covers the pixel
-#if FULL
-uniform sampler2D u_accumulated;  // full resolution: mean visibility; NO_SAMPLE where none
-#else
 uniform sampler2D u_samples;    // per block: xyz its traced pixel's position, w the visibility
                                 // (NO_SAMPLE: no geometry)
 uniform sampler2D u_sample_normals;  // per block: rgb its normal * 0.5 + 0.5
@@ -31,7 +26,7 @@ uniform int u_divisor;          // block side, pixels
 uniform ivec2 u_phase;          // the traced pixel of each block, from its corner
 uniform int u_shift;            // see subsample.frag
 uniform ivec2 u_cells;          // blocks per row and column
-#endif
+uniform sampler2D u_history;    // the accumulation's (mean, samples, ...) per pixel
 
 layout(location = 0) out vec4 out_visibility;
 
@@ -46,7 +41,6 @@ float geometry_weight(vec3 p, vec3 n, vec3 q, vec3 m) {
     return plane * pow(max(dot(n, m), 0.0), NORMAL_POWER);
 }
 
-#if !FULL
 // The texel of the reduced trace that holds block ``cell`` (see subsample.frag; 0 <= u_shift <
 // u_cells.x). Without an integer modulo, which llvmpipe computes lane by lane.
 ivec2 texel_of(ivec2 cell) {
@@ -69,24 +63,22 @@ float agreed(ivec2 px) {
     }
     return texelFetch(u_agreed, texel_of(cell), 0).r;
 }
-#endif
 
 void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
     // No geometry: 1, and the composite shows the sky as it is.
     bool sky = texelFetch(u_colour, px, 0).a == 0.0;
-#if FULL
-    if (sky) {
-        out_visibility = vec4(1.0);
-        return;
-    }
-#else
     // Where all the samples agree (most of a frame: wholly lit or in the umbra), any weighting
     // gives that value. The sky and those pixels are one draw (PART 0), the filter over the
     // others a second (PART 1), each discarding the other's pixels: llvmpipe runs both sides of
     // a branch under a mask, but stops a batch of pixels once all of them are discarded, so
     // the filter costs only where it is needed.
     float same = sky ? 1.0 : agreed(px);
+    // A pixel with OWN_ENOUGH samples of its own shows its own mean (soft_resolve.frag):
+    // nothing to upsample.
+    if (texelFetch(u_history, px, 0).y >= OWN_ENOUGH) {
+        discard;
+    }
 #if PART == 0
     if (same == NO_SAMPLE) {
         discard;
@@ -98,8 +90,7 @@ void main() {
         discard;
     }
 #endif
-#endif
-#if FULL || PART == 1
+#if PART == 1
     ivec2 size = textureSize(u_colour, 0);
     vec3 p = texelFetch(u_position, px, 0).xyz;
     vec3 n = texelFetch(u_normal, px, 0).xyz;
@@ -107,21 +98,6 @@ void main() {
     float sum = 0.0;
     float best_weight = -1.0;   // the sample that continues the surface best: the fallback
     float best = 1.0;
-#if FULL
-    const float sigma = 1.0;
-    for (int j = -1; j <= 1; ++j) {
-        for (int i = -1; i <= 1; ++i) {
-            ivec2 q = px + ivec2(i, j);
-            if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, size))) {
-                continue;
-            }
-            float v = texelFetch(u_accumulated, q, 0).r;
-            if (v == NO_SAMPLE) {
-                continue;   // no geometry there
-            }
-            vec3 q_position = texelFetch(u_position, q, 0).xyz;
-            vec3 q_normal = texelFetch(u_normal, q, 0).xyz;
-#else
     float sigma = SPATIAL_SIGMA_CELLS * float(u_divisor);
     ivec2 first = first_cell(px);
     for (int j = 0; j < GATHER; ++j) {
@@ -139,7 +115,6 @@ void main() {
             }
             vec3 q_position = sample_.xyz;
             vec3 q_normal = texelFetch(u_sample_normals, texel, 0).xyz * 2.0 - 1.0;
-#endif
             float g = geometry_weight(p, n, q_position, q_normal);
             vec2 d = vec2(q - px);
             float w = g * exp(-dot(d, d) / (2.0 * sigma * sigma));

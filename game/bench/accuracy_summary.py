@@ -7,7 +7,8 @@ The targets, at every method's defaults:
   least TARGET_SHARE of the scenes, and never more than CEILING_RATIO times plus
   CEILING_SLACK_PX;
 - every method's error (misclassified over pixels either side shadows, pooled over the frames
-  and the lights) at most MAX_ERROR_PCT, or a ``note:`` from capture that says why not.
+  and the lights) at most MAX_ERROR_PCT, or a ``note:`` from capture that says why not. A run
+  that misclassifies at most TINY_RUN_PX pixels is not counted over MAX_ERROR_PCT.
 """
 
 from __future__ import annotations
@@ -22,6 +23,12 @@ BASELINES = ("single", "static-dynamic")
 TARGET_RATIO, TARGET_SLACK_PX, TARGET_SHARE = 1.25, 10.0, 0.95
 CEILING_RATIO, CEILING_SLACK_PX = 2.0, 30.0
 MAX_ERROR_PCT = 5.0
+# A run that misclassifies at most this many pixels is never counted over MAX_ERROR_PCT: where
+# every shadow is a few pixels across (a far camera over a sparse scene: some 30 pixels that
+# either side shadows), one pixel whose centre falls within a texel of a shadow's edge is 3% of
+# them, and a handful crosses 5% whatever the maps' texels. TARGET_SLACK_PX forgives clumped
+# the same few pixels against the baselines.
+TINY_RUN_PX = 10
 WORST = 5   # seeds named in each list of the worst
 
 
@@ -61,14 +68,21 @@ def comparisons(rows: Sequence[dict]) -> list[dict]:
     return out
 
 
+def over_max(row: dict) -> bool:
+    """Whether a finished run counts as over MAX_ERROR_PCT: its error is, and it misclassifies
+    more than TINY_RUN_PX pixels."""
+    return (row_number(row, "error_pct") > MAX_ERROR_PCT
+            and row_number(row, "misclassified") > TINY_RUN_PX)
+
+
 def method_figures(rows: Sequence[dict], methods: Sequence[str]) -> list[dict]:
     """Per method: how many runs finished, the error's median, 95th percentile and largest,
-    and the runs over MAX_ERROR_PCT, with and without a note."""
+    and the runs over MAX_ERROR_PCT (:func:`over_max`), with and without a note."""
     out = []
     for method in methods:
         mine = [r for r in rows if r["method"] == method and _ok(r)]
         errors = sorted(row_number(r, "error_pct") for r in mine)
-        over = [r for r in mine if row_number(r, "error_pct") > MAX_ERROR_PCT]
+        over = [r for r in mine if over_max(r)]
         unnoted = [int(r["seed"]) for r in over if not str(r.get("notes", "")).strip()]
         failed = sum(1 for r in rows if r["method"] == method and not _ok(r))
         out.append({"method": method, "runs": len(mine), "failed": failed,
@@ -120,7 +134,7 @@ def summarise(rows: Sequence[dict], methods: Sequence[str]) -> dict:
                                  if not math.isnan(v := row_number(r, "seconds"))), 1),
         "targets": {"ratio": TARGET_RATIO, "slack_px": TARGET_SLACK_PX, "share": TARGET_SHARE,
                     "ceiling_ratio": CEILING_RATIO, "ceiling_slack_px": CEILING_SLACK_PX,
-                    "max_error_pct": MAX_ERROR_PCT},
+                    "max_error_pct": MAX_ERROR_PCT, "tiny_run_px": TINY_RUN_PX},
     }
 
 
@@ -138,9 +152,13 @@ def markdown(summary: dict, command: str) -> str:
              f"- **Target met**: {'yes' if summary['target_met'] else 'no'}. Every method "
              f"within {t['max_error_pct']:g}% or noted: "
              f"{'yes' if summary['every_method_within_max_or_noted'] else 'no'}. Failed runs: "
-             f"{summary['failed']}. The runs took {summary['run_seconds']:.0f} s in all.", "",
+             f"{summary['failed']}. The runs took {summary['run_seconds']:.0f} s in all.",
+             f"- A run that misclassifies at most {t['tiny_run_px']:g} pixels is not counted "
+             f"over {t['max_error_pct']:g}%: where every shadow is a few pixels across, one "
+             "pixel is several per cent of them.", "",
              "| method | runs | median error | 95th percentile | largest | over "
-             f"{t['max_error_pct']:g}% | of them without a note |",
+             f"{t['max_error_pct']:g}% (more than {t['tiny_run_px']:g} px) | "
+             "of them without a note |",
              "|---|---|---|---|---|---|---|"]
     for f in summary["methods"]:
         lines.append(f"| {f['method']} | {f['runs']} | {_pct(f['median_error_pct'])} | "

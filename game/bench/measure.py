@@ -194,7 +194,7 @@ class Timing:
 
     def __init__(self, ctx, scene: Scene, spec: RunSpec, opts: BenchOptions):
         self.scene, self.spec, self.opts = scene, spec, opts
-        self.renderer = Renderer(ctx, scene, opts.size, spec.settings())
+        self.renderer = Renderer(ctx, scene, opts.size, spec.settings(), clock=opts.clock)
         self.timed: list = []
         self.view = None
         self.k = 0

@@ -49,7 +49,7 @@ def run(opts: BenchOptions, ctx=None, command: str = "") -> dict:
     ctx = context.create_headless() if own else ctx
     try:
         runs = plan_runs(opts, int(ctx.info["GL_MAX_TEXTURE_SIZE"]))
-        write_run_record(opts.out, command, context.describe(ctx))
+        write_run_record(opts.out, command, context.describe(ctx), opts.clock)
         # A row of a scene whose text has changed since (or another file of the same name) is
         # measured again, not kept.
         current = {b.key: b.sha256 for b, _ in runs}
@@ -134,10 +134,12 @@ def failure_line(result: dict) -> str:
             f"{reason}); the status column of {result['csv']} says why for each")
 
 
-def write_run_record(out: Path, command: str, gl: dict) -> None:
+def write_run_record(out: Path, command: str, gl: dict, clock: str = "auto") -> None:
     """``OUT/run.json``: what a reader of the figures needs to redo them - the command, the
-    renderer, the date (UTC) and the commit (with ``dirty`` where the tree had changes)."""
+    renderer, the timing clock, the date (UTC) and the commit (with ``dirty`` where the tree
+    had changes)."""
     record = {"command": command, "renderer": gl["renderer"], "version": gl["version"],
+              "clock": clock,
               "date": datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC"), **git_commit(out)}
     outputs.write_json(out / "run.json", record)
 

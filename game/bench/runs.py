@@ -123,6 +123,7 @@ class BenchOptions:
     reference: bool = True
     progress: bool = True
     deadline: float | None = None        # time.monotonic() after which no new run starts
+    clock: str = "auto"                  # game/gpu/timing.py CLOCKS
     log: Callable[[str], None] = field(default=lambda line: print(line, file=sys.stderr))
 
 

@@ -16,6 +16,7 @@ from game.app import interrupts
 from game.cli.arguments import ArgumentError, build_parser
 from game.cli.commands import COMMANDS, cmd_default, say
 from game.errors import GameError
+from game.gpu.timing import THREAD_CLOCK
 
 
 def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
@@ -49,6 +50,9 @@ def _run(argv: list[str] | None) -> int:
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
+        if getattr(args, "clock", None) == THREAD_CLOCK:
+            # Read by llvmpipe when the GL starts, which is after this.
+            os.environ["LP_NUM_THREADS"] = "0"
         if args.command is None:
             return cmd_default()
         return COMMANDS[args.command](args)

@@ -143,8 +143,9 @@ def _add_shadow_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--single-resolution", type=map_side, default=d.single_resolution,
                    help="texels per side of the single baseline map")
     g.add_argument("--lamp-resolution", type=map_side, default=d.lamp_resolution,
-                   help="texels per side of a baseline's map (or cube face) for a spot or "
-                        "point light with a range")
+                   help="the smallest side of a baseline's map (or cube face) for a spot or "
+                        "point light with a range; lamps whose range spans more of the scene "
+                        "get more, up to --single-resolution")
     g.add_argument("--cascades", type=whole(1, 64), default=d.cascades,
                    help="csm: number of cascades")
     g.add_argument("--cascade-lambda", type=unit, default=d.cascade_lambda,

@@ -7,6 +7,7 @@ import argparse
 from pathlib import Path
 
 from game.cli.values import positive_int, size_value, whole
+from game.gpu.timing import CLOCKS
 
 SUITES = ("gpu", "cache", "accuracy")
 MAX_SEED = 2**63 - 1
@@ -90,6 +91,10 @@ def add_bench_parser(sub) -> None:
                             "of ROOT/README.md from the recorded runs in ROOT/docs/runs/*/ "
                             "(ROOT: the checkout, default: this folder)")
     bench.add_argument("--no-progress", action="store_true", help="no progress bar")
+    bench.add_argument("--clock", choices=CLOCKS, default="auto",
+                       help="timing clock (auto: CPU around glFinish on llvmpipe, GPU queries "
+                       "elsewhere; cpu-thread: the CPU time of llvmpipe's one thread, steady on "
+                       "a shared machine; it sets LP_NUM_THREADS=0)")
     g = bench.add_argument_group("--suite accuracy")
     g.add_argument("--seeds", type=seed_range, default=None, metavar="A..B",
                    help="the random scenes' seeds, A to B with both included, or one seed N "

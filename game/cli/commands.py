@@ -43,6 +43,8 @@ def cmd_play(args) -> int:
         debug_view=args.debug_view, render_scale=args.render_scale, soft=args.soft,
         cull=not args.no_cull, antialias=args.aa == "fxaa")
     stats = window.play(scene, opts)
+    for note in stats["notes"]:
+        say(f"note: {note}", err=True)
     if args.frames is not None:
         say(f"played {len(stats['frames'])} frame(s): {window.summary(stats)}")
     return 0
@@ -134,7 +136,7 @@ def cmd_bench(args) -> int:
     opts = runs.BenchOptions(
         out=args.out, quick=quick, size=args.size, repeat=args.repeat,
         scenes=patterns or None, user_scenes=files, methods=methods, params=params,
-        progress=not args.no_progress, log=say, **values)
+        progress=not args.no_progress, clock=args.clock, log=say, **values)
     if args.list:
         for _scene, spec in runs.plan_runs(opts, MAX_SIZE):
             say(spec.run_id(opts.size))

@@ -5,16 +5,25 @@ microseconds, or as a wrapped-around counter), so there the clock is the CPU's, 
 ``ctx.finish()``: ``cpu-finish``. On
 real GPUs the passes are timed with GL_TIME_ELAPSED queries: ``gpu-query``. Stats files record
 which clock was used (docs/reference.md, section 4).
+
+``cpu-thread`` is for llvmpipe on a shared machine. With ``LP_NUM_THREADS=0`` llvmpipe
+rasterises in the thread that calls GL, so the CPU time of that thread around ``ctx.finish()``
+holds the frame's whole work, and other processes' load does not move it (a wall clock moves
+by tens of percent there). It times one core's work: compare methods by it, not with a user's
+multi-threaded frame rate. The command line sets ``LP_NUM_THREADS=0`` for it (game/cli).
 """
 
 from __future__ import annotations
 
+import os
 import time
 from contextlib import contextmanager
 
+from game.errors import GameError
 from game.gpu.context import is_software
 
-CLOCKS = ("auto", "cpu-finish", "gpu-query")
+CLOCKS = ("auto", "cpu-finish", "cpu-thread", "gpu-query")
+THREAD_CLOCK = "cpu-thread"
 
 
 class PassTimer:
@@ -25,6 +34,10 @@ class PassTimer:
             raise ValueError(f"unknown clock {clock!r}; valid: {', '.join(CLOCKS)}")
         if clock == "auto":
             clock = "cpu-finish" if is_software(ctx) else "gpu-query"
+        if clock == THREAD_CLOCK and not thread_clock_holds(ctx):
+            raise GameError("--clock cpu-thread needs Mesa llvmpipe rasterising in the calling "
+                            "thread (LP_NUM_THREADS=0 before the GL starts)")
+        self._now = time.thread_time if clock == THREAD_CLOCK else time.perf_counter
         self.ctx = ctx
         self.clock = clock
         self.ms: dict[str, float] = {}
@@ -50,10 +63,10 @@ class PassTimer:
             self.ms[name] = self.ms.get(name, 0.0) + query.elapsed / 1e6
             return
         self.ctx.finish()
-        start = time.perf_counter()
+        start = self._now()
         yield
         self.ctx.finish()
-        self.ms[name] = self.ms.get(name, 0.0) + (time.perf_counter() - start) * 1e3
+        self.ms[name] = self.ms.get(name, 0.0) + (self._now() - start) * 1e3
 
     def gl_objects(self) -> int:
         """The timer queries made so far (one per pass name, kept for later frames)."""
@@ -63,3 +76,9 @@ class PassTimer:
         for query in self._queries.values():
             query.release()
         self._queries = {}
+
+
+def thread_clock_holds(ctx) -> bool:
+    """Whether the calling thread's CPU time holds the GL's work: llvmpipe without threads."""
+    return "llvmpipe" in ctx.info["GL_RENDERER"].lower() and \
+        os.environ.get("LP_NUM_THREADS") == "0"

@@ -12,6 +12,8 @@ pixel counts in pixel_counts. The passes' names are game/render/passes.py's.
 from __future__ import annotations
 
 import dataclasses
+import math
+import time
 
 import numpy as np
 
@@ -32,7 +34,7 @@ from game.render.target import SKY, FrameTarget
 from game.render.traced_lighting import TracedLighting
 from game.scene.geometry import PackedGeometry
 from game.scene.model import Scene
-from game.shadows import map_grid
+from game.shadows import collapse, map_grid
 from game.shadows.budget import fit_settings
 from game.shadows.lights import LightShadows, LightSpan
 from game.shadows.method import VISIBILITY_TRACED, ShadowMethod
@@ -57,6 +59,9 @@ class Renderer(SceneEdits):
         self.cull = cull  # only the triangles that can cover a pixel centre (render/cull.py)
         self.last_plan: ShadowPlan | None = None  # for the overlay's map list
         self.last_spans: list[LightSpan] = []       # each light's maps in it
+        self.last_view: View | None = None          # and the view and poses it was made for
+        self.last_models = np.zeros((0, 4, 4))
+        self._collapse: tuple = (None, (), [], -math.inf)  # plan, view, notes, when made
         self.counts = PixelCounts()
         self.count_candidates = False  # read frames count the map records each pixel considered
         self.grids = [map_grid.GridBuilder() for _ in scene.lights]
@@ -98,6 +103,23 @@ class Renderer(SceneEdits):
         if self.method.visibility == VISIBILITY_TRACED and len(self.scene.lights) > 1:
             notes = notes + [f"{self.settings.method}: the picture is lit by light 0 alone; "
                              "the dumps hold every light's exact visibility"]
+        return notes + self.collapse_notes()
+
+    def collapse_notes(self, max_age_s: float = 0.0) -> list[str]:
+        """One line per light whose maps were far coarser on screen, in the last frame, than
+        its plan aimed for (game/shadows/collapse.py); kept while the plan and view are, or
+        for ``max_age_s`` seconds (the window asks every frame, and a large scene's take a
+        while)."""
+        plan, view = self.last_plan, self.last_view
+        if plan is None or view is None:
+            return []
+        key = (view.view.tobytes(), view.proj.tobytes(), view.size)
+        last_plan, last_key, notes, made = self._collapse
+        if (last_plan is not plan or last_key != key) and time.monotonic() - made >= max_age_s:
+            notes = collapse.collapse_notes(self.shadows.methods, plan.maps,
+                                            [s.first_map for s in self.last_spans], view,
+                                            self.geom, self.last_models)
+            self._collapse = (plan, key, notes, time.monotonic())
         return notes
 
     @property
@@ -206,6 +228,7 @@ class Renderer(SceneEdits):
                            self.lights_on)
         self.blocks.bind()
         self.last_plan, self.last_spans = plan, spans
+        self.last_view, self.last_models = view, models
         return plan, grids[0].mode
 
     def _frame(self, counts: dict, culled: bool, read: bool) -> Frame:

@@ -6,7 +6,8 @@ method, whose exact visibility replaces the maps' (one ray per point toward the 
 
 Both trace every pixel of the frame, unless a caller asks for less: the window traces soft
 shadows at a reduced resolution and upsamples them (:meth:`TracedLighting.reduce_soft`,
-game/soft/upsample.py); a long headless run reports its progress (:attr:`TracedLighting.progress`)
+game/soft/upsample.py), or with a raster soft method looks them up in the composite itself
+(game/soft/direct.py); a long headless run reports its progress (:attr:`TracedLighting.progress`)
 and then traces in bands of rows, each the same pixels with the same pixel indices, so the
 visibility is the same as in one pass.
 """
@@ -24,21 +25,28 @@ from game.gpu import blocks
 from game.gpu.timing import PassTimer
 from game.render import passes
 from game.render.frame import Frame
+from game.render.frame_blocks import light_radiance
 from game.render.light_grids import stack_lights
 from game.render.target import FrameTarget
 from game.scene.geometry import PackedGeometry
 from game.scene.model import Scene
+from game.soft.accumulate import walker_boxes
 from game.soft.composite import SoftComposite
+from game.soft.direct import DirectRaster
 from game.soft.methods import EXACT_HARD, TraceSettings, hard_light, is_raster
 from game.soft.raster import RasterSoft
 from game.soft.tracer import SoftTracer, TraceResult
-from game.soft.upsample import ReducedState, ReducedTrace, Upsampling
+from game.soft.upsample import FrameMotion, ReducedState, ReducedTrace, Upsampling
 
 # A trace that reports progress first traces 1/PROGRESS_BANDS of the rows; if the whole would
 # take PROGRESS_AFTER_S or more at that pace it goes on band by band, reporting after each,
 # otherwise it traces the rest at once.
 PROGRESS_BANDS = 16
 PROGRESS_AFTER_S = 2.0
+# The linear light shines in light 0's colour at this share of its radiance: a scene file gives
+# it no intensity of its own, and beside the sun at full strength it washes the lit ground out
+# to the tone map's ceiling.
+LINEAR_LIGHT_SHARE = 0.5
 
 
 class TracedLighting:
@@ -55,23 +63,36 @@ class TracedLighting:
         self.composite = SoftComposite(ctx, defines)
         # The window's reduced soft trace (made on first use and kept) and what it is asked for.
         self.reduced: ReducedTrace | None = None
+        self.direct: DirectRaster | None = None   # a raster method's points (made on first use)
+        self._direct_frame = False   # whether the last soft frame went through :attr:`direct`
         self._upsampling: Upsampling | None = None
         self._view_key = b""
+        self._camera = np.zeros(3)
+        self._last_models: np.ndarray | None = None   # the walkers' poses at the last frame
+        self._walker_bounds = np.zeros((0, 2, 3))
+        self.last_soft: TraceSettings | None = None   # the last soft frame's settings
         # Called with the share of the frame's trace done, when set (a long headless run).
         self.progress: Callable[[float], None] | None = None
 
-    def reduce_soft(self, upsampling: Upsampling | None, view_key: bytes = b"") -> None:
+    def reduce_soft(self, upsampling: Upsampling | None, view_key: bytes = b"",
+                    camera: np.ndarray | None = None) -> None:
         """Trace soft shadows at a reduced resolution and upsample them (the window), or with
         None at every pixel (the default: captures, traces and their dumps). ``view_key`` is the
-        caller's view (its matrices): while it, the characters and the settings stay the same,
-        frames accumulate (:class:`~game.soft.upsample.ReducedTrace`)."""
+        caller's view (its matrices), ``camera`` its eye: while the view and the settings stay
+        the same, frames accumulate, and the pixels a moving walker may shadow start again
+        (:class:`~game.soft.upsample.ReducedTrace`)."""
         self._upsampling = upsampling
         self._view_key = view_key
+        if camera is not None:
+            self._camera = np.asarray(camera, np.float64)
 
     @property
     def reduced_state(self) -> ReducedState | None:
         """Where the reduced trace stood after the last soft frame (None: not reduced)."""
-        return self.reduced.state if self.reduced is not None and self._upsampling else None
+        if not self._upsampling:
+            return None
+        source = self.direct if self._direct_frame else self.reduced
+        return source.state if source is not None else None
 
     def segment(self) -> tuple[int, np.ndarray, np.ndarray]:
         """The tracer's light tuple for the scene's linear light."""
@@ -190,17 +211,26 @@ class TracedLighting:
         else:
             light = self.segment()
             settings, soft_light, prefix = soft, (light[1] + light[2]) / 2, "soft"
+            self.last_soft = soft
         before = {k: self.timer.ms.get(k, 0.0) for k in ("composite", "soft_upsample")}
-        if soft is not None and self._upsampling is not None:
+        direct = soft is not None and self._upsampling is not None and is_raster(soft.method)
+        self._direct_frame = direct
+        if direct:
+            result, visibility = self._direct_trace(target, geom, models, soft, light), None
+        elif soft is not None and self._upsampling is not None:
             result, visibility = self._reduced_trace(target, geom, models, soft, light)
         else:
             result = self.trace(target, geom, models, settings, light)
             visibility = result.visibility
+        light_kind = blocks.LIGHT_KINDS[self.scene.light.kind]
+        radiance = light_radiance(self.scene.light) * LINEAR_LIGHT_SHARE
         with self.timer.measure("composite"):
-            self.composite.draw((target.position, target.normal, target.colour, target.shading,
-                                 target.albedo), target.size,
-                                visibility, blocks.LIGHT_KINDS[self.scene.light.kind],
-                                hard=soft_light is None, soft_light=soft_light)
+            if direct:
+                self._direct_composite(target, soft.method, soft_light, radiance)
+            else:
+                self.composite.draw(self._textures(target), target.size, visibility, light_kind,
+                                    hard=soft_light is None, soft_light=soft_light,
+                                    soft_radiance=radiance)
         if read:
             frame.image = self.composite.read()
         frame.ms.update({f"{prefix}_{k}": v for k, v in result.ms.items()})
@@ -212,24 +242,75 @@ class TracedLighting:
         frame.ms["total"] = frame.ms.get("total", 0.0) + result.ms["total"] + extra
         return result
 
+    @staticmethod
+    def _textures(target: FrameTarget) -> tuple:
+        """What the composite reads of the frame: G-buffer, picture, shading normal, albedo."""
+        return (target.position, target.normal, target.colour, target.shading, target.albedo)
+
+    def _direct_trace(self, target: FrameTarget, geom: PackedGeometry, models: np.ndarray,
+                      settings: TraceSettings, light: tuple) -> TraceResult:
+        """A raster method in the window: its maps and its lookup at one point per block, and
+        the frame's runs (game/soft/direct.py)."""
+        divisor = self._upsampling.divisor
+        if self.direct is None:
+            self.direct = DirectRaster(self.ctx, divisor)
+        textures = (target.position, target.normal, target.colour)
+        with self.timer.measure("soft_upsample"):
+            points = self.direct.points(textures, target.size, divisor)
+        key = (self._view_key + np.asarray(target.size, np.int64).tobytes()
+               if self._view_key else None)
+        result = self._tracer(geom, settings).trace(points, self.direct.cells, models,
+                                                    settings, light, plan_key=key)
+        with self.timer.measure("soft_upsample"):
+            self.direct.classify(result)
+        return result
+
+    def _direct_composite(self, target: FrameTarget, method: str, soft_light: np.ndarray,
+                          radiance: np.ndarray, out_visibility: bool = False) -> None:
+        """The frame's picture copied into the composite's target, then the runs drawn over
+        it (or, ``out_visibility``, the visibility they give, to measure)."""
+        self.direct.composite(self.composite, self.raster, self._textures(target),
+                              self.last_soft, blocks.LIGHT_KINDS[self.scene.light.kind],
+                              soft_light, radiance, out_visibility)
+
+    def window_visibility(self, target: FrameTarget) -> np.ndarray:
+        """The linear light's visibility the last soft frame of the window lit each pixel by,
+        (H, W) float32 with row 0 at the top, NaN where no geometry (to measure)."""
+        if self._direct_frame:
+            self._direct_composite(target, self.last_soft.method, np.zeros(3), np.zeros(3),
+                                   out_visibility=True)
+            vis = self.composite.measured()
+        else:
+            tex = self.reduced.visibility
+            w, h = tex.size
+            vis = np.frombuffer(tex.read(), np.float16).reshape(h, w)[::-1].astype(np.float32)
+        covered = target.read_colour()[..., 3] > 0
+        return np.where(covered, vis, np.nan).astype(np.float32)
+
     def _reduced_trace(self, target: FrameTarget, geom: PackedGeometry, models: np.ndarray,
                        settings: TraceSettings, light: tuple):
-        """The window's soft trace: a share of the pixels, upsampled (game/soft/upsample.py).
-        Returns the reduced trace and the full-resolution visibility texture."""
+        """The window's soft trace: a share of the pixels, accumulated while the view stays
+        (game/soft/upsample.py, game/soft/accumulate.py). Returns the reduced trace and the
+        full-resolution visibility texture."""
         if self.reduced is None:
             self.reduced = ReducedTrace(self.ctx, self._upsampling)
+            self._walker_bounds = np.array([c.mesh.bounds for c in self.scene.characters],
+                                           np.float64).reshape(-1, 2, 3)
         self.reduced.set_upsampling(self._upsampling)
         key = b"".join((self._view_key, np.asarray(target.size, np.int64).tobytes(),
-                        np.ascontiguousarray(models, np.float64).tobytes(),
                         repr(settings).encode(),
                         np.asarray(light[1:], np.float64).tobytes()))
+        motion = FrameMotion(key=key, boxes=walker_boxes(self._walker_bounds,
+                                                         self._last_models, models),
+                             camera=self._camera, light=light)
+        self._last_models = np.array(models, np.float64)
         tracer = self._tracer(geom, settings)
 
         def trace(textures, size):
             return tracer.trace(textures, size, models, settings, light)
 
         textures = (target.position, target.normal, target.colour)
-        result = self.reduced.run(textures, target.size, key, trace, self.timer)
+        result = self.reduced.run(textures, target.size, motion, trace, self.timer)
         return result, self.reduced.visibility
 
     def invalidate(self) -> None:
@@ -251,6 +332,8 @@ class TracedLighting:
             counts["raster_soft"] = self.raster.gl_objects()
         if self.reduced is not None:
             counts["upsample"] = self.reduced.gl_objects()
+        if self.direct is not None:
+            counts["direct_raster"] = self.direct.gl_objects()
         return counts
 
     def release(self) -> None:
@@ -259,3 +342,6 @@ class TracedLighting:
         if self.reduced is not None:
             self.reduced.release()
             self.reduced = None
+        if self.direct is not None:
+            self.direct.release()
+            self.direct = None

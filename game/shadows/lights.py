@@ -5,7 +5,8 @@ light-space clumping and the maps' fits depend on the light). The shadow memory 
 shared: each light first gets the layers its kind cannot do without (a point light's cube and a
 layer of character maps), and the rest goes by how much of the scene the light reaches (a
 directional light all of it, a lamp the disc of its range). The baselines give a light with a
-range maps of ``lamp_resolution`` texels, as engines give lamps smaller maps than the sun.
+range smaller maps than the sun, as engines do: ``lamp_resolution`` texels for a lamp that
+lights a corner, more for one whose range spans more of the scene (:func:`lamp_side`).
 
 Their plans are laid side by side in one depth array: light k's layers follow light k - 1's, and
 the layers of lights whose maps are smaller than the array's layers are packed into the squares
@@ -25,7 +26,7 @@ import numpy as np
 from game.scene.geometry import PackedGeometry
 from game.scene.model import Light
 from game.shadows import registry
-from game.shadows.budget import fit_baseline_memory
+from game.shadows.budget import BASELINE_BUDGET_SHARE, fit_baseline_memory
 from game.shadows.light_kinds import kind_of
 from game.shadows.method import ShadowMethod, SharesBudget, ViewSized
 from game.shadows.plan import (
@@ -38,6 +39,12 @@ from game.shadows.plan import (
 from game.shadows.view_budget import ViewBudget, atlas_shape
 
 MIN_LAMP_RESOLUTION = 128  # the smallest clump maps a lamp's share may make
+# A clumped point light's cube with faces this many times coarser than the baselines' cube
+# gets a note. At half the baselines' side the clumps beside the light, in frusta finer than
+# either cube, still keep clumped ahead of them (random scene 20's range-less lamp, the night
+# town's lamps); at a quarter the cube's texels decide the error where it holds the receivers
+# (random scene 59: every pixel its point light misclassifies lies in its cube alone).
+COARSE_CUBE_RATIO = 4
 
 
 @dataclass(frozen=True)
@@ -71,6 +78,19 @@ def reach_weight(light: Light, scene_radius: float) -> float:
     return min(1.0, (light.range / max(scene_radius, 1e-6)) ** 2)
 
 
+def lamp_side(light: Light, settings: ShadowSettings, scene_radius: float) -> int:
+    """The side of a baseline's maps (or cube faces) for a light with a range: texels as
+    fine at the edge of its range as ``single_resolution`` gives across the scene, from
+    ``lamp_resolution`` doubled up to ``single_resolution``. A lamp that lights a street corner
+    keeps ``lamp_resolution``; one whose range spans the scene lights as much as a sun does,
+    and at ``lamp_resolution`` its far shadows would be four times coarser than the sun's."""
+    reach = light.range / max(scene_radius, 1e-6)
+    side = min(settings.lamp_resolution, settings.single_resolution)
+    while side < settings.single_resolution * min(reach, 1.0):
+        side *= 2
+    return min(side, settings.single_resolution)
+
+
 def budget_shares(lights: list[Light], total_mib: float, resolution: int,
                   scene_radius: float) -> tuple[list[float], list[int]]:
     """Each light's share of the memory budget in MiB, and the side of its clump maps (see the
@@ -94,6 +114,31 @@ def budget_shares(lights: list[Light], total_mib: float, resolution: int,
         return [total_mib / len(lights)] * len(lights), sides
     weights = [reach_weight(light, scene_radius) for light in lights]
     return [f + spare * w / sum(weights) for f, w in zip(floors(), weights, strict=True)], sides
+
+
+def coarse_cube_notes(methods: list[ShadowMethod], settings: ShadowSettings,
+                      scene_radius: float) -> list[str]:
+    """One note per pair of sides: the clumped point lights whose cube around the light has
+    faces :data:`COARSE_CUBE_RATIO` or more times coarser than the cube the baselines give the
+    same light. The baselines spend their own budget (``BASELINE_BUDGET_SHARE`` times
+    clumped's) on one cube per point light; a share of clumped's budget holds fewer texels,
+    and the receivers that only the cube holds get wider texels than the baselines give."""
+    coarse: dict[tuple[int, int], list[int]] = {}
+    for k, method in enumerate(methods):
+        side = getattr(method, "cube_side", None)  # only a point light's clumps take a cube
+        if side is None:
+            continue
+        base = (settings.single_resolution if method.light.range is None
+                else lamp_side(method.light, settings, scene_radius))
+        if side * COARSE_CUBE_RATIO <= base:
+            coarse.setdefault((side, base), []).append(k)
+    shared = f" ({len(methods)} lights share it)" if len(methods) > 1 else ""
+    return [f"{'light' if len(ks) == 1 else 'lights'} {', '.join(map(str, ks))}: the clumps "
+            f"around the light share a cube of {side}^2 faces where single and static-dynamic "
+            f"draw a cube of {base}^2 with these settings, texels {base // side} times as wide: "
+            f"the {settings.budget_mib:g} MiB budget{shared} goes to clump maps of {side}^2 "
+            f"(the baselines' budget is {BASELINE_BUDGET_SHARE * settings.budget_mib:g} MiB)"
+            for (side, base), ks in coarse.items()]
 
 
 class LightShadows:
@@ -126,11 +171,10 @@ class LightShadows:
                 settings, budget_mib=share, clump_resolution=side,
                 character_resolution=min(settings.character_resolution, side))
             if light.range is not None:
+                lamp = lamp_side(light, settings, radius)
                 own = dataclasses.replace(
-                    own, single_resolution=min(settings.single_resolution,
-                                               settings.lamp_resolution),
-                    cascade_resolution=min(settings.cascade_resolution,
-                                           settings.lamp_resolution))
+                    own, single_resolution=min(settings.single_resolution, lamp),
+                    cascade_resolution=min(settings.cascade_resolution, lamp))
             return registry.create(geom, light, own, max(1, max_layers // n),
                                    max(1, max_maps // n))
 
@@ -138,6 +182,7 @@ class LightShadows:
         self._notes: list[str] = []
         if n > 1:
             self._pass_on_what_is_left(shares, create, radius, settings.budget_mib)
+        self._notes += coarse_cube_notes(self.methods, settings, radius)
         self._bases: list[tuple[int, int]] | None = None
         # With view-sized maps, one atlas for every light's clump maps, so that texels go where
         # the view needs them whichever light casts there.

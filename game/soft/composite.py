@@ -1,8 +1,16 @@
 """The soft composite: a rendered frame lit again through a traced visibility.
 
-The linear light's soft shadows, or (for the ``traced`` hard-shadow method) the hard light's
-exact ones, replace the shading pass's lighting. The composite is one full-screen pass over the
-frame's G-buffer (shaders/composite.frag): the scene is not drawn again.
+The linear light is one more light: its soft shadows add its diffuse term to the shading pass's
+picture, which keeps every scene light with its hard shadows. For the ``traced`` hard-shadow
+method the hard light's exact shadows replace its maps' instead. The composite is one
+full-screen pass over the frame's G-buffer (shaders/composite.frag): the scene is not drawn
+again.
+
+A raster soft method in the window (game/soft/direct.py) draws the composite over runs of blocks
+instead (:meth:`SoftComposite.draw_runs`): the frame's picture is copied, then the runs are lit
+in two draws: those whose blocks agree on a visibility (or interpolate their points), and those
+that look it up at each pixel, from the raster method's maps. Blocks that gain nothing (the
+sky, the umbra) keep the copy.
 """
 
 from __future__ import annotations
@@ -10,15 +18,21 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from game.gpu import blocks, resources
+from game.gpu import blocks, glsl, resources
 from game.gpu.fullscreen import fullscreen_pass
 from game.soft.tracer import TEXTURE_UNITS
+
+# Where the composite's visibility comes from (VIS_SOURCE in shaders/composite.frag).
+VIS_TEXTURE, VIS_RUNS = 0, 1
+LOOKUPS = {"segment-maps": 0, "pcss": 1}   # LOOKUP in shaders/composite.frag
+RUN_FLOATS = 3       # per vertex of a run: x, y (pixels), visibility
 
 # The G-buffer on the tracer's units, the surface the frame is lit again with, and the traced
 # visibility.
 UNITS = {**TEXTURE_UNITS, "u_shading": blocks.TEXTURE_UNITS["composite_shading"],
          "u_albedo": blocks.TEXTURE_UNITS["composite_albedo"],
          "u_visibility": blocks.TEXTURE_UNITS["soft_visibility"]}
+POINTS_UNIT = blocks.TEXTURE_UNITS["upsample_agreed"]   # the runs' points (direct.py)
 
 
 class SoftComposite:
@@ -28,18 +42,50 @@ class SoftComposite:
     def __init__(self, ctx, defines: dict):
         self.ctx = ctx
         self.defines = defines
-        self._programs: dict[tuple[int, bool], object] = {}
-        self._vao: dict[tuple[int, bool], object] = {}
+        self._programs: dict[tuple, object] = {}
+        self._vao: dict[tuple, object] = {}
         self.size: tuple[int, int] | None = None
         self.visibility = self.texture = self.framebuffer = None
+        self._runs = None            # the runs' vertices (made on first use, grown in place)
+        self._measured = self._measured_framebuffer = None   # OUT_VISIBILITY's target
 
-    def _program(self, light_kind: int, hard: bool):
-        key = (light_kind, hard)
+    def _program(self, light_kind: int, hard: bool, source: int = VIS_TEXTURE,
+                 out_visibility: bool = False, lookup: tuple[int, dict] | None = None):
+        lookup_runs = lookup is not None
+        lookup = lookup or (-1, {})
+        key = (light_kind, hard, source, out_visibility, lookup[0],
+               tuple(sorted(lookup[1].items())))
         if key not in self._programs:
-            defines = {**self.defines, "LIGHT_KIND": light_kind, "HARD": hard}
-            self._programs[key], self._vao[key] = fullscreen_pass(self.ctx, "composite.frag",
-                                                                  defines)
+            defines = {**self.defines, **lookup[1], "LOOKUP": lookup[0],
+                       "LIGHT_KIND": light_kind, "HARD": hard,
+                       "VIS_SOURCE": source, "OUT_VISIBILITY": out_visibility,
+                       "LOOKUP_RUNS": lookup_runs}
+            if source == VIS_TEXTURE:
+                self._programs[key], self._vao[key] = fullscreen_pass(
+                    self.ctx, "composite.frag", defines)
+            else:
+                self._programs[key], self._vao[key] = self._runs_pass("composite.frag", defines)
         return self._programs[key], self._vao[key]
+
+    def _runs_pass(self, fragment: str, defines: dict):
+        """A program over runs of blocks (soft_blocks.vert) and its vertex array."""
+        ctx = self.ctx
+        if self._runs is None:
+            self._runs = ctx.buffer(reserve=4 * RUN_FLOATS * 6)
+        program = ctx.program(vertex_shader=glsl.build("soft_blocks.vert"),
+                              fragment_shader=glsl.build(fragment, defines))
+        try:
+            # A lookup variant reads no run value: the compiler drops in_vis.
+            layout = ((self._runs, "2f 1f", "in_pixel", "in_vis") if "in_vis" in program
+                      else (self._runs, "2f 4x", "in_pixel"))
+            return program, ctx.vertex_array(program, [layout])
+        except BaseException:
+            program.release()
+            raise
+
+    def prepare(self, size: tuple[int, int]) -> None:
+        """Make the target for frames of ``size`` (again, if the size changed)."""
+        self._resize(size)
 
     def _resize(self, size: tuple[int, int]) -> None:
         if size == self.size:
@@ -51,29 +97,99 @@ class SoftComposite:
         self.framebuffer = self.ctx.framebuffer([self.texture])
 
     def draw(self, textures, size: tuple[int, int], visibility, light_kind: int,
-             hard: bool, soft_light: np.ndarray | None = None) -> None:
+             hard: bool, soft_light: np.ndarray | None = None,
+             soft_radiance: np.ndarray | None = None) -> None:
         """Light the frame through ``visibility`` into :attr:`framebuffer`: an (H, W) array
         (row 0 at the top; NaN where no geometry), uploaded here, or a one-channel texture of
         ``size`` already on the GPU (the upsampled reduced trace, game/soft/upsample.py).
         ``textures`` are the frame's (position, normal, colour, shading normal, albedo); the
-        Frame block must be bound as the frame left it."""
+        Frame block must be bound as the frame left it. Soft (not ``hard``): the linear light
+        at ``soft_light`` (the segment's midpoint) with ``soft_radiance`` (linear RGB) adds to
+        the colour the shading pass drew."""
         self._resize(size)
         if isinstance(visibility, np.ndarray):
             vis = np.nan_to_num(visibility[::-1], nan=1.0).astype(np.float32)
             self.visibility.write(np.ascontiguousarray(vis).tobytes())
             visibility = self.visibility
         prog, vao = self._program(light_kind, hard)
-        for tex, (name, unit) in zip((*textures, visibility), UNITS.items(), strict=True):
-            tex.use(unit)
-            if name in prog:  # a directional light needs no position: the compiler drops it
-                prog[name].value = unit
+        self._bind(prog, textures, visibility)
         if not hard:
             prog["u_soft_light"].value = tuple(float(x) for x in soft_light)
+            prog["u_soft_radiance"].value = tuple(float(x) for x in soft_radiance)
         fb = self.framebuffer
         fb.use()
         fb.viewport = (0, 0, *size)
         self.ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE | moderngl.BLEND)
         vao.render(moderngl.TRIANGLES, vertices=3)
+
+    def copy_picture(self, colour) -> None:
+        """Copy the frame's picture (an RGBA8 texture of the target's size) into the target,
+        texel for texel (glCopyImageSubData: no framebuffer's read buffer is involved)."""
+        from OpenGL import GL
+
+        w, h = self.size
+        GL.glCopyImageSubData(colour.glo, GL.GL_TEXTURE_2D, 0, 0, 0, 0, self.texture.glo,
+                              GL.GL_TEXTURE_2D, 0, 0, 0, 0, w, h, 1)
+
+    def draw_runs(self, textures, runs, light_kind: int, lookup: int, lookup_defines: dict,
+                  bind_lookup, soft_light: np.ndarray, soft_radiance: np.ndarray,
+                  out_visibility: bool = False) -> None:
+        """Light the frame over ``runs`` (game/soft/direct.py's :class:`~game.soft.direct.
+        Runs`) into :attr:`framebuffer`, which :meth:`prepare` made and :meth:`copy_picture`
+        filled with the frame's picture. The lookup runs use the raster method's lookup ``lookup``
+        (:data:`LOOKUPS`), built with the #defines ``lookup_defines`` and bound by
+        ``bind_lookup(program)``. With ``out_visibility`` the visibility goes into
+        :meth:`measured` instead of the colour (to measure)."""
+        data = np.concatenate([runs.flat, runs.lookup]).astype(np.float32)
+        if self._runs is None:
+            self._runs = self.ctx.buffer(reserve=max(data.nbytes, 4 * RUN_FLOATS * 6))
+        elif data.nbytes > self._runs.size:
+            self._runs.orphan(data.nbytes)
+        if data.nbytes:
+            self._runs.write(data.tobytes())
+        self.ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE | moderngl.BLEND)
+        fb = self._measured_target() if out_visibility else self.framebuffer
+        fb.use()
+        fb.viewport = (0, 0, *self.size)
+        first = 0
+        for count, looked_up in ((len(runs.flat), False), (len(runs.lookup), True)):
+            if count:
+                prog, vao = self._program(light_kind, False, VIS_RUNS, out_visibility,
+                                          (lookup, lookup_defines) if looked_up else None)
+                self._bind(prog, textures, None)
+                prog["u_size"].value = tuple(float(x) for x in self.size)
+                if not out_visibility:
+                    prog["u_soft_light"].value = tuple(float(x) for x in soft_light)
+                    prog["u_soft_radiance"].value = tuple(float(x) for x in soft_radiance)
+                if looked_up:
+                    bind_lookup(prog)
+                else:
+                    runs.points.use(POINTS_UNIT)
+                    prog["u_points"].value = POINTS_UNIT
+                    prog["u_point_at"].value = runs.point_at
+                vao.render(moderngl.TRIANGLES, vertices=count, first=first)
+            first += count
+
+    def _bind(self, prog, textures, visibility) -> None:
+        for tex, (name, unit) in zip((*textures, visibility), UNITS.items(), strict=True):
+            if tex is not None and name in prog:  # the compiler drops what goes unread
+                tex.use(unit)
+                prog[name].value = unit
+
+    def _measured_target(self):
+        if self._measured is None:
+            self._measured = self.ctx.texture(self.size, 1, dtype="f4")
+            self._measured_framebuffer = self.ctx.framebuffer([self._measured])
+        # The runs left out (the sky, the umbra) read 0: the umbra's visibility.
+        self._measured_framebuffer.clear(0.0, 0.0, 0.0, 0.0)
+        return self._measured_framebuffer
+
+    def measured(self) -> np.ndarray:
+        """The visibility the last ``out_visibility`` draw wrote, (H, W) float32, row 0 at the
+        top; NaN where a drawn pixel shows no geometry, 0 in the sky of the runs left out."""
+        w, h = self.size
+        vis = np.frombuffer(self._measured.read(), np.float32).reshape(h, w)[::-1]
+        return np.where(vis < 0.0, np.nan, vis).astype(np.float32)
 
     def read(self) -> np.ndarray:
         """The composited image, (H, W, 3) uint8, row 0 at the top."""
@@ -84,13 +200,19 @@ class SoftComposite:
     def gl_objects(self) -> int:
         programs = list(self._programs.values())
         target = 0 if self.size is None else 3
-        return len(programs) + resources.attached_shaders(programs) + len(self._vao) + target
+        held = (self._runs, self._measured, self._measured_framebuffer)
+        return (len(programs) + resources.attached_shaders(programs) + len(self._vao) + target
+                + sum(x is not None for x in held))
 
     def _release_target(self) -> None:
         if self.framebuffer is not None:
             self.ctx.detect_framebuffer(0).use()
             for obj in (self.framebuffer, self.texture, self.visibility):
                 obj.release()
+        for obj in (self._measured_framebuffer, self._measured):
+            if obj is not None:
+                obj.release()
+        self._measured = self._measured_framebuffer = None
         self.size = None
         self.visibility = self.texture = self.framebuffer = None
 
@@ -99,3 +221,6 @@ class SoftComposite:
         for obj in (*self._vao.values(), *self._programs.values()):
             obj.release()
         self._programs, self._vao = {}, {}
+        if self._runs is not None:
+            self._runs.release()
+            self._runs = None

@@ -1,12 +1,17 @@
 """The raster soft methods' depth maps: one per point of the segment for the statics, cached, and
-one per point for the walkers, drawn every frame.
+one per point with the walkers drawn over a copy of it, every frame.
 
 :class:`LightMaps` owns a depth array (game/gpu/depth_array.py) of ``2 K`` layers (``K`` when the
 scene has no characters), the casters' vertex buffers and the depth program, and releases them in
-:meth:`LightMaps.release`. Layer ``k`` holds the floors and statics seen from point ``k``, layer
-``K + k`` the characters seen from the same point through the same frustum, so a lookup reads
-both at one texel and takes the nearer. The statics' layers are drawn again only when the frusta
-change (game/soft/map_frusta.py snaps them, so a still or slowly moving view keeps them).
+:meth:`LightMaps.release`. Layer ``k`` holds the floors and statics seen from point ``k``; layer
+``K + k`` holds the same and the characters, seen through the same frustum, so a lookup reads
+one layer per point. The statics' layers are drawn again only when the frusta change
+(game/soft/map_frusta.py snaps them, so a still or slowly moving view keeps them).
+
+Each frame the walkers' layers get back the statics' depth only where the walkers were drawn
+the frame before (the rectangle their boxes covered in that map; the whole layer after the
+statics' layers were drawn again), and the walkers are drawn over it with the depth test: a
+layer is not cleared and copied whole for a few walkers.
 """
 
 from __future__ import annotations
@@ -27,6 +32,9 @@ from game.soft.map_frusta import MapFrustum, frusta_key
 # The most the raster methods' depth maps may take, in bytes: the maps at the largest K and
 # resolution the settings allow would take far more than a frame does.
 MAX_MAP_BYTES = 1 << 30
+# Texels the walkers' rectangle in a map grows by on each side (the bilinear compare reads the
+# texel beside the one a point falls in).
+RECT_MARGIN = 2
 
 
 @dataclass
@@ -84,6 +92,12 @@ class LightMaps:
             self.release()
             raise
         self._static_key: bytes | None = None
+        # Per walkers' layer, the texel rectangles (x0, y0, x1, y1) where it differs from the
+        # statics' layer, one per walker; None: the whole layer (not copied since the statics
+        # were drawn).
+        self._dirty: list[list[tuple[int, int, int, int]] | None] = [None] * self.count
+        self._walker_sizes = [len(geom.triangles[geom.character_object(i)])
+                              for i in range(geom.n_characters)]
 
     def gl_objects(self) -> int:
         """The depth array's texture and framebuffers, the program (and its shaders), the
@@ -115,6 +129,7 @@ class LightMaps:
         if key != self._static_key or not cached:
             self._draw(self.static_vao, self.static_triangles, frusta, 0)
             self._static_key = key
+            self._dirty = [None] * self.count
             counts.static_rendered = self.count
             counts.triangles_to_maps += self.count * self.static_triangles
         else:
@@ -124,17 +139,46 @@ class LightMaps:
 
     def draw_walkers(self, frusta: list[MapFrustum], models: np.ndarray,
                      counts: MapCounts) -> None:
-        """Draw the walkers' maps at their poses ``models`` through the same frusta, and add
-        them to ``counts``."""
+        """Draw the walkers at their poses ``models`` over the statics' depth into the walkers'
+        layers, through the same frusta, and add them to ``counts``."""
         if not self.dynamic:
             return
-        self._upload_characters(models)
-        self._draw(self.dynamic_vao, self.dynamic_triangles, frusta, self.count)
+        tris = self._upload_characters(models)
+        corners = _box_corners(tris, self._walker_sizes)
+        res = self.resolution
+        for k, frustum in enumerate(frusta):
+            self._restore(k)
+            self._dirty[k] = _texel_rects(frustum.view_proj, corners, res)
+        self.ctx.enable(moderngl.DEPTH_TEST)
+        self.ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
+        if self.dynamic_triangles:
+            for k, frustum in enumerate(frusta):
+                fb = self.array.framebuffers[self.count + k]
+                fb.use()
+                fb.viewport = (0, 0, res, res)
+                self.program["u_view_proj"].write(transforms.gl_bytes(frustum.view_proj))
+                self.dynamic_vao.render(moderngl.TRIANGLES, vertices=3 * self.dynamic_triangles)
+        self.ctx.detect_framebuffer(0).use()
         counts.dynamic_rendered = self.count
         counts.triangles_to_maps += self.count * self.dynamic_triangles
         counts.triangles_uncached += self.count * self.dynamic_triangles
 
-    def _upload_characters(self, models: np.ndarray) -> None:
+    def _restore(self, k: int) -> None:
+        """Copy the statics' depth of point ``k`` over what its walkers' layer has beside it."""
+        from OpenGL import GL
+
+        rects = self._dirty[k]
+        if rects is None:
+            rects = [(0, 0, self.resolution, self.resolution)]
+        tex = self.array.texture
+        for x0, y0, x1, y1 in rects:
+            if x1 > x0 and y1 > y0:
+                GL.glCopyImageSubData(tex, GL.GL_TEXTURE_2D_ARRAY, 0, x0, y0, k,
+                                      tex, GL.GL_TEXTURE_2D_ARRAY, 0, x0, y0, self.count + k,
+                                      x1 - x0, y1 - y0, 1)
+
+    def _upload_characters(self, models: np.ndarray) -> np.ndarray:
+        """Put the walkers' triangles at ``models`` in their buffer; returns them."""
         tris = np.ascontiguousarray(character_triangles(self.geom, models), np.float32)
         data = tris.tobytes() if len(tris) else np.zeros(9, np.float32).tobytes()
         if self.dynamic_vbo is None or self.dynamic_vbo.size != len(data):
@@ -151,6 +195,7 @@ class LightMaps:
         else:
             self.dynamic_vbo.write(data)
         self.dynamic_triangles = len(tris)
+        return tris
 
     def _draw(self, vao, triangles: int, frusta: list[MapFrustum], first_layer: int) -> None:
         """Clear layers ``first_layer ..`` and draw ``vao``'s triangles into each through its
@@ -169,3 +214,36 @@ class LightMaps:
             self.program["u_view_proj"].write(transforms.gl_bytes(frustum.view_proj))
             vao.render(moderngl.TRIANGLES, vertices=3 * triangles)
         self.ctx.detect_framebuffer(0).use()
+
+
+def _box_corners(triangles: np.ndarray, sizes: list[int]) -> np.ndarray:
+    """The 8 corners (n, 8, 3) of the box around each walker's triangles: ``triangles``
+    (t, 3, 3) holds the walkers' in turn, ``sizes`` of each (walkers of none are left out)."""
+    sizes = np.asarray(sizes, np.int64)
+    sizes = sizes[sizes > 0]
+    if not len(sizes):
+        return np.zeros((0, 8, 3))
+    starts = np.r_[0, np.cumsum(sizes)[:-1]] * 3
+    points = triangles.reshape(-1, 3).astype(np.float64)
+    lo = np.minimum.reduceat(points, starts, axis=0)
+    hi = np.maximum.reduceat(points, starts, axis=0)
+    pick = np.array([[(i >> a) & 1 for a in range(3)] for i in range(8)], bool)   # (8, 3)
+    return np.where(pick[None], hi[:, None], lo[:, None])
+
+
+def _texel_rects(view_proj: np.ndarray, corners: np.ndarray, resolution: int
+                 ) -> list[tuple[int, int, int, int]]:
+    """The texels (x0, y0, x1, y1; ends exclusive) of a map of ``resolution`` that each box of
+    ``corners`` (n, 8, 3) covers, grown by :data:`RECT_MARGIN`; the whole map for a box that
+    reaches behind the map's eye."""
+    if not len(corners):
+        return []
+    clip = np.concatenate([corners, np.ones(corners.shape[:2] + (1,))], axis=2) \
+        @ np.asarray(view_proj, np.float64).T                                  # (n, 8, 4)
+    w = np.maximum(clip[..., 3:4], 1e-9)
+    uv = (clip[..., :2] / w * 0.5 + 0.5) * resolution
+    lo = np.clip(np.floor(uv.min(axis=1)) - RECT_MARGIN, 0, resolution).astype(int)
+    hi = np.clip(np.ceil(uv.max(axis=1)) + RECT_MARGIN, 0, resolution).astype(int)
+    behind = np.any(clip[..., 3] <= 1e-9, axis=1)
+    lo[behind], hi[behind] = 0, resolution
+    return [(int(a), int(b), int(c), int(d)) for (a, b), (c, d) in zip(lo, hi, strict=True)]

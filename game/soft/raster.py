@@ -119,6 +119,9 @@ class RasterSoft:
         self.depth = ctx.sampler(repeat_x=False, repeat_y=False,
                                  filter=(moderngl.NEAREST, moderngl.NEAREST), compare_func="")
         self.target = self.framebuffer = None
+        # The last trace's maps, frusta and segment, which :meth:`bind_lookup` binds.
+        self.last: tuple[LightMaps, list, np.ndarray, np.ndarray] | None = None
+        self._plan_memo: tuple = (None, None)   # what the last plan was made for, its frusta
 
     # -- ownership -------------------------------------------------------------------------------
     def gl_objects(self) -> int:
@@ -133,6 +136,8 @@ class RasterSoft:
         for maps in self._maps.values():
             maps.release()
         self._maps = {}
+        self.last = None
+        self._plan_memo = (None, None)
         for program, vao in self._programs.values():
             vao.release()
             program.release()
@@ -160,17 +165,21 @@ class RasterSoft:
         self._maps[key] = maps  # the most recently used last
         return maps
 
-    def _program(self, method: str):
-        key = (method, self.bias, self.pcss)
+    def defines(self) -> dict:
+        """The lookups' #defines: the maps' bias and pcss's taps (the soft composite's lookup
+        variants build with them too)."""
+        b, t = self.bias, self.pcss
+        return {"MAX_SOFT_MAPS": LIMITS["maps"], "NORMAL_BIAS_TEXELS": float(b.normal),
+                "DEPTH_BIAS_TEXELS": float(b.depth), "SLOPE_BIAS_TEXELS": float(b.slope),
+                "MAX_SLOPE": float(b.max_slope), "BLOCKER_TAPS": t.blocker_taps,
+                "FILTER_TAPS": t.filter_taps, "SEARCH_POWER": float(t.search_power),
+                "IN_TRIANGLE": t.in_triangle, "JITTER": t.jitter}
+
+    def _program(self, settings: TraceSettings):
+        defines = self.defines()
+        key = (settings.method, *sorted(defines.items()))
         if key not in self._programs:
-            b, t = self.bias, self.pcss
-            defines = {"MAX_SOFT_MAPS": LIMITS["maps"], "NORMAL_BIAS_TEXELS": float(b.normal),
-                       "DEPTH_BIAS_TEXELS": float(b.depth), "SLOPE_BIAS_TEXELS": float(b.slope),
-                       "MAX_SLOPE": float(b.max_slope), "BLOCKER_TAPS": t.blocker_taps,
-                       "FILTER_TAPS": t.filter_taps, "SEARCH_POWER": float(t.search_power),
-                       "IN_TRIANGLE": t.in_triangle,
-                       "JITTER": t.jitter}
-            self._programs[key] = fullscreen_pass(self.ctx, SHADERS[method], defines)
+            self._programs[key] = fullscreen_pass(self.ctx, SHADERS[settings.method], defines)
         return self._programs[key]
 
     def _target(self, size: tuple[int, int]):
@@ -184,9 +193,14 @@ class RasterSoft:
 
     # -- the pass --------------------------------------------------------------------------------
     def trace(self, textures, size: tuple[int, int], models: np.ndarray,
-              settings: TraceSettings, light: tuple[int, np.ndarray, np.ndarray]) -> TraceResult:
+              settings: TraceSettings, light: tuple[int, np.ndarray, np.ndarray],
+              plan_key: bytes | None = None) -> TraceResult:
         """The linear light's visibility at every pixel of the G-buffer ``textures``
-        (position, normal, colour), as :meth:`SoftTracer.trace` gives it."""
+        (position, normal, colour), as :meth:`SoftTracer.trace` gives it.
+
+        ``plan_key`` names what the plan depends on (the window's view, size and settings):
+        while it stays the same the frusta are kept and the G-buffer is not read back. The
+        walkers' pixels never enter the plan, so a walker that moves leaves it be."""
         mode, a, b = light
         if mode != blocks.TRACE_LIGHT_SEGMENT:
             raise ValueError(f"{settings.method} shadows a linear light only")
@@ -195,33 +209,60 @@ class RasterSoft:
         timer.begin_frame()
         with timer.measure("total", wall=True):
             with timer.measure("plan", wall=True):
-                positions = np.frombuffer(textures[0].read(), np.float32).reshape(h, w, 4)
-                covered = np.frombuffer(textures[2].read(), np.uint8).reshape(h, w, 4)[..., 3] > 0
-                # The walkers' own pixels are left out: where they can be is in the hull
-                # already, so a walker that moves leaves the frusta, and the statics' maps, be.
-                still = covered & (positions[..., 3] < self.geom.first_character)
-                corners = np.vstack([receiver_cells(positions, still, self.snap), self.reach])
-                points = light_points(settings.method, a, b, settings)
-                frusta = plan(points, corners, self.casters, settings.map_resolution)
+                memo = (plan_key, np.asarray(light[1:]).tobytes(), settings)
+                if plan_key is None or memo != self._plan_memo[0]:
+                    self._plan_memo = (memo, self._plan(textures, size, settings, a, b))
+                frusta = self._plan_memo[1]
             with timer.measure("build_static"):  # the maps' one-off making counts here too
-                maps = self._light_maps(len(points), settings.map_resolution)
+                maps = self._light_maps(len(frusta), settings.map_resolution)
                 counts = maps.draw_statics(frusta, self.cache_statics)
             with timer.measure("build_dynamic"):
                 maps.draw_walkers(frusta, models, counts)
+            self.last = (maps, frusta, a, b)
             with timer.measure("trace"):
-                visibility = self._lookup(settings.method, textures, size, maps, frusta, a, b)
+                visibility = self._lookup(settings, textures, size)
         ms = dict(timer.ms)
         ms["build"] = ms["build_static"] + ms["build_dynamic"]
         vis = np.where(visibility < 0.0, np.nan, visibility).astype(np.float32)
         counters = {name: np.zeros((h, w), np.uint64 if name in BYTE_COUNTERS else np.uint32)
                     for name in COUNTERS}
         return TraceResult(visibility=vis, counters=counters, ms=ms,
-                           samples_per_dispatch=len(points), rounds=1, maps=counts.stats())
+                           samples_per_dispatch=len(frusta), rounds=1, maps=counts.stats())
 
-    def _lookup(self, method: str, textures, size: tuple[int, int], maps: LightMaps,
-                frusta, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    def _plan(self, textures, size: tuple[int, int], settings: TraceSettings, a: np.ndarray,
+              b: np.ndarray) -> list:
+        """The frusta around the receivers of the G-buffer ``textures`` (read back)."""
+        w, h = size
+        positions = np.frombuffer(textures[0].read(), np.float32).reshape(h, w, 4)
+        covered = np.frombuffer(textures[2].read(), np.uint8).reshape(h, w, 4)[..., 3] > 0
+        # The walkers' own pixels are left out: where they can be is in the hull already, so
+        # a walker that moves leaves the frusta, and the statics' maps, be.
+        still = covered & (positions[..., 3] < self.geom.first_character)
+        corners = np.vstack([receiver_cells(positions, still, self.snap), self.reach])
+        points = light_points(settings.method, a, b, settings)
+        return plan(points, corners, self.casters, settings.map_resolution)
+
+    def _lookup(self, settings: TraceSettings, textures, size: tuple[int, int]) -> np.ndarray:
         """Draw the method's lookup into the target and read it back, row 0 at the top."""
-        program, vao = self._program(method)
+        program, vao = self._program(settings)
+        self.bind_lookup(program, settings.method)
+        for tex, name in zip(textures, ("u_position", "u_normal", "u_colour"), strict=True):
+            tex.use(UNITS[name])
+            program[name].value = UNITS[name]
+        fb = self._target(size)
+        fb.use()
+        fb.viewport = (0, 0, *size)
+        self.ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE | moderngl.BLEND)
+        vao.render(moderngl.TRIANGLES, vertices=3)
+        out = np.frombuffer(fb.read(components=1, dtype="f4"), np.float32)
+        self.ctx.detect_framebuffer(0).use()
+        self.unbind_lookup()
+        return out.reshape(size[1], size[0])[::-1]
+
+    def bind_lookup(self, program, method: str) -> None:
+        """Set ``program``'s maps records (soft_maps.glsl) to the last trace's and bind its maps
+        and samplers: the lookup pass's program, or the soft composite's lookup variant."""
+        maps, frusta, a, b = self.last
         count = len(frusta)
         view_proj = np.zeros((LIMITS["maps"], 4, 4))
         view_proj[:count] = [f.view_proj for f in frusta]
@@ -241,32 +282,20 @@ class RasterSoft:
             uniforms["u_light_b"] = np.asarray(b, np.float32).tobytes()
         for name, data in uniforms.items():
             program[name].write(data)
-        program["u_maps"].value = count
+        program["u_map_count"].value = count
         program["u_dynamic"].value = maps.dynamic
-        self._bind(program, textures, maps)
-        fb = self._target(size)
-        fb.use()
-        fb.viewport = (0, 0, *size)
-        self.ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE | moderngl.BLEND)
-        vao.render(moderngl.TRIANGLES, vertices=3)
-        out = np.frombuffer(fb.read(components=1, dtype="f4"), np.float32)
-        self.ctx.detect_framebuffer(0).use()
-        for unit in (UNITS["u_maps_compare"], UNITS["u_maps_depth"]):
-            self.ctx.clear_samplers(unit, unit + 1)
-        return out.reshape(size[1], size[0])[::-1]
-
-    def _bind(self, program, textures, maps: LightMaps) -> None:
-        for tex, name in zip(textures, ("u_position", "u_normal", "u_colour"), strict=True):
-            tex.use(UNITS[name])
         maps.bind(UNITS["u_maps_compare"])
         maps.bind(UNITS["u_maps_depth"])
         self.compare.use(UNITS["u_maps_compare"])
         self.depth.use(UNITS["u_maps_depth"])
-        for name, unit in UNITS.items():
-            try:
-                program[name].value = unit
-            except KeyError:  # the method does not read it; the compiler dropped it
-                pass
+        for name in ("u_maps_compare", "u_maps_depth"):
+            if name in program:   # the compiler dropped what the method does not read
+                program[name].value = UNITS[name]
+
+    def unbind_lookup(self) -> None:
+        """Take the samplers off the maps' units (other passes read plain textures there)."""
+        for unit in (UNITS["u_maps_compare"], UNITS["u_maps_depth"]):
+            self.ctx.clear_samplers(unit, unit + 1)
 
     def describe(self) -> dict:
         """What the stats report of the raster methods' settings."""

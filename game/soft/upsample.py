@@ -7,10 +7,11 @@ by the full-resolution G-buffer (shaders/upsample.frag): a pixel averages the tr
 it that lie on its own surface, so a shadow's edge along the geometry stays as sharp as the
 frame. The soft composite then lights the frame at full resolution through the result.
 
-While nothing moves (the same view, characters, size and settings), successive frames trace the
-other pixels of each block, then further rounds with other sample jitters; once every pixel has
-been traced, each shows its own mean (with its 3 x 3 neighbours' by the same weights), and after
-:attr:`Upsampling.rounds` rounds nothing is traced until something moves.
+While the view stays (the same camera, size and settings), successive frames trace the other
+pixels of each block, then further rounds with other sample jitters, and every traced value
+joins its pixel's running mean on the GPU (game/soft/accumulate.py), which also starts again
+the pixels a moving walker may shadow. After :attr:`Upsampling.rounds` rounds with no walker
+moving, nothing is traced until something moves.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ import numpy as np
 
 from game.gpu import blocks, resources
 from game.gpu.fullscreen import fullscreen_pass
+from game.soft.accumulate import OWN_ENOUGH, Accumulation
 from game.soft.tracer import TraceResult
 
 # The joint bilateral filter's weights (shaders/upsample.frag): a sample counts fully on the
@@ -43,13 +45,14 @@ UNITS = {"u_position": blocks.TEXTURE_UNITS["trace_position"],
          "u_samples": blocks.TEXTURE_UNITS["upsample_samples"],
          "u_sample_normals": blocks.TEXTURE_UNITS["upsample_sample_normals"],
          "u_agreed": blocks.TEXTURE_UNITS["upsample_agreed"],
-         "u_accumulated": blocks.TEXTURE_UNITS["upsample_accumulated"]}
+         "u_history": blocks.TEXTURE_UNITS["upsample_accumulated"]}
 
 
 @dataclass(frozen=True)
 class Upsampling:
     """How a reduced soft trace runs: one traced pixel per ``divisor`` x ``divisor``; while
-    nothing moves (``accumulate``), ``rounds`` rounds of every pixel, then none."""
+    the view stays (``accumulate``), ``rounds`` rounds of every pixel with no walker moving,
+    then none."""
 
     divisor: int = 4
     accumulate: bool = True
@@ -108,11 +111,11 @@ class ReducedState:
     size: tuple[int, int]         # the trace's pixels
     divisor: int
     traced: bool                  # whether this frame traced (False: converged, nothing moved)
-    round: int                    # completed rounds of every pixel while still
+    round: int                    # completed rounds of every pixel with nothing moving
     rounds: int
     phase: int                    # pixels of each block traced so far in this round
     phases: int
-    full: bool                    # every pixel shows its own traced mean
+    full: bool                    # every pixel has samples of its own
 
     @property
     def converged(self) -> bool:
@@ -123,12 +126,25 @@ class ReducedState:
 TraceFn = Callable[[tuple, tuple[int, int]], TraceResult]
 
 
+@dataclass
+class FrameMotion:
+    """What moved for a frame of the reduced trace: ``key`` says what the whole picture
+    depends on (view, size, settings; a new key starts every pixel again), ``boxes`` the
+    walkers that moved (game/soft/accumulate.py's ``walker_boxes``), ``camera`` the eye and
+    ``light`` the segment's tracer tuple."""
+
+    key: bytes
+    boxes: np.ndarray
+    camera: np.ndarray
+    light: tuple
+
+
 class ReducedTrace:
     """Owns the subsample and upsample programs, the reduced G-buffer (with the samples' normals
-    and where they agree) and its framebuffer, the accumulated means and the upsampled
-    visibility's target (:attr:`visibility`), all released by :meth:`release`. The targets are
-    made on the first frame and again when the frame's size or the divisor changes (as many
-    objects again)."""
+    and where they agree) and its framebuffer, this frame's upsampled trace (:attr:`current`),
+    the accumulation (game/soft/accumulate.py) and the picture's target
+    (:attr:`visibility`), all released by :meth:`release`. The targets are made on the first
+    frame and again when the frame's size or the divisor changes (as many objects again)."""
 
     def __init__(self, ctx, upsampling: Upsampling | None = None):
         self.ctx = ctx
@@ -137,33 +153,35 @@ class ReducedTrace:
         self.cells: tuple[int, int] | None = None    # the trace's
         self._objects: list = []
         self._subsample = self._subsample_vao = None
-        # The upsample's programs by (FULL, PART): shaders/upsample.frag. All made here, so that
-        # a still view that starts accumulating makes no GL objects.
-        self._upsample: dict[tuple[bool, int], object] = {}
-        self._upsample_vao: dict[tuple[bool, int], object] = {}
+        self.accumulation: Accumulation | None = None
+        # The upsample's programs by PART: shaders/upsample.frag. All made here, so that a
+        # still view that starts accumulating makes no GL objects.
+        self._upsample: dict[int, object] = {}
+        self._upsample_vao: dict[int, object] = {}
         try:  # a program that fails to build leaves none behind
             self._subsample, self._subsample_vao = fullscreen_pass(ctx, "subsample.frag")
-            for full, part in ((False, 0), (False, 1), (True, 1)):
-                self._program(full, part)
+            for part in (0, 1):
+                self._program(part)
+            self.accumulation = Accumulation(ctx, PLANE_SIGMA, NORMAL_POWER)
         except BaseException:
             self.release()
             raise
         self.state: ReducedState | None = None
         self._key: bytes | None = None
-        self._step = 0           # frames traced since something moved
-        self._sum = self._count = None
+        self._frame = 0          # frames traced since the view changed
+        self._still = 0          # of them, since a walker last moved
         self._last: TraceResult | None = None
 
     # -- what it holds ----------------------------------------------------------------------------
-    def _program(self, full: bool, part: int):
-        key = (full, part)
-        if key not in self._upsample:
-            defines = {"FULL": full, "PART": part, "PLANE_SIGMA": PLANE_SIGMA,
+    def _program(self, part: int):
+        if part not in self._upsample:
+            defines = {"PART": part, "PLANE_SIGMA": PLANE_SIGMA,
                        "NORMAL_POWER": NORMAL_POWER, "SPATIAL_SIGMA_CELLS": SPATIAL_SIGMA_CELLS,
-                       "MIN_WEIGHT": MIN_WEIGHT, "GATHER": GATHER, "NO_SAMPLE": NO_SAMPLE}
-            self._upsample[key], self._upsample_vao[key] = fullscreen_pass(
+                       "MIN_WEIGHT": MIN_WEIGHT, "GATHER": GATHER, "NO_SAMPLE": NO_SAMPLE,
+                       "OWN_ENOUGH": OWN_ENOUGH}
+            self._upsample[part], self._upsample_vao[part] = fullscreen_pass(
                 self.ctx, "upsample.frag", defines)
-        return self._upsample[key], self._upsample_vao[key]
+        return self._upsample[part], self._upsample_vao[part]
 
     def _resize(self, size: tuple[int, int]) -> None:
         cells = trace_size(size, self.upsampling.divisor)
@@ -182,20 +200,23 @@ class ReducedTrace:
         self.gbuffer = ctx.framebuffer([self.samples, self.normal, self.colour,
                                         self.sample_normals])
         self.agreed = ctx.texture(cells, 1, dtype="f4")
-        self.accumulated = ctx.texture(size, 1, dtype="f4")
+        self.current = ctx.texture(size, 1, dtype="f2")
+        self.current_framebuffer = ctx.framebuffer([self.current])
         self.visibility = ctx.texture(size, 1, dtype="f2")
         self.framebuffer = ctx.framebuffer([self.visibility])
         textures = [self.samples, self.normal, self.colour, self.sample_normals, self.agreed,
-                    self.accumulated, self.visibility]
+                    self.current, self.visibility]
         for tex in textures:
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        self._objects = [self.gbuffer, self.framebuffer, *textures]
+        self._objects = [self.gbuffer, self.current_framebuffer, self.framebuffer, *textures]
+        self.accumulation.resize(size)
         self._key = None
 
     def gl_objects(self) -> int:
         programs = [self._subsample, *self._upsample.values()]
         return (len(programs) + resources.attached_shaders(programs) + 1
-                + len(self._upsample_vao) + len(self._objects))
+                + len(self._upsample_vao) + len(self._objects)
+                + self.accumulation.gl_objects())
 
     def _release_targets(self) -> None:
         if self._objects:
@@ -207,6 +228,9 @@ class ReducedTrace:
 
     def release(self) -> None:
         self._release_targets()
+        if self.accumulation is not None:
+            self.accumulation.release()
+            self.accumulation = None
         for obj in (*self._upsample_vao.values(), *self._upsample.values(),
                     self._subsample_vao, self._subsample):
             if obj is not None:
@@ -226,51 +250,57 @@ class ReducedTrace:
         self._key = None
         self._last = None
 
-    def run(self, textures, size: tuple[int, int], key: bytes, trace: TraceFn,
+    def run(self, textures, size: tuple[int, int], motion: FrameMotion, trace: TraceFn,
             timer) -> TraceResult:
-        """Trace this frame's share of the pixels and upsample into :attr:`visibility`.
+        """Trace this frame's share of the pixels, add it to the running means and resolve
+        the picture into :attr:`visibility`.
 
-        ``textures`` are the frame's (position, normal, colour); ``key`` says what the
-        visibility depends on (view, characters, settings): while it stays the same, frames
-        accumulate. ``trace`` runs the tracer over a G-buffer; the subsample and the upsample are
-        timed as ``soft_upsample`` by ``timer``. Returns the trace (the last one, with no
-        times, when nothing was left to trace)."""
+        ``textures`` are the frame's (position, normal, colour); ``motion`` says what moved.
+        ``trace`` runs the tracer over a G-buffer; the subsample, upsample, accumulation and
+        resolve are timed as ``soft_upsample`` by ``timer``. Returns the trace (the last one,
+        with no times, when nothing was left to trace)."""
         up = self.upsampling
         self._resize(size)
-        d = up.divisor
-        order = phases(d)
-        if key != self._key or not up.accumulate:
-            self._key, self._step = key, 0
-        else:
-            self._step += 1
-        rounds_done, phase = divmod(self._step, len(order))
-        traced = rounds_done < up.rounds or self._last is None
+        order = phases(up.divisor)
+        reset = motion.key != self._key or not up.accumulate
+        if reset:
+            self._key, self._frame, self._still = motion.key, 0, 0
+        if len(motion.boxes):
+            self._still = 0
+        traced = self._still < len(order) * up.rounds or self._last is None or reset
         if traced:
-            ox, oy = order[phase]
-            shift = rounds_done % self.cells[0]
-            with timer.measure("soft_upsample"):
-                self._draw_subsample(textures, d, (ox, oy), shift)
-            result = trace((self.samples, self.normal, self.colour), self.cells)
-            self._last = result
-            self._write_samples(result.visibility, shift)
-            if up.accumulate:
-                self._accumulate(result.visibility, (ox, oy), shift)
+            result = self._trace_frame(textures, order, motion, reset, trace, timer)
+            self._frame += 1
+            self._still += 1
         else:
-            self._step -= 1   # stay at the end: nothing more to add
-            rounds_done, phase = up.rounds, 0
             result = dataclasses.replace(self._last, ms={k: 0.0 for k in self._last.ms})
-        full = up.accumulate and (rounds_done >= 1)
-        if full and traced:
-            mean = np.where(self._count > 0, self._sum / np.maximum(self._count, 1), NO_SAMPLE)
-            self.accumulated.write(np.ascontiguousarray(mean, np.float32).tobytes())
-        if traced:   # otherwise the same G-buffer and samples: the last frame's result holds
-            with timer.measure("soft_upsample"):
-                self._draw_upsample(textures, full, d, order[0] if full else order[phase],
-                                    0 if full else rounds_done % self.cells[0])
-        self.state = ReducedState(size=self.cells, divisor=d, traced=traced,
-                                  round=min(rounds_done, up.rounds), rounds=up.rounds,
-                                  phase=phase + 1 if traced else len(order), phases=len(order),
-                                  full=full)
+        rounds_done, phase = divmod(self._still - 1, len(order))
+        if not traced:
+            rounds_done, phase = up.rounds, len(order) - 1
+        self.state = ReducedState(size=self.cells, divisor=up.divisor, traced=traced,
+                                  round=rounds_done, rounds=up.rounds, phase=phase + 1,
+                                  phases=len(order),
+                                  full=up.accumulate and self._frame >= len(order))
+        return result
+
+    def _trace_frame(self, textures, order, motion: FrameMotion, reset: bool, trace: TraceFn,
+                     timer) -> TraceResult:
+        """This frame's pixels traced, upsampled, accumulated and resolved."""
+        d = self.upsampling.divisor
+        phase = order[self._frame % len(order)]
+        shift = (self._frame // len(order)) % self.cells[0]
+        with timer.measure("soft_upsample"):
+            self._draw_subsample(textures, d, phase, shift)
+        result = trace((self.samples, self.normal, self.colour), self.cells)
+        self._last = result
+        with timer.measure("soft_upsample"):
+            self._write_samples(result.visibility, shift)
+            mapping = {"divisor": d, "phase": phase, "shift": shift, "cells": self.cells,
+                       "traced": self.upsampling.accumulate}
+            self.accumulation.accumulate(textures, self.samples, mapping, reset, motion.boxes,
+                                         motion.camera, motion.light)
+            self._draw_upsample(textures, d, phase, shift)
+            self.accumulation.resolve(textures, self.current, self.framebuffer)
         return result
 
     def _write_samples(self, visibility: np.ndarray, shift: int) -> None:
@@ -281,20 +311,6 @@ class ReducedTrace:
         samples[..., 3] = np.nan_to_num(visibility[::-1], nan=NO_SAMPLE)
         self.samples.write(samples.tobytes())
         self.agreed.write(agreed_values(visibility, shift).tobytes())
-
-    def _accumulate(self, visibility: np.ndarray, phase: tuple[int, int], shift: int) -> None:
-        """Add the reduced trace (row 0 at the top) to the per-pixel sums (GL rows)."""
-        w, h = self.size
-        if self._step == 0 or self._sum is None or self._sum.shape != (h, w):
-            self._sum = np.zeros((h, w), np.float32)
-            self._count = np.zeros((h, w), np.float32)
-        cells = np.roll(visibility[::-1], shift, axis=1)   # by block, GL rows
-        d, (ox, oy) = self.upsampling.divisor, phase
-        target = self._sum[oy::d, ox::d]
-        part = cells[:target.shape[0], :target.shape[1]]
-        seen = np.isfinite(part)
-        target += np.where(seen, part, 0.0)
-        self._count[oy::d, ox::d] += seen
 
     def _bind(self, prog, textures) -> None:
         for tex, name in zip(textures, ("u_position", "u_normal", "u_colour"), strict=True):
@@ -312,29 +328,25 @@ class ReducedTrace:
         prog["u_cells"].value = self.cells
         self._draw(self.gbuffer, self.cells, self._subsample_vao)
 
-    def _draw_upsample(self, textures, full: bool, divisor: int, phase: tuple[int, int],
+    def _draw_upsample(self, textures, divisor: int, phase: tuple[int, int],
                        shift: int) -> None:
-        """The upsampled visibility into :attr:`visibility`: from the accumulated means
-        (``full``), or from the last trace in two draws, where its samples agree and the filter
-        elsewhere (shaders/upsample.frag, PART)."""
-        for part in (1,) if full else (0, 1):
-            prog, vao = self._program(full, part)
+        """This frame's trace upsampled into :attr:`current`, in two draws: where its samples
+        agree, and the filter elsewhere (shaders/upsample.frag, PART)."""
+        for part in (0, 1):
+            prog, vao = self._program(part)
             self._bind(prog, textures)
-            if full:
-                self.accumulated.use(UNITS["u_accumulated"])
-                prog["u_accumulated"].value = UNITS["u_accumulated"]
-            else:
-                for name, tex in (("u_samples", self.samples),
-                                  ("u_sample_normals", self.sample_normals),
-                                  ("u_agreed", self.agreed)):
-                    if name in prog:   # the first part reads no samples
-                        tex.use(UNITS[name])
-                        prog[name].value = UNITS[name]
-                prog["u_divisor"].value = divisor
-                prog["u_phase"].value = phase
-                prog["u_shift"].value = shift
-                prog["u_cells"].value = self.cells
-            self._draw(self.framebuffer, self.size, vao)
+            for name, tex in (("u_samples", self.samples),
+                              ("u_sample_normals", self.sample_normals),
+                              ("u_agreed", self.agreed),
+                              ("u_history", self.accumulation.latest)):
+                if name in prog:   # the first part reads no samples
+                    tex.use(UNITS[name])
+                    prog[name].value = UNITS[name]
+            prog["u_divisor"].value = divisor
+            prog["u_phase"].value = phase
+            prog["u_shift"].value = shift
+            prog["u_cells"].value = self.cells
+            self._draw(self.current_framebuffer, self.size, vao)
 
     def _draw(self, framebuffer, size: tuple[int, int], vao) -> None:
         framebuffer.use()

@@ -39,6 +39,9 @@ def main(scene_path: str, out: str) -> None:
     except GameError as exc:
         print(exc, file=sys.stderr)
         sys.exit(NO_WINDOW)
+    # A traced method: its samples accumulate while the view stays (a raster method, the
+    # window's default, looks the light up whole every frame: game/soft/direct.py).
+    app.set_soft_trace(method="voxel-cache")
     up = app.upsampling
     seen: dict = {"frames": [], "divisor": up.divisor, "rounds": up.rounds}
 

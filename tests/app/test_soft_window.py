@@ -96,3 +96,21 @@ def test_play_soft_writes_its_trace_size_in_the_stats(tmp_path):
     for frame in doc["frames"]:
         assert frame["soft_trace_size"] == [80, 45] and frame["soft_samples"] > 0
         assert frame["ms"]["soft_upsample"] > 0 and frame["ms"]["composite"] > 0
+
+
+def test_the_overlay_counts_a_raster_methods_maps_and_says_nothing_accumulates():
+    from types import SimpleNamespace
+
+    from game.app.window.figures import SoftFigures
+    from game.soft.tracer import TraceSettings
+    from game.soft.upsample import ReducedState
+
+    frame = SimpleNamespace(soft=object(), ms={"soft_total": 4.0})
+    state = ReducedState(size=(80, 45), divisor=4, traced=True, round=0, rounds=4, phase=1,
+                         phases=16, full=False)
+    raster = SoftFigures.of(frame, state, TraceSettings(method="segment-maps", maps=8))
+    assert (raster.samples, raster.unit) == (8, "maps")
+    assert "looked up every frame" in raster.state and "upsampled" not in raster.state
+    traced = SoftFigures.of(frame, state, TraceSettings(method="voxel-cache", samples=6))
+    assert (traced.samples, traced.unit) == (6, "samples")
+    assert traced.state.startswith("moving: upsampled")

@@ -136,6 +136,22 @@ def test_the_bench_records_what_the_report_reads(root):
     assert "commit" not in record  # a folder outside any checkout
 
 
+def test_a_run_timed_by_thread_time_says_so_in_its_header(root):
+    from game.bench.runner import write_run_record
+
+    folder = root / "docs" / "runs" / "fake"
+    write_run_record(folder, "python -m game bench --clock cpu-thread --out x",
+                     {"renderer": "llvmpipe", "version": "4.5"}, "cpu-thread")
+    assert json.loads((folder / "run.json").read_text())["clock"] == "cpu-thread"
+    write_report(root)
+    text = (root / "docs" / "results.md").read_text()
+    assert "OpenGL 4.5; timed by one thread's CPU time;" in text
+    write_run_record(folder, "python -m game bench --out x",
+                     {"renderer": "llvmpipe", "version": "4.5"})
+    write_report(root)
+    assert "timed by one thread's CPU time;" not in (root / "docs" / "results.md").read_text()
+
+
 def test_the_run_record_names_the_checkouts_commit():
     from game.bench.runner import git_commit
     from tests.helpers import ROOT

@@ -28,7 +28,8 @@ class WindowControls(Protocol):
 
     def set_soft(self, on: bool) -> None: ...
 
-    def set_soft_trace(self, divisor: int | None = None, samples: int | None = None) -> None: ...
+    def set_soft_trace(self, divisor: int | None = None, samples: int | None = None,
+                       method: str | None = None) -> None: ...
 
 
 @dataclass
@@ -45,7 +46,8 @@ class Changes:
     render_scale: float | None = None
     soft: bool | None = None          # soft shadows traced, from the next frame
     soft_divisor: int | None = None   # the window's soft trace: one pixel in N x N ...
-    soft_samples: int | None = None   # ... with this many samples
+    soft_samples: int | None = None   # ... with this many samples (or maps)
+    soft_method: str | None = None    # ... by this soft method
     selected_light: int | None = None
 
     def apply(self, renderer: Renderer, window: WindowControls | None = None) -> None:
@@ -62,8 +64,8 @@ class Changes:
                 window.render_scale = self.render_scale
             if self.soft is not None:
                 window.set_soft(self.soft)
-            if self.soft_divisor is not None or self.soft_samples is not None:
-                window.set_soft_trace(self.soft_divisor, self.soft_samples)
+            if (self.soft_divisor, self.soft_samples, self.soft_method) != (None,) * 3:
+                window.set_soft_trace(self.soft_divisor, self.soft_samples, self.soft_method)
             if self.selected_light is not None:
                 window.selected_light = self.selected_light
         if self.settings is not None:

@@ -10,11 +10,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 from imgui_bundle import imgui
 
+from game.app.window import soft_controls
 from game.render.frame import Frame
 from game.render.passes import DRAWING_PASSES, GBUFFER, READBACK, TOTAL
 from game.shadows.plan import CharacterCounts
+from game.soft.methods import is_raster
 
 if TYPE_CHECKING:
+    from game.soft.tracer import TraceSettings
     from game.soft.upsample import ReducedState
 
 # The window's own work after the scene's passes; shown after "total", which leaves it out.
@@ -47,16 +50,24 @@ class SoftFigures:
 
     size: tuple[int, int]     # pixels traced, columns x rows
     divisor: int              # one traced pixel per divisor x divisor of the frame
-    samples: int              # per traced pixel
+    samples: int              # per traced pixel, or the maps of a raster method
     ms: float                 # the trace: its build and its dispatches
     state: str = ""           # accumulation, e.g. "still: 5/16 of round 1 of 2"
+    unit: str = "samples"     # what ``samples`` counts: "samples" or "maps"
 
     @staticmethod
-    def of(frame: Frame, state: ReducedState | None, samples: int) -> SoftFigures | None:
-        """What the overlay says about the frame's reduced soft trace, in ``state``, of
-        ``samples`` per point (None: soft shadows off)."""
+    def of(frame: Frame, state: ReducedState | None, settings: TraceSettings
+           ) -> SoftFigures | None:
+        """What the overlay says about the frame's soft shadows, made with ``settings``, in
+        ``state`` (None: soft shadows off)."""
         if frame.soft is None or state is None:
             return None
+        count = soft_controls.count_of(settings)
+        if is_raster(settings.method):
+            # Maps looked up every frame: the picture is whole at once, nothing accumulates.
+            return SoftFigures(size=state.size, divisor=state.divisor, samples=count,
+                               ms=frame.ms.get("soft_total", 0.0), unit="maps",
+                               state=f"{settings.method}: looked up every frame, whole at once")
         if state.converged:
             note = f"still: converged, {state.rounds} rounds of every pixel; nothing traced"
         elif state.round or state.phase > 1:
@@ -64,7 +75,7 @@ class SoftFigures:
                     f"{state.rounds}" + (", every pixel its own" if state.full else ""))
         else:
             note = "moving: upsampled from this frame's trace"
-        return SoftFigures(size=state.size, divisor=state.divisor, samples=samples,
+        return SoftFigures(size=state.size, divisor=state.divisor, samples=count,
                            ms=frame.ms.get("soft_total", 0.0), state=note)
 
 

@@ -6,6 +6,9 @@ long as its share of the frame; then a line with the method, the number of light
 are several), with soft shadows on at what resolution they were traced and in how many
 milliseconds, and in a window the F1 hint. That line is left out, and then the font shrunk, where
 the box would cover more than its share.
+
+Where a light's shadows collapsed (game/shadows/collapse.py), a strip along the bottom of the
+window says so, with the HUD and beside the panel alike, whichever tab is open.
 """
 
 from __future__ import annotations
@@ -33,6 +36,8 @@ HUD_FONT_STEPS = (1.0, 0.8, 0.65)  # font sizes tried, relative to the overlay's
 # the figures change.
 HUD_FPS_TEMPLATE = "FPS 0000.0  frame 000.0 ms"
 BAR_BACKGROUND = imgui.ImVec4(0.0, 0.0, 0.0, 0.6)
+WARNING_COLOUR = imgui.ImVec4(1.0, 0.72, 0.3, 1.0)
+MAX_WARNINGS = 2  # collapse notes shown in the strip; the rest are counted
 HUD_FLAGS = (imgui.WindowFlags_.no_title_bar.value | imgui.WindowFlags_.no_resize.value
              | imgui.WindowFlags_.no_move.value | imgui.WindowFlags_.no_scrollbar.value
              | imgui.WindowFlags_.no_saved_settings.value | imgui.WindowFlags_.no_inputs.value
@@ -45,6 +50,14 @@ def hud_lights(lights_on: list[bool]) -> str:
         return ""
     off = lights_on.count(False)
     return f"{len(lights_on)} lights" + (f", {off} off" if off else "")
+
+
+def warning_lines(notes: list[str]) -> tuple[str, ...]:
+    """The strip's lines: the first :data:`MAX_WARNINGS` notes, then how many more."""
+    lines = [f"note: {note}" for note in notes[:MAX_WARNINGS]]
+    if len(notes) > MAX_WARNINGS:
+        lines.append(f"and {len(notes) - MAX_WARNINGS} more lights whose shadows collapsed")
+    return tuple(lines)
 
 
 @dataclass
@@ -92,6 +105,7 @@ class Hud:
         self.history = history
         self.lines: tuple[str, ...] = ()      # the text as last drawn
         self.bar: list[BarSegment] = []       # the bar as last drawn
+        self.warnings: tuple[str, ...] = ()   # the collapse strip as last drawn
 
     def draw(self, figures: Figures, renderer: Renderer, size: tuple[int, int],
              soft: bool | None, hint: bool) -> tuple[int, int, int, int]:
@@ -154,3 +168,24 @@ class Hud:
                                        (colour.x, colour.y, colour.z)))
             x += length
         imgui.dummy(imgui.ImVec2(width, height))
+
+    def draw_warnings(self, notes: list[str], size: tuple[int, int], left: int = 0) -> None:
+        """The collapse notes in a strip along the bottom of a window of ``size``, right of
+        ``left`` (the panel's edge) where that leaves it half the window (nothing where there
+        are no notes)."""
+        self.warnings = warning_lines(notes)
+        if not self.warnings:
+            return
+        x = left + PANEL_MARGIN if size[0] - left >= size[0] / 2 else PANEL_MARGIN
+        imgui.set_next_window_pos(imgui.ImVec2(x, size[1] - PANEL_MARGIN),
+                                  imgui.Cond_.always.value, imgui.ImVec2(0.0, 1.0))
+        # Height 0: as tall as the wrapped lines.
+        imgui.set_next_window_size(imgui.ImVec2(max(1, size[0] - x - PANEL_MARGIN), 0),
+                                   imgui.Cond_.always.value)
+        imgui.set_next_window_bg_alpha(HUD_ALPHA)
+        imgui.begin("collapse", None, HUD_FLAGS)
+        imgui.push_style_color(imgui.Col_.text.value, WARNING_COLOUR)
+        for line in self.warnings:
+            imgui.text_wrapped(line)
+        imgui.pop_style_color()
+        imgui.end()

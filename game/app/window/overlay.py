@@ -4,7 +4,8 @@ It has two modes: the HUD (the window's default; game/app/window/hud.py), a smal
 the frame rate, the frame's milliseconds and a bar of the passes; and the panel (F1 in the window,
 always in ``capture --overlay``; game/app/window/panel.py), the figures of every pass, a rolling
 graph of them and a tab per kind of control: the view, the hard-shadow settings (the method among
-them, ``traced`` included), the lights and the maps. What the user changes comes back from
+them, ``traced`` included), the lights and the maps. Beside either, a strip along the bottom
+says where a light's shadows collapsed. What the user changes comes back from
 :meth:`Overlay.draw` as a :class:`~game.app.window.changes.Changes`, for its caller to apply.
 
 The same overlay draws into a window (``window`` given: the GLFW backend feeds it input) or into
@@ -37,6 +38,7 @@ if TYPE_CHECKING:
     from game.render.renderer import Renderer
 
 GLSL_VERSION = "#version 430"
+COLLAPSE_REFRESH_S = 0.5  # the collapse strip's notes are made anew at most this often
 
 
 class Overlay:
@@ -91,6 +93,11 @@ class Overlay:
     def bar(self) -> list[BarSegment]:
         return self.hud.bar
 
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        """The collapse notes the strip along the bottom showed last."""
+        return self.hud.warnings
+
     def toggle_panel(self) -> None:
         """Switch between the HUD and the full panel (F1 in the window)."""
         self.panel = not self.panel
@@ -140,6 +147,8 @@ class Overlay:
                                              self.message, title)
         else:
             self.rect = self.hud.draw(figures, renderer, size, soft, hint=windowed)
+        self.hud.draw_warnings(renderer.collapse_notes(COLLAPSE_REFRESH_S), size,
+                               self.rect[0] + self.rect[2] if self.panel else 0)
         imgui.render()
         return changes
 

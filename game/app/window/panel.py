@@ -265,6 +265,6 @@ def draw_soft(trace: SoftFigures) -> None:
     share = "every pixel" if trace.divisor == 1 else \
         f"1 in {trace.divisor}x{trace.divisor} pixels"
     imgui.text_wrapped(f"soft trace {trace.size[0]}x{trace.size[1]} ({share}), "
-                       f"{trace.samples} samples: {trace.ms:.1f} ms")
+                       f"{trace.samples} {trace.unit}: {trace.ms:.1f} ms")
     if trace.state:
         imgui.text_wrapped(trace.state)

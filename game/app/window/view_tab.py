@@ -9,20 +9,22 @@ from typing import TYPE_CHECKING
 import numpy as np
 from imgui_bundle import imgui
 
+from game.app.window import soft_controls
 from game.app.window.changes import Changes
 from game.app.window.figures import SoftFigures
 from game.app.window.light_editor import sun_angles, sun_direction
 from game.gpu.blocks import DEBUG_VIEWS
+from game.soft.methods import METHODS
 
 if TYPE_CHECKING:
     from game.render.renderer import Renderer
 
 # The labels beside the controls (their widths set the controls').
-LABELS = ("debug view", "sun azimuth", "sun elevation", "render scale", "trace divisor",
-          "samples")
-# The soft trace's controls: one traced pixel per N x N (1: every pixel), samples per point.
+LABELS = ("debug view", "sun azimuth", "sun elevation", "render scale", "soft method",
+          "trace divisor", "samples")
+# The soft trace's controls: the method, one traced pixel per N x N (1: every pixel), and
+# samples per point or maps along the segment (soft_controls.COUNT_RANGE).
 SOFT_DIVISOR_RANGE = (1, 8)
-SOFT_SAMPLES_RANGE = (1, 32)
 MIN_RENDER_SCALE = 0.25
 
 
@@ -46,7 +48,7 @@ class ViewTab:
         if soft is not None and renderer.scene.linear_light is None:
             imgui.text_disabled("soft shadows: the scene has no [linear_light]")
         elif soft is not None:
-            self._draw_soft(soft, changes, trace)
+            self._draw_soft(soft, changes, trace, renderer.traced.last_soft)
         self._draw_sun(renderer, changes)
         if render_scale is not None:
             changed, scale = imgui.slider_float("render scale", render_scale, MIN_RENDER_SCALE,
@@ -55,19 +57,29 @@ class ViewTab:
                 changes.render_scale = scale
 
     @staticmethod
-    def _draw_soft(soft: bool, changes: Changes, trace: SoftFigures | None) -> None:
-        """The soft-shadow switch and, while on, the trace's divisor and samples."""
+    def _draw_soft(soft: bool, changes: Changes, trace: SoftFigures | None,
+                   settings) -> None:
+        """The soft-shadow switch and, while on, the method, the trace's divisor and its
+        samples (or maps) where the method has them."""
         changed, value = imgui.checkbox("soft shadows (linear light)", soft)
         if changed:
             changes.soft = value
-        if soft and trace is not None:
-            changed, divisor = imgui.slider_int("trace divisor", trace.divisor,
-                                                *SOFT_DIVISOR_RANGE, "1 in %d per side")
+        if not soft or trace is None or settings is None:
+            return
+        methods = list(METHODS)
+        changed, index = imgui.combo("soft method", methods.index(settings.method), methods)
+        if changed:
+            changes.soft_method = methods[index]
+        changed, divisor = imgui.slider_int("trace divisor", trace.divisor,
+                                            *SOFT_DIVISOR_RANGE, "1 in %d per side")
+        if changed:
+            changes.soft_divisor = divisor
+        name = soft_controls.count_name(settings.method)
+        if name is not None:
+            changed, count = imgui.slider_int(name, trace.samples,
+                                              *soft_controls.COUNT_RANGE[name])
             if changed:
-                changes.soft_divisor = divisor
-            changed, samples = imgui.slider_int("samples", trace.samples, *SOFT_SAMPLES_RANGE)
-            if changed:
-                changes.soft_samples = samples
+                changes.soft_samples = count
 
     def _draw_sun(self, renderer: Renderer, changes: Changes) -> None:
         light = renderer.scene.light

@@ -5,12 +5,16 @@ into the renderer's own target (with the ``traced`` method or soft shadows on, t
 traces over the frame's G-buffer and lights it again through the traced visibility) -> draw the
 overlay over it -> blit to the window -> swap.
 
-Soft shadows (the scene's ``[linear_light]``, overlay checkbox or ``play --soft``): the frame
-and its G-buffer render at the window's resolution (times the render scale), and the linear
-light is traced at one pixel in :data:`SOFT_DIVISOR` x :data:`SOFT_DIVISOR`, upsampled by a
-depth- and normal-aware filter and composited at full resolution (game/soft/upsample.py); while
-nothing moves, frames trace the other pixels and add samples. The renderer keeps a G-buffer only
-while soft shadows or the traced method need it (it costs fill on llvmpipe).
+Soft shadows (the scene's ``[linear_light]``, overlay checkbox or ``play --soft``): the linear
+light is one more light, added to the scene's lights, which keep the hard method's shadows. The
+frame and its G-buffer render at the window's resolution (times the render scale). A raster
+soft method (the default, game/app/window/soft_controls.py) is looked up at one pixel in a few
+and, where those points disagree, at every pixel, in the composite pass itself
+(game/soft/direct.py). A traced method traces one pixel in a few, upsampled by a depth- and
+normal-aware filter and composited at full resolution (game/soft/upsample.py); while the view
+stays, frames trace the other pixels and every pixel's samples accumulate, and the pixels a
+moving walker may shadow start again (game/soft/accumulate.py). The renderer keeps a G-buffer
+only while soft shadows or the traced method need it (it costs fill on llvmpipe).
 
 The scene clock runs in real time (or in fixed steps, for scripts) and stops while the
 characters are paused. The light keys select, switch and nudge one light of the scene, the one
@@ -40,6 +44,7 @@ import glfw
 import numpy as np
 
 from game.app import interrupts, outputs
+from game.app.window import soft_controls
 from game.app.window.figures import (
     OVERLAY,
     PRESENT,
@@ -59,22 +64,12 @@ from game.render.passes import DRAWING_PASSES, TOTAL
 from game.render.renderer import Renderer, View
 from game.scene import Scene
 from game.shadows.plan import ShadowSettings
-from game.soft.tracer import TraceSettings
-from game.soft.upsample import Upsampling
 
 DEFAULT_SIZE = (960, 540)
 MPF_EVERY_FRAMES = 30        # read the frame back to count maps per fragment this often
 FPS_WINDOW_FRAMES = 60       # frames in the rolling frame-rate average
 MINIMISED_WAIT_S = 0.1
 SCREENSHOT_DIR = Path("screenshots")
-# Soft shadows in the window: the fastest sampled method on llvmpipe (grid; docs/results.md) at
-# SOFT_SAMPLES per point, one traced pixel per SOFT_DIVISOR x SOFT_DIVISOR of the frame,
-# upsampled; interactive, not converged (the upsampling averages neighbouring points' samples,
-# and a still view accumulates SOFT_ROUNDS rounds of every pixel). The panel changes both.
-SOFT_METHOD = "grid"
-SOFT_SAMPLES = 8
-SOFT_DIVISOR = 4
-SOFT_ROUNDS = 2
 
 @dataclass
 class PlayOptions:
@@ -108,8 +103,8 @@ class Walkaround(WindowInput):
         self.scene = scene
         self.opts = opts
         self.soft = opts.soft
-        self.soft_settings = TraceSettings(method=SOFT_METHOD, samples=SOFT_SAMPLES)
-        self.upsampling = Upsampling(divisor=SOFT_DIVISOR, rounds=SOFT_ROUNDS)
+        self.soft_settings = soft_controls.window_settings()
+        self.upsampling = soft_controls.window_upsampling()
         self.window = open_window(opts.size, opts.platform)
         glfw.make_context_current(self.window)
         # Scripted runs are measured: never wait for the display's refresh.
@@ -165,17 +160,17 @@ class Walkaround(WindowInput):
             raise GameError("soft shadows: the scene has no [linear_light]")
         self.soft = on
 
-    def set_soft_trace(self, divisor: int | None = None, samples: int | None = None) -> None:
-        """The soft trace from the next frame: one pixel in ``divisor`` x ``divisor``, and
-        ``samples`` per point (None: as it is)."""
+    def set_soft_trace(self, divisor: int | None = None, samples: int | None = None,
+                       method: str | None = None) -> None:
+        """The soft trace from the next frame: one pixel in ``divisor`` x ``divisor``, with
+        ``method`` and ``samples`` per point (or maps, for segment-maps; None: as it is)."""
         if divisor is not None:
             self.upsampling = dataclasses.replace(self.upsampling, divisor=divisor)
-        if samples is not None:
-            self.soft_settings = dataclasses.replace(self.soft_settings, samples=samples)
+        self.soft_settings = soft_controls.choose(self.soft_settings, method, samples)
 
-    def _soft_settings(self) -> TraceSettings | None:
-        """Soft shadows light the frame by the linear light, replacing the hard method's
-        shading."""
+    def _soft_settings(self):
+        """The soft trace's settings while soft shadows are on: the linear light adds to the
+        scene's lights, which keep the hard method's shadows."""
         return self.soft_settings if self.soft else None
 
     def gl_objects(self) -> int:
@@ -243,7 +238,8 @@ class Walkaround(WindowInput):
         view = self.view(size)
         # The reduced soft trace accumulates while this view (and the characters) stay.
         self.renderer.traced.reduce_soft(self.upsampling if self.soft else None,
-                                         view.view.tobytes() + view.proj.tobytes())
+                                         view.view.tobytes() + view.proj.tobytes(),
+                                         np.linalg.inv(view.view)[:3, 3])
         read = self.frames % MPF_EVERY_FRAMES == 0
         # Counting the map records draws the shading pass once more (outside the frame's
         # timings, not its wall time): only while the panel that shows them is open.
@@ -271,7 +267,7 @@ class Walkaround(WindowInput):
                if self._frame_times and sum(self._frame_times) > 0 else None)
         figures = Figures.of(frame, self.renderer.timer.clock, fps, self._mpf, self._candidates)
         figures.soft = SoftFigures.of(frame, self.renderer.traced.reduced_state,
-                                      self.soft_settings.samples)
+                                      self.soft_settings)
         figures.ms.update(self._window_ms)
         return figures
 
@@ -379,7 +375,7 @@ class Walkaround(WindowInput):
                 # x, y, w, h in window pixels from the top-left: where the panel was drawn last
                 "overlay_rect": list(self.overlay.rect) if self.overlay is not None else None,
                 "fps": round(timed / elapsed, 3) if timed and elapsed > 0 else None,
-                "interrupted": interrupted.happened,
+                "interrupted": interrupted.happened, "notes": self.renderer.notes,
                 "frames": self.frame_stats}
 
     def close(self) -> None:

@@ -126,6 +126,15 @@ class ClumpedShadows(ShadowMethod, SharesBudget, ViewSized):
         return self.maps.clumps
 
     @property
+    def cube_side(self) -> int | None:
+        """Texels per side of the faces of the cube around the light (a point light's clumps
+        that surround it share one), or None where no clump takes a cube."""
+        for maps in self.maps.of_clump.values():
+            if len(maps) > 1:
+                return self.maps.records[maps[0]].viewport
+        return None
+
+    @property
     def layer_limit(self) -> int:
         return self.pool.limit
 

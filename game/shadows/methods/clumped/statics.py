@@ -89,17 +89,48 @@ class ClumpMembers:
         self.mark_all()
 
     def _fewer_clumps(self, core: list[int], footprint, room: int) -> list[clumping.Clump]:
-        """Clumps of the ``core`` units whose maps fit ``room`` layers: a clump around a point
-        light takes a cube's six, so fewer clumps until the maps of all of them fit."""
-        count = room
-        points = self.units.points
-        while True:
-            clumps = clumping.make_clumps([points[u] for u in core], footprint,
-                                          self.ctx.settings.clumping, 0.0, count)
-            over = self._layers_for(clumps, core) - room
-            if over <= 0 or count == 1:
-                return clumps
-            count = max(1, min(count - 1, len(clumps) - over))
+        """The most clumps of the ``core`` units whose maps fit ``room`` layers: a clump around
+        a point light takes a cube's six, so fewer clumps until the maps of all of them fit.
+
+        The count is searched by halves: merging clumps can turn several one-map clumps into
+        one cube of six, so the layers over the room say little of how many clumps to drop:
+        dropping one clump per layer over can take a point light among many statics from 46
+        clumps in 101 layers to a single cube, a sixth of the layers it was given."""
+        points = [self.units.points[u] for u in core]
+
+        def clumps_of(count: int) -> tuple[list[clumping.Clump], int]:
+            clumps = self._one_cube(clumping.make_clumps(
+                points, footprint, self.ctx.settings.clumping, 0.0, count), core)
+            return clumps, self._layers_for(clumps, core)
+
+        clumps, layers = clumps_of(room)
+        if layers <= room:
+            return clumps
+        fits: list[clumping.Clump] | None = None
+        low, high = 1, room - 1   # the largest count that fits lies in [low, high]
+        while low <= high:
+            mid = (low + high) // 2
+            clumps, layers = clumps_of(mid)
+            if layers <= room:
+                fits, low = clumps, mid + 1
+            else:
+                high = mid - 1
+        return fits if fits is not None else clumps_of(1)[0]
+
+    def _one_cube(self, clumps: list[clumping.Clump], core: list[int]) -> list[clumping.Clump]:
+        """The clumps, those that take a cube around the light merged into one: every cube's
+        faces span the same angles, so two cubes give no finer texels than one, in twice the
+        layers."""
+        ctx = self.ctx
+        if ctx.kind.orthographic:
+            return clumps
+        cubes = [c for c in clumps if not ctx.kind.one_frustum(ctx.light, np.concatenate(
+            [self.units.points[core[m]] for m in c.members]))]
+        if len(cubes) < 2:
+            return clumps
+        merged = clumping.Clump(tuple(sorted(m for c in cubes for m in c.members)),
+                                clumping.union_rect(np.array([c.rect for c in cubes])))
+        return [c for c in clumps if all(c is not cube for cube in cubes)] + [merged]
 
     def _clumps_at_target(self, count: int | None):
         """The units' clumps at the density target (or ``count`` of them), the core units

@@ -1,0 +1,162 @@
+"""The window with soft shadows, measured and pictured (``bash docs/soft_window.sh``).
+
+``fps``: the walkaround on GLFW's null platform, the built-in scene at 960x540, its walkers
+walking and the camera still, with or without soft shadows; frames after a warm-up are timed
+by the CPU time of this process (with ``LP_NUM_THREADS=0`` llvmpipe rasterises in the calling
+thread, so other processes' load does not count) and by wall time (noisy on a shared machine).
+
+``shots``: the same window, no overlay and no FXAA (the picture is the renderer's), still
+(characters paused) after 0, 1 and 5 seconds of wall time, then walking after 1 and 5; each
+beside the ``analytic`` visibility of the same view and scene time, rendered full size by the
+same renderer, with the RMSE between them: of the soft visibility and of the pictures.
+
+Each mode runs in its own process (a window's GL context per process) and prints one JSON line.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import imgui_bundle  # noqa: F401 - before glfw
+
+# isort: split
+import numpy as np
+
+from game.app import outputs
+from game.app.window.walkaround import PlayOptions, Walkaround
+from game.errors import GameError
+from game.scene import load_scene
+from game.soft.methods import TraceSettings
+
+DEFAULT_SCENE = Path(__file__).resolve().parents[2] / "assets" / "default.toml"
+SIZE = (960, 540)
+WARMUP_FRAMES = 3
+ANALYTIC = TraceSettings(method="analytic")
+
+
+def _window(scene_path: str, soft: bool) -> Walkaround:
+    scene = load_scene(Path(scene_path) if scene_path else DEFAULT_SCENE)
+    return Walkaround(scene, PlayOptions(size=SIZE, platform="null", soft=soft, overlay=False,
+                                         antialias=False, frames=10**9))
+
+
+def fps(scene_path: str, soft: bool, frames: int) -> dict:
+    """Frames per second of the window, by CPU time and by wall time."""
+    app = _window(scene_path, soft)
+    try:
+        for _ in range(WARMUP_FRAMES):
+            app.step(1 / 30)
+        cpu, wall = time.process_time(), time.perf_counter()
+        last = wall
+        for _ in range(frames):
+            now = time.perf_counter()
+            app.step(now - last)
+            last = now
+        cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
+        method = app.soft_settings.method if soft else None
+    finally:
+        app.close()
+    return {"soft": soft, "soft_method": method, "frames": frames,
+            "fps_cpu": round(frames / cpu, 3), "fps_wall": round(frames / wall, 3),
+            "ms_cpu": round(cpu / frames * 1e3, 2)}
+
+
+def _visibility(app: Walkaround) -> np.ndarray:
+    """The visibility the window's soft picture was lit by, (H, W) with row 0 at the top."""
+    return app.renderer.traced.window_visibility(app.renderer.target)
+
+
+def _analytic(app: Walkaround) -> tuple[np.ndarray, np.ndarray]:
+    """The analytic picture and visibility of the window's view and scene time."""
+    traced = app.renderer.traced
+    size = app.renderer.size
+    view = app.view(size)
+    traced.reduce_soft(None)   # the window's next frame asks for its reduced trace again
+    frame = app.renderer.render(app.scene_time, view, read=True, soft=ANALYTIC)
+    return frame.image, frame.soft.visibility
+
+
+def _compare(app: Walkaround, out: Path, name: str) -> dict:
+    """Save the window's picture and, beside it, the analytic one; the RMSEs between them."""
+    window = app.read_screen(app.renderer.size)
+    vis = _visibility(app)
+    image, exact = _analytic(app)
+    covered = np.isfinite(exact)
+    vis_rmse = float(np.sqrt(np.mean((vis[covered] - exact[covered]) ** 2)))
+    diff = (window.astype(np.float64) - image.astype(np.float64)) / 255.0
+    image_rmse = float(np.sqrt(np.mean(diff ** 2)))
+    outputs.write_png(out / f"soft_window_{name}.png", window)
+    outputs.write_png(out / f"soft_window_{name}_analytic.png",
+                      np.concatenate([window, image], axis=1))
+    return {"name": name, "rmse_visibility": round(vis_rmse, 5),
+            "rmse_image": round(image_rmse, 5)}
+
+
+def _run_until(app: Walkaround, seconds: float, spent: float) -> float:
+    """Step the window in real time until it has run ``seconds`` of wall time in all, of which
+    ``spent`` so far; returns the time it has run."""
+    last = time.perf_counter()
+    while True:   # at least one frame: the one the picture shows
+        now = time.perf_counter()
+        app.step(now - last)
+        spent += time.perf_counter() - now
+        last = now
+        if spent >= seconds:
+            return spent
+
+
+def shots(scene_path: str, out: Path) -> dict:
+    """The still and walking pictures, each beside the analytic one. The seconds are the
+    window's own after its first frame: the first frame (which compiles the shaders) and the
+    analytic renders between the pictures are not counted."""
+    out.mkdir(parents=True, exist_ok=True)
+    rows = []
+    for walking in (False, True):
+        app = _window(scene_path, True)
+        try:
+            app.paused = not walking
+            app.scene_time = 3.0       # the walkers spread over the square
+            spent = 0.0
+            for seconds in ((0.0, 1.0, 5.0) if not walking else (1.0, 5.0)):
+                if walking and seconds == 1.0 and app.frames == 0:
+                    app.step(0.0)
+                if seconds == 0.0:   # the first frame (its shaders compiled), not counted
+                    app.step(0.0)
+                else:
+                    spent = _run_until(app, seconds, spent)
+                state = app.renderer.traced.reduced_state
+                name = f"{'walking' if walking else 'still'}_{seconds:.0f}s"
+                frames = app.frames
+                row = _compare(app, out, name)
+                rows.append({**row, "frames": frames, "seconds": round(spent, 2),
+                             "soft_method": app.soft_settings.method, "round": state.round,
+                             "phase": state.phase, "phases": state.phases})
+        finally:
+            app.close()
+    return {"size": list(SIZE), "shots": rows}
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m game.bench.soft_window")
+    parser.add_argument("mode", choices=("fps", "shots"))
+    parser.add_argument("--scene", default="")
+    parser.add_argument("--soft", action="store_true")
+    parser.add_argument("--frames", type=int, default=20)
+    parser.add_argument("--out", type=Path, default=Path("docs/images"))
+    args = parser.parse_args(argv)
+    try:
+        doc = (fps(args.scene, args.soft, args.frames) if args.mode == "fps"
+               else shots(args.scene, args.out))
+    except GameError as exc:
+        print(f"soft_window: {exc}", file=sys.stderr)
+        return 1
+    print(json.dumps(doc))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

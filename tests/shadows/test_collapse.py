@@ -1,0 +1,113 @@
+"""Saying when accuracy collapses (game/shadows/collapse.py): a shadow texel's width on screen
+where its map's shadows are seen nearest the camera, checked by hand, and one note per light
+whose plan falls far short of its target, none where it holds it."""
+
+from __future__ import annotations
+
+import re
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from game import transforms
+from game.render.renderer import Renderer, View
+from game.scene import load_scene
+from game.shadows import collapse
+from game.shadows.fit import fit_squares
+from game.shadows.plan import KIND_ALL, MapRecord, ShadowSettings
+from tests.helpers import SCENES
+
+SIZE = (960, 540)
+FLOOR = collapse.Receivers(np.array([[-50.0, -0.1, -50.0, 50.0, 0.0, 50.0]]), np.array([0]))
+BASELINE = SimpleNamespace(settings=ShadowSettings(method="single"))  # aims at 1 px a texel
+
+
+def down_map(texel: float, resolution: int = 1024) -> MapRecord:
+    """A map of a straight-down sun, ``texel`` metres a texel, centred on the origin."""
+    rot = transforms.light_rotation(np.array([0.0, -1.0, 0.0]))
+    half = 0.5 * (resolution - 3) * texel
+    fit = fit_squares(rot, np.zeros((1, 2)), np.array([half]), np.array([-1.0]),
+                      np.array([1.0]), np.array([resolution]), np.array([texel]))[0]
+    return MapRecord("m", KIND_ALL, fit, 0, resolution, [0])
+
+
+def camera(eye, target, height: int = 1000, fov: float = 90.0) -> View:
+    return View(transforms.look_at(np.array(eye, float), np.array(target, float)),
+                transforms.perspective(fov, 1.0, 0.1, 500.0), (height, height))
+
+
+def test_pixels_per_metre_by_hand():
+    # 90 degrees over 1000 pixels: at 10 m the view is 20 m tall, 50 pixels a metre.
+    assert collapse.pixels_per_metre(camera([0, 10, 0], [0, 0, 0]), 10.0) == pytest.approx(50.0)
+
+
+@pytest.mark.parametrize(("height", "texel", "pixels"), [
+    (10.0, 0.01, 0.5),    # 1 cm texels at 50 px/m
+    (2.5, 0.01, 2.0),     # 200 px/m
+    (10.0, 0.1, 5.0),     # 10 cm texels: past 4x the 1 px target
+])
+def test_texel_on_screen_by_hand(height, texel, pixels):
+    """A camera looking straight down at the floor from ``height``: every floor point is at
+    that view depth, so a texel spans texel * 500 / height pixels."""
+    depths = collapse.ViewDepths(FLOOR, camera([0, height, 0], [0, 0, 0]))
+    [seen] = collapse.map_texels(BASELINE, [down_map(texel)], 0, depths)
+    assert seen.depth == pytest.approx(height)
+    assert seen.pixels == pytest.approx(pixels, rel=1e-6)
+    assert seen.target == 1.0
+    assert seen.collapsed == (pixels > collapse.COLLAPSE_FACTOR)
+
+
+def test_nearest_receiver_is_where_the_view_meets_the_floor():
+    """Looking level from 2 m with a 90 degree view, the lowest ray meets the floor 2 m ahead:
+    the nearest receiver is at view depth 2, not at the near plane under the camera's feet."""
+    depths = collapse.ViewDepths(FLOOR, camera([0, 2, 0], [0, 2, -10]))
+    depth, point = depths.nearest(down_map(0.01))
+    assert depth == pytest.approx(2.0)
+    assert point[1] == pytest.approx(0.0, abs=1e-9)
+
+
+def test_a_map_away_from_the_view_is_not_judged():
+    """Receivers out of the map's rectangle do not count: a map 100 m behind the camera has
+    no receiver in view."""
+    record = down_map(0.01, 64)
+    moved = camera([0, 2, 100], [0, 2, 200])
+    assert collapse.map_texels(BASELINE, [record], 0, collapse.ViewDepths(FLOOR, moved)) == []
+
+
+def collapse_lines(notes: list[str]) -> list[str]:
+    return [n for n in notes if "accuracy collapses" in n]
+
+
+def frame_notes(ctx, scene, settings: ShadowSettings) -> tuple[list[str], list[str]]:
+    renderer = Renderer(ctx, scene, SIZE, settings)
+    try:
+        renderer.render(0.0, View.from_camera(scene.camera, SIZE), read=False)
+        return renderer.collapse_notes(), renderer.notes
+    finally:
+        renderer.release()
+
+
+def test_courtyard_at_the_defaults_holds_its_target(ctx, courtyard):
+    for method in ("clumped", "single"):
+        own, notes = frame_notes(ctx, courtyard, ShadowSettings(method=method))
+        assert own == [] and collapse_lines(notes) == []
+
+
+def test_a_tiny_budget_collapses_once(ctx, courtyard):
+    own, notes = frame_notes(ctx, courtyard, ShadowSettings(budget_mib=0.25))
+    assert len(own) == 1 and collapse_lines(notes) == own
+    found = re.search(r"^light 0: clumped: .* shadow texels are ([\d.]+) screen pixels wide "
+                      r"near the camera \(target ([\d.]+),", own[0])
+    assert found, own[0]
+    assert float(found[1]) > collapse.COLLAPSE_FACTOR * float(found[2])
+    assert "statics (static_0" in own[0]
+
+
+def test_one_note_per_light(ctx):
+    """Three lights, each with a sliver of a tiny budget: the sun's and the point lamp's maps
+    collapse, one note each."""
+    scene = load_scene(SCENES / "lamps.toml")
+    own, _ = frame_notes(ctx, scene, ShadowSettings(budget_mib=0.25))
+    lights = [int(re.match(r"light (\d+): ", note)[1]) for note in own]
+    assert lights[:2] == [0, 1] and len(set(lights)) == len(lights)

@@ -1,0 +1,110 @@
+"""A raster soft method in the window (game/soft/direct.py): the blocks' classes and runs, the
+composite over them against the method's own lookup at every pixel, and the walkers' layers
+that keep no trail of earlier poses."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from game.render.renderer import Renderer, View
+from game.soft.direct import INTERPOLATE, LOOKUP, SKIP, TOLERANCE, block_runs, block_values
+from game.soft.methods import TraceSettings
+from game.soft.raster import RasterSoft
+from game.soft.upsample import Upsampling
+from tests.soft.tracer_helpers import rmse
+
+SIZE = (96, 54)
+NAN = np.nan
+
+
+def test_blocks_agree_interpolate_look_up_or_are_skipped():
+    vis = np.ones((5, 7), np.float32)
+    vis[:, 5:] = 0.0                     # umbra on the right
+    vis[0, 0] = 1.0 - TOLERANCE / 2      # a gentle slope in the top-left corner
+    vis[4, 0] = NAN                      # sky in the bottom-left corner
+    mixed = np.zeros_like(vis, bool)
+    mixed[2, 2] = True
+    values = block_values(vis, mixed)
+    assert values[2, 3] == 1.0                      # every point around it lit
+    assert values[0, 1] == INTERPOLATE              # within the tolerance of its neighbours
+    assert values[2, 4] == LOOKUP and values[2, 5] == LOOKUP   # the shadow's edge
+    assert values[2, 6] == SKIP                      # the umbra gains nothing
+    assert values[4, 0] == SKIP                      # the sky
+    assert values[3, 1] == 1.0                       # the sky beside it says nothing
+    assert values[2, 2] == LOOKUP                    # mixed coverage: every pixel looks up
+
+
+def test_runs_cover_the_drawn_blocks_once_and_carry_their_values():
+    rng = np.random.default_rng(3)
+    values = rng.choice([SKIP, LOOKUP, INTERPOLATE, 0.5, 1.0], size=(6, 9)).astype(np.float32)
+    divisor, size = 4, (34, 22)   # the last column and row of blocks cut by the frame
+    runs = block_runs(values, divisor, size)
+    painted = np.full((size[1], size[0]), SKIP, np.float32)
+    hits = np.zeros((size[1], size[0]), int)
+    for vertices in (runs.flat, runs.lookup):
+        for rect in vertices.reshape(-1, 6, 3):
+            x0, y0 = rect[:, :2].min(axis=0).astype(int)
+            x1, y1 = rect[:, :2].max(axis=0).astype(int)
+            painted[y0:y1, x0:x1] = rect[0, 2]
+            hits[y0:y1, x0:x1] += 1
+    expected = np.repeat(np.repeat(values, divisor, axis=0), divisor, axis=1)
+    expected = expected[:size[1], :size[0]]
+    assert np.array_equal(painted, expected)
+    assert hits.max() == 1
+    assert np.all(runs.lookup[:, 2] == LOOKUP) and np.all(runs.flat[:, 2] != LOOKUP)
+    assert runs.blocks["lookup"] == int(np.sum(values == LOOKUP))
+
+
+@pytest.fixture
+def renderer(ctx, tiny):
+    made = Renderer(ctx, tiny, SIZE, gbuffer=True)
+    yield made
+    made.release()
+
+
+@pytest.mark.parametrize("method", ["segment-maps", "pcss"])
+def test_the_window_composite_matches_the_lookup_at_every_pixel(renderer, method):
+    settings = TraceSettings(method=method, maps=8)
+    view = View.from_camera(renderer.scene.camera, SIZE)
+    renderer.render(1.0, view)
+    every = renderer.trace(1.0, settings).visibility       # every pixel looked up
+    renderer.traced.reduce_soft(Upsampling(divisor=4), b"view", np.zeros(3))
+    frame = renderer.render(1.0, view, soft=settings)
+    shown = renderer.traced.window_visibility(renderer.target)
+    covered = np.isfinite(every)
+    assert frame.soft.visibility.shape == (-(-SIZE[1] // 4), -(-SIZE[0] // 4))   # the points
+    blocks = renderer.traced.direct.runs.blocks
+    assert blocks["lookup"] > 0 and blocks["flat"] > 0
+    # Interpolated blocks carry at most the tolerance; most pixels are exact.
+    assert rmse(shown[covered], every[covered]) < TOLERANCE / 4
+    assert np.mean(np.abs(shown[covered] - every[covered]) < 1e-4) > 0.8
+
+
+def test_a_still_view_makes_no_gl_objects_after_the_first_frame(renderer):
+    settings = TraceSettings(method="segment-maps", maps=8)
+    view = View.from_camera(renderer.scene.camera, SIZE)
+    renderer.traced.reduce_soft(Upsampling(divisor=4), b"view", np.zeros(3))
+    renderer.render(0.0, view, soft=settings)
+    objects = renderer.gl_objects()
+    for t in (0.5, 1.0, 1.5):   # the walkers walk
+        renderer.render(t, view, soft=settings)
+        assert renderer.gl_objects() == objects
+
+
+def test_the_walkers_layers_keep_no_trail_of_earlier_poses(ctx, renderer):
+    settings = TraceSettings(method="segment-maps", maps=4)
+    view = View.from_camera(renderer.scene.camera, SIZE)
+    for t in (0.0, 0.6, 1.2):   # the walkers' layers restored where they were, then redrawn
+        renderer.render(t, view)
+        kept = renderer.trace(t, settings).visibility
+    fresh = RasterSoft(ctx, renderer.geom, renderer.scene)
+    try:
+        target = renderer.target
+        anew = fresh.trace((target.position, target.normal, target.colour), SIZE,
+                           renderer.models(1.2), settings, renderer.traced.segment())
+    finally:
+        fresh.release()
+    assert np.array_equal(np.isnan(kept), np.isnan(anew.visibility))
+    covered = np.isfinite(kept)
+    assert np.max(np.abs(kept[covered] - anew.visibility[covered])) < 1e-6
