@@ -19,15 +19,15 @@ from pathlib import Path
 from game.app import outputs
 from game.bench.acceptance import is_default
 from game.bench.report_accuracy import (
-    AccuracyRun,
     accuracy_section,
     is_accuracy_run,
     load_accuracy_run,
 )
-from game.bench.report_cache import CacheRun, cache_section, is_cache_run, load_cache_run
+from game.bench.report_cache import cache_section, is_cache_run, load_cache_run
 from game.bench.report_shading import shading_section
 from game.bench.rows import camera_ms, maps_ms, read_rows, row_number
 from game.bench.runs import COMPARED_GROUPS, PARAM_KEYS, RERENDER
+from game.bench.suite_records import SuiteRun
 from game.errors import GameError
 from game.gpu.timing import THREAD_CLOCK
 
@@ -268,8 +268,8 @@ the charts this page shows need to be kept.
 """
 
 
-def results_page(runs: list[RecordedRun], here: Path, caches: list[CacheRun] = (),
-                 sweeps: list[AccuracyRun] = ()) -> str:
+def results_page(runs: list[RecordedRun], here: Path, caches: list[SuiteRun] = (),
+                 sweeps: list[SuiteRun] = ()) -> str:
     """The whole of ``docs/results.md``: the two questions first, the soft-shadow cache
     question, the random scenes, then every run."""
     lines = ["# Results", "", INTRO]

@@ -7,37 +7,26 @@ the error. Everything said here is computed from that file (game/bench/accuracy_
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
-from dataclasses import dataclass
 from pathlib import Path
 
 from game.bench.accuracy_summary import BASELINES, summarise
-from game.bench.suite_records import read_suite_run
+from game.bench.suite_records import SuiteRun, read_suite_run
 
 ACCURACY_COLUMNS = ("seed", "method", "misclassified", "shadowed_either", "error_pct", "notes",
                     "status")
-
-
-@dataclass(frozen=True)
-class AccuracyRun:
-    """One accuracy sweep's folder, its record (``run.json``) and its rows."""
-
-    name: str
-    folder: Path
-    record: dict
-    rows: list[dict]
 
 
 def is_accuracy_run(folder: Path) -> bool:
     return (folder / "accuracy.csv").is_file()
 
 
-def load_accuracy_run(folder: Path) -> AccuracyRun:
+def load_accuracy_run(folder: Path) -> SuiteRun:
     """An accuracy sweep's folder; a missing or garbled file is refused in one line."""
-    record, rows = read_suite_run(folder, "accuracy.csv", ACCURACY_COLUMNS, "accuracy sweep",
-                                  "accuracy")
-    return AccuracyRun(folder.name, folder, record, _recorded(rows, record))
+    run = read_suite_run(folder, "accuracy.csv", ACCURACY_COLUMNS, "accuracy sweep", "accuracy")
+    return dataclasses.replace(run, rows=_recorded(run.rows, run.record))
 
 
 def _recorded(rows: list[dict], record: dict) -> list[dict]:
@@ -54,7 +43,7 @@ def _pct(value: float | None) -> str:
     return "-" if value is None or math.isnan(value) else f"{value:.2f}%"
 
 
-def accuracy_section(run: AccuracyRun, here: Path) -> list[str]:
+def accuracy_section(run: SuiteRun, here: Path) -> list[str]:
     """The section of the results page: the targets' counts first, then the figures per
     method and the worst seeds."""
     methods = tuple(dict.fromkeys(r["method"] for r in run.rows))

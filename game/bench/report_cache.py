@@ -9,35 +9,23 @@ visibility equals the GPU tracer's. Everything said here is computed from that f
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
 from pathlib import Path
 
 from game.bench.rows import row_number
-from game.bench.suite_records import read_suite_run
+from game.bench.suite_records import SuiteRun, read_suite_run
 
 CACHED = ("grid", "tri-cache", "voxel-cache")  # the methods compared; brute is the oracle
 CACHE_COLUMNS = ("scene", "method", "samples", "d1_misses_per_ray", "ll_misses_per_ray",
                  "ms_per_ray_1thread", "embree_ms_per_ray", "gpu_differ", "points")
 
 
-@dataclass(frozen=True)
-class CacheRun:
-    """One cache run's folder, its record (``run.json``) and its rows."""
-
-    name: str
-    folder: Path
-    record: dict
-    rows: list[dict]
-
-
 def is_cache_run(folder: Path) -> bool:
     return (folder / "cache.csv").is_file()
 
 
-def load_cache_run(folder: Path) -> CacheRun:
+def load_cache_run(folder: Path) -> SuiteRun:
     """A cache run's folder; a missing or garbled file is refused in one line."""
-    record, rows = read_suite_run(folder, "cache.csv", CACHE_COLUMNS, "cache run", "cache")
-    return CacheRun(folder.name, folder, record, rows)
+    return read_suite_run(folder, "cache.csv", CACHE_COLUMNS, "cache run", "cache")
 
 
 def _cell(rows: list[dict], scene: str, method: str, n: int) -> dict | None:
@@ -67,7 +55,7 @@ def _factors(rows: list[dict]) -> tuple[float, float]:
     return min(factors), max(factors)
 
 
-def cache_section(run: CacheRun, here: Path) -> list[str]:
+def cache_section(run: SuiteRun, here: Path) -> list[str]:
     """The section of the results page: the answer first, then a table per scene."""
     rows = run.rows
     scenes = list(dict.fromkeys(r["scene"] for r in rows))

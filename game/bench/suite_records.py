@@ -5,15 +5,26 @@ from __future__ import annotations
 
 import csv
 import json
+from dataclasses import dataclass
 from pathlib import Path
 
 from game.errors import GameError
 
 
+@dataclass(frozen=True)
+class SuiteRun:
+    """One recorded suite run's folder, its record (``run.json``) and its rows."""
+
+    name: str
+    folder: Path
+    record: dict
+    rows: list[dict]
+
+
 def read_suite_run(folder: Path, csv_name: str, columns: tuple[str, ...], what: str,
-                   suite: str) -> tuple[dict, list[dict]]:
-    """The record and rows of the ``suite`` run in ``folder`` (``what`` names it in
-    messages); its CSV must hold ``columns``."""
+                   suite: str) -> SuiteRun:
+    """The ``suite`` run in ``folder`` (``what`` names it in messages); its CSV must hold
+    ``columns``."""
     path, record_path = folder / csv_name, folder / "run.json"
     if not record_path.is_file():
         raise GameError(f"{folder}: not a recorded {what}: no run.json (python -m game bench "
@@ -29,4 +40,4 @@ def read_suite_run(folder: Path, csv_name: str, columns: tuple[str, ...], what: 
         raise GameError(f"{record_path}: not a run record (no command or date)")
     if not rows or any(c not in rows[0] for c in columns):
         raise GameError(f"{path}: not the {suite} suite's columns")
-    return record, rows
+    return SuiteRun(folder.name, folder, record, rows)

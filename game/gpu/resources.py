@@ -33,6 +33,17 @@ def attached_shaders(programs) -> int:
     return sum(int(GL.glGetProgramiv(p.glo, GL.GL_ATTACHED_SHADERS)) for p in programs)
 
 
+def release_targets(ctx, objects) -> None:
+    """Release these GL objects (framebuffers and the textures they draw into; None skipped),
+    the default framebuffer bound first: moderngl re-binds the framebuffer it used last after
+    making one, and must not be left holding a name about to be deleted."""
+    objects = [obj for obj in objects if obj is not None]
+    if objects:
+        ctx.detect_framebuffer(0).use()
+    for obj in objects:
+        obj.release()
+
+
 def live_gl_names(gap: int = 1024) -> dict[str, int]:
     """How many names of each GL object kind are alive in the current context.
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from game.errors import GameError
+from game.gpu import resources
 
 SKY = (0.58, 0.68, 0.80)   # the clear colour: pixels with no geometry
 
@@ -98,10 +99,6 @@ class FrameTarget:
         return 3 + 4 * self.gbuffer
 
     def release(self) -> None:
-        # moderngl re-binds the framebuffer it last used after creating one; leave it the
-        # default framebuffer, not one whose name is about to be deleted.
-        self.ctx.detect_framebuffer(0).use()
-        for obj in (self.framebuffer, self.depth, self.colour, self.position, self.normal,
-                    self.shading, self.albedo):
-            if obj is not None:
-                obj.release()
+        resources.release_targets(self.ctx, (self.framebuffer, self.depth, self.colour,
+                                             self.position, self.normal, self.shading,
+                                             self.albedo))

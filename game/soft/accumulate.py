@@ -169,10 +169,7 @@ class Accumulation:
         return 2 * len(programs) + resources.attached_shaders(programs) + len(self._targets)
 
     def _release_targets(self) -> None:
-        if self._targets:
-            self.ctx.detect_framebuffer(0).use()
-        for obj in self._targets:
-            obj.release()
+        resources.release_targets(self.ctx, self._targets)
         self._targets, self.history, self._framebuffers = [], [], []
         self.size = None
 

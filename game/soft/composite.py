@@ -205,13 +205,8 @@ class SoftComposite:
                 + sum(x is not None for x in held))
 
     def _release_target(self) -> None:
-        if self.framebuffer is not None:
-            self.ctx.detect_framebuffer(0).use()
-            for obj in (self.framebuffer, self.texture, self.visibility):
-                obj.release()
-        for obj in (self._measured_framebuffer, self._measured):
-            if obj is not None:
-                obj.release()
+        resources.release_targets(self.ctx, (self.framebuffer, self.texture, self.visibility,
+                                             self._measured_framebuffer, self._measured))
         self._measured = self._measured_framebuffer = None
         self.size = None
         self.visibility = self.texture = self.framebuffer = None

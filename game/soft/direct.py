@@ -209,10 +209,7 @@ class DirectRaster:
         return 2 + resources.attached_shaders([self._program]) + len(self._targets)
 
     def _release_targets(self) -> None:
-        if self._targets:
-            self.ctx.detect_framebuffer(0).use()
-        for obj in self._targets:
-            obj.release()
+        resources.release_targets(self.ctx, self._targets)
         self._targets = []
         self.size = self.cells = None
 

@@ -219,10 +219,7 @@ class ReducedTrace:
                 + self.accumulation.gl_objects())
 
     def _release_targets(self) -> None:
-        if self._objects:
-            self.ctx.detect_framebuffer(0).use()
-        for obj in self._objects:
-            obj.release()
+        resources.release_targets(self.ctx, self._objects)
         self._objects = []
         self.size = self.cells = None
 
