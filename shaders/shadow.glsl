@@ -48,6 +48,31 @@ bool decided(int i, int sampled_before, int sampled) {
     return sampled > sampled_before && u_maps[i].kind == KIND_CASCADE;
 }
 
+#if DEPTH_BOUNDS
+// The depth bounds of the cached maps, one texel per block of BOUNDS_BLOCK x BOUNDS_BLOCK depth
+// texels: (nearest, farthest) (game/gpu/depth_bounds.py).
+uniform sampler2DArray u_shadow_bounds;
+
+// The compare in map i at layer uv as its block's bounds settle it: 1 lit (nearer than every
+// texel of the block), 0 shadowed (farther than every one), -1 not settled, where the texels
+// must be read. The texels read are those within `reach` of the one at uv (1 with PCF's 3 x 3
+// taps), all in its block or not settled.
+float settled(int i, vec2 uv, float depth, int reach) {
+    if ((u_maps[i].flags & MAP_BOUNDED) == 0) {
+        return -1.0;
+    }
+    ivec2 size = textureSize(u_shadow_maps, 0).xy;
+    ivec2 t = clamp(ivec2(uv * vec2(size)), ivec2(0), size - 1);
+    ivec2 inner = t % BOUNDS_BLOCK;
+    if (any(lessThan(inner, ivec2(reach)))
+        || any(greaterThanEqual(inner, ivec2(BOUNDS_BLOCK - reach)))) {
+        return -1.0;
+    }
+    vec2 b = texelFetch(u_shadow_bounds, ivec3(t / BOUNDS_BLOCK, u_maps[i].layer), 0).rg;
+    return depth <= b.x ? 1.0 : (depth > b.y ? 0.0 : -1.0);
+}
+#endif
+
 // Depth compare (or 3x3 PCF) in map i at uv in [0, 1] over the map, whose square is the share
 // uv_scale of its layer from uv_offset (character maps share layers).
 float lookup(int i, vec2 uv, float depth) {
@@ -62,8 +87,19 @@ float lookup(int i, vec2 uv, float depth) {
     vec4 taps = textureGather(u_shadow_maps, vec3(inside, layer), depth);
     g_on_edge = any(notEqual(taps, taps.xxxx));
 #endif
+#if DEPTH_BOUNDS
+    // Where the bounds settle it, the texels are still read (a lane masked off is paid for in
+    // full on llvmpipe), but all at one place, which stays in the cache.
+    float known = settled(i, uv, depth, PCF);
+    if (known >= 0.0) {
+        uv = vec2(0.0);
+        layer = 0.0;
+    }
+#else
+    float known = -1.0;
+#endif
 #if !PCF
-    return texture(u_shadow_maps, vec4(uv, layer, depth));
+    float v = texture(u_shadow_maps, vec4(uv, layer, depth));
 #else
     // Taps stay inside the map's own texels: half a texel in from its square's edges.
     vec2 step = 1.0 / vec2(textureSize(u_shadow_maps, 0).xy);
@@ -74,8 +110,9 @@ float lookup(int i, vec2 uv, float depth) {
             sum += texture(u_shadow_maps, vec4(clamp(uv + vec2(x, y) * step, lo, hi), layer, depth));
         }
     }
-    return sum / 9.0;
+    float v = sum / 9.0;
 #endif
+    return known >= 0.0 ? known : v;
 }
 
 // Bias in texel units, times the texel's world size at p: a normal offset that grows towards

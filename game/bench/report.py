@@ -362,7 +362,8 @@ def question_two(runs: list[RecordedRun], here: Path) -> list[str]:
         lines += header(run, here) + table(head, body)
     lines += ["Why many small maps win where they are cached, and what each extra map costs: "
               "[the architecture](design/architecture.md#many-small-maps-or-one-large-one), "
-              "[the depth array](design/depth-array.md) and [crowds](design/crowds.md).", ""]
+              "[the depth array](design/depth-array.md), [depth bounds](design/depth-bounds.md) "
+              "and [crowds](design/crowds.md).", ""]
     return lines
 
 

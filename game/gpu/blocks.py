@@ -46,6 +46,7 @@ MIN_GL_BINDINGS = {"uniform": 36, "buffer": 8}  # GL_MAX_*_BUFFER_BINDINGS of an
 # Texture units. Passes that never run together may share a unit.
 TEXTURE_UNITS = {
     "shadow_maps": 0,        # the depth array (shading pass)
+    "shadow_bounds": 11,     # its cached maps' depth bounds (shading pass)
     "trace_position": 1,     # the G-buffer, read by the tracer and the soft composite
     "trace_normal": 2,
     "trace_colour": 3,
@@ -64,13 +65,17 @@ TEXTURE_UNITS = {
 
 # -- the blocks' data ------------------------------------------------------------------------------
 
+# A map record's flags: drawn this frame, not taken from the cache (the "cache" debug view);
+# its depth bounds are made (game/gpu/depth_bounds.py).
+MAP_FRESH, MAP_BOUNDED = 1, 2
+
 # One shadow map (struct ShadowMap, an element of the ShadowMaps uniform block).
 MAP_DTYPE = np.dtype([
     ("view_proj", "<f4", (4, 4)),  # world -> the map's clip space
     ("layer", "<i4"),              # layer of the depth array
     ("texel", "<f4"),              # orthographic: metres per texel; perspective: per metre of depth
     ("uv_scale", "<f4"),           # share of its layer's side the map's square takes
-    ("fresh", "<i4"),              # 1: rendered this frame; 0: from the cache (debug view)
+    ("flags", "<i4"),              # MAP_FRESH | MAP_BOUNDED
     ("eye", "<f4", 3),             # the map's eye (perspective maps)
     ("kind", "<i4"),               # what it holds: KIND_* of game/shadows/plan.py
     ("bounds", "<f4", 4),          # orthographic: light-space rectangle (xmin, ymin, xmax, ymax)

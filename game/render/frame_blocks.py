@@ -13,9 +13,10 @@ import moderngl
 import numpy as np
 
 from game import transforms
-from game.gpu import blocks
+from game.gpu import blocks, depth_bounds
 from game.gpu.blocks import FRAME_DTYPE, LIGHT_DTYPE, MAP_DTYPE
 from game.render.frame import View
+from game.render.shadow_pass import bounded_maps
 from game.scene.geometry import PackedGeometry, srgb_to_linear
 from game.scene.model import Light
 from game.shadows.light_kinds import kind_of
@@ -40,7 +41,9 @@ def shader_defines(ctx) -> dict:
          "GRID_ORTHO": blocks.GRID_ORTHO, "GRID_OCTAHEDRAL": blocks.GRID_OCTAHEDRAL,
          "GRID_TILES": blocks.GRID_TILES,
          "KIND_CASCADE": KIND_CASCADE, "KIND_CLUMP": KIND_CLUMP, "KIND_FALLBACK": KIND_FALLBACK,
-         "KIND_CHARACTER": KIND_CHARACTER, "KIND_ALL": KIND_ALL}
+         "KIND_CHARACTER": KIND_CHARACTER, "KIND_ALL": KIND_ALL,
+         "MAP_FRESH": blocks.MAP_FRESH, "MAP_BOUNDED": blocks.MAP_BOUNDED,
+         "BOUNDS_BLOCK": depth_bounds.BLOCK}
     d.update({f"DEBUG_{name.upper().replace('-', '_')}": value
               for name, value in blocks.DEBUG_VIEWS.items() if name != "none"})
     d.update({f"LIGHT_{kind.upper()}": value for kind, value in blocks.LIGHT_KINDS.items()})
@@ -143,7 +146,9 @@ class FrameBlocks:
         block["texel"][:n] = [f.texel for f in fits]
         block["uv_scale"][:n] = np.array([rec.viewport for rec in maps], float) / plan.resolution
         block["uv_offset"][:n] = np.array([rec.origin for rec in maps], float) / plan.resolution
-        block["fresh"][:n] = [i in fresh for i in range(n)]
+        bounded = bounded_maps(plan)
+        block["flags"][:n] = [(blocks.MAP_FRESH if i in fresh else 0)
+                              | (blocks.MAP_BOUNDED if bounded[i] else 0) for i in range(n)]
         block["eye"][:n] = np.stack([f.eye for f in fits])
         block["kind"][:n] = [rec.kind for rec in maps]
         block["bounds"][:n] = np.stack([f.rect for f in fits])

@@ -28,8 +28,8 @@ from game.render.light_grids import build_grids
 from game.render.pixel_counts import COUNT_EVERY, PixelCounts
 from game.render.scene_buffers import SceneBuffers
 from game.render.scene_edits import SceneEdits
-from game.render.shading_pass import ShadingPass, Variant
-from game.render.shadow_pass import ShadowMapPass
+from game.render.shading_pass import SHADOW_UNIT, ShadingPass, Variant
+from game.render.shadow_pass import ShadowMapPass, bounded_maps
 from game.render.target import SKY, FrameTarget
 from game.render.traced_lighting import TracedLighting
 from game.scene.geometry import PackedGeometry
@@ -195,7 +195,7 @@ class Renderer(SceneEdits):
         timer = self.timer
         plan, grid_mode = self._plan(models, view)
         with timer.measure(passes.SHADOW_STATIC):
-            triangles = self.shadow_pass.draw_maps(plan, plan.render_static)
+            triangles = self.shadow_pass.draw_static(plan, SHADOW_UNIT)
         with timer.measure(passes.SHADOW_DYNAMIC):
             triangles += self.shadow_pass.draw_dynamic(plan)
         culled = self.cull and self.culler is not None
@@ -205,10 +205,11 @@ class Renderer(SceneEdits):
         with timer.measure(passes.SHADE):
             count = self.counts.count_now(self.shadows)
             variant = Variant.of(self.target.gbuffer, self.scene.lights, self.settings.pcf,
-                                 grid_mode, blocks.DEBUG_VIEWS[self.debug_view], count)
+                                 grid_mode, blocks.DEBUG_VIEWS[self.debug_view], count,
+                                 any(bounded_maps(plan)))
             if count:
                 self.blocks.count_pixels()
-            self.shading.draw(self.target, self.shadow_pass.array, variant, self.culler, culled)
+            self.shading.draw(self.target, self.shadow_pass, variant, self.culler, culled)
             self.counts.drawn(plan, count)
         return plan, triangles, culled
 
@@ -240,13 +241,14 @@ class Renderer(SceneEdits):
             rgba = self.target.read_colour()
             covered = rgba[..., 3] > 0
             gbuffer = self.target.read_gbuffer(covered) if self.target.gbuffer else None
-        candidates = (self.shading.candidates(self.target, self.shadow_pass.array, self.culler)
+        candidates = (self.shading.candidates(self.target, self.shadow_pass, self.culler)
                       if self.count_candidates else None)
         if gbuffer is not None and len(self.scene.lights) > 1:
             variant = Variant.of(True, self.scene.lights, self.settings.pcf, blocks.GRID_NONE,
-                                 blocks.DEBUG_VIEWS[self.debug_view])
+                                 blocks.DEBUG_VIEWS[self.debug_view],
+                                 depth_bounds=self.shading.last[0].depth_bounds)
             gbuffer["lit_lights"] = self.shading.each_light(
-                self.target, self.shadow_pass.array, self.blocks, self.culler, variant,
+                self.target, self.shadow_pass, self.blocks, self.culler, variant,
                 gbuffer["lit"], covered, len(self.scene.lights))
         return Frame(
             image=np.ascontiguousarray(rgba[..., :3]), covered=covered,

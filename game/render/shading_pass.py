@@ -15,12 +15,13 @@ import moderngl
 import numpy as np
 
 from game.gpu import blocks, glsl, resources
-from game.gpu.depth_array import DepthArray
 from game.render.cull import TriangleCuller
 from game.render.scene_buffers import SceneBuffers
+from game.render.shadow_pass import ShadowMapPass
 from game.render.target import FrameTarget
 
 SHADOW_UNIT = blocks.TEXTURE_UNITS["shadow_maps"]
+BOUNDS_UNIT = blocks.TEXTURE_UNITS["shadow_bounds"]
 
 
 class Variant(NamedTuple):
@@ -35,16 +36,17 @@ class Variant(NamedTuple):
     count_pixels: bool = False  # each map's pixels near its shadow edges, counted (FrameBlocks)
     # The colour's alpha holds the map records each pixel considered, not the maps it read.
     count_candidates: bool = False
+    depth_bounds: bool = False  # some maps have depth bounds (game/gpu/depth_bounds.py)
 
     @classmethod
     def of(cls, gbuffer: bool, lights: list, pcf: bool, grid_mode: int,
-           debug_view: int, count_pixels: bool = False) -> Variant:
+           debug_view: int, count_pixels: bool = False, depth_bounds: bool = False) -> Variant:
         """The variant for a frame: with several lights, their kinds and grids are read from
         their records, so one program serves them all."""
         if len(lights) > 1:
-            return cls(gbuffer, 0, pcf, 0, debug_view, True, count_pixels)
+            return cls(gbuffer, 0, pcf, 0, debug_view, True, count_pixels, False, depth_bounds)
         return cls(gbuffer, blocks.LIGHT_KINDS[lights[0].kind], pcf, grid_mode, debug_view,
-                   False, count_pixels)
+                   False, count_pixels, False, depth_bounds)
 
 
 class ShadingPass:
@@ -65,7 +67,8 @@ class ShadingPass:
                        "PCF": variant.pcf, "GRID": variant.grid_mode,
                        "DEBUG_VIEW": variant.debug_view, "MANY_LIGHTS": variant.many_lights,
                        "COUNT_PIXELS": variant.count_pixels,
-                       "COUNT_CANDIDATES": variant.count_candidates}
+                       "COUNT_CANDIDATES": variant.count_candidates,
+                       "DEPTH_BOUNDS": variant.depth_bounds}
             prog = self.ctx.program(vertex_shader=glsl.build("shade.vert", self.defines),
                                     fragment_shader=glsl.build("shade.frag", defines))
             culled = (None if culler is None
@@ -74,17 +77,17 @@ class ShadingPass:
                                        culled)
         return self._programs[variant]
 
-    def candidates(self, target: FrameTarget, array: DepthArray,
+    def candidates(self, target: FrameTarget, maps: ShadowMapPass,
                    culler: TriangleCuller | None) -> np.ndarray:
         """(H, W) map records each pixel considered in the last draw: it is drawn again
         (outside the frame's timings) with the records counted in the colour's alpha, which
         alone differs."""
         variant, culled_only = self.last
-        self.draw(target, array, variant._replace(count_pixels=False, count_candidates=True),
+        self.draw(target, maps, variant._replace(count_pixels=False, count_candidates=True),
                   culler, culled_only)
         return np.maximum(target.read_colour()[..., 3].astype(np.int32) - 1, 0)
 
-    def each_light(self, target: FrameTarget, array: DepthArray, frame_blocks,
+    def each_light(self, target: FrameTarget, maps: ShadowMapPass, frame_blocks,
                    culler: TriangleCuller | None, variant: Variant, lit: np.ndarray,
                    covered: np.ndarray, n_lights: int) -> np.ndarray:
         """(H, W, ``n_lights``) visibility of every light, light 0's ``lit`` first: the pass
@@ -94,13 +97,13 @@ class ShadingPass:
         out[..., 0] = lit
         for k in range(1, n_lights):
             frame_blocks.keep_visibility_of(k)
-            self.draw(target, array, variant, culler, False)
+            self.draw(target, maps, variant, culler, False)
             out[..., k] = target.read_gbuffer(covered)["lit"]
         frame_blocks.keep_visibility_of(0)
-        self.draw(target, array, variant, culler, False)
+        self.draw(target, maps, variant, culler, False)
         return out
 
-    def draw(self, target: FrameTarget, array: DepthArray, variant: Variant,
+    def draw(self, target: FrameTarget, maps: ShadowMapPass, variant: Variant,
              culler: TriangleCuller | None, culled_only: bool) -> None:
         """Clear ``target`` and draw every object: with ``culled_only``, the triangles the
         culler's last run kept; otherwise closed volumes with back faces culled, then the open
@@ -109,8 +112,11 @@ class ShadingPass:
         self.last = (variant, culled_only)
         target.begin()
         self.ctx.enable(moderngl.DEPTH_TEST)
-        array.bind(SHADOW_UNIT)
+        maps.array.bind(SHADOW_UNIT)
         prog["u_shadow_maps"].value = SHADOW_UNIT
+        if variant.depth_bounds:
+            maps.bounds.bind(BOUNDS_UNIT)
+            prog["u_shadow_bounds"].value = BOUNDS_UNIT
         if culled_only:
             culler.draw(culled)
             return

@@ -8,6 +8,7 @@ import moderngl
 
 from game.gpu import glsl, resources
 from game.gpu.depth_array import DepthArray
+from game.gpu.depth_bounds import DepthBounds, holds
 from game.render.scene_buffers import SceneBuffers
 from game.shadows.plan import KIND_CHARACTER, ShadowPlan
 
@@ -39,6 +40,14 @@ def merged_squares(squares: set[tuple[int, int, int, int]]) -> set[tuple[int, in
             squares.add((layer, x, y, side))
 
 
+def bounded_maps(plan: ShadowPlan) -> list[bool]:
+    """Which of the plan's maps have depth bounds (game/gpu/depth_bounds.py): those drawn once
+    and kept, not those drawn every frame, whose squares are made of whole blocks."""
+    each_frame = set(plan.render_dynamic)
+    return [i not in each_frame and holds(rec.origin, rec.viewport)
+            for i, rec in enumerate(plan.maps)]
+
+
 class ShadowMapPass:
     """Draws a plan's maps. Owns the depth programs, their vertex arrays and the depth array.
 
@@ -61,6 +70,7 @@ class ShadowMapPass:
         self.depth_vao = buffers.vertex_array(self.depth_prog)
         self.layered_vao = buffers.vertex_array(self.layered_prog) if self.layered else None
         self.array: DepthArray | None = None
+        self.bounds: DepthBounds | None = None
 
     def prepare(self, resolution: int, layers: int) -> bool:
         """Make sure the array holds ``layers`` layers of ``resolution``; True when it was made
@@ -70,9 +80,22 @@ class ShadowMapPass:
             return False
         if a is not None:
             a.release()
-            self.array = None  # a refused new array must not leave the released one
+            self.bounds.release()
+            self.array = self.bounds = None  # a refused new array must not leave released ones
         self.array = DepthArray(self.ctx, resolution, layers)
+        self.bounds = DepthBounds(self.ctx, resolution, layers)
         return True
+
+    def draw_static(self, plan: ShadowPlan, unit: int) -> int:
+        """Render the plan's cached maps due this frame, and make the depth bounds of those
+        that :func:`bounded_maps` marks (reading the array through texture unit ``unit``);
+        returns the triangles drawn."""
+        triangles = self.draw_maps(plan, plan.render_static)
+        marked = bounded_maps(plan)
+        self.bounds.build(self.array, unit, [
+            (plan.maps[i].layer, *plan.maps[i].origin, plan.maps[i].viewport)
+            for i in plan.render_static if marked[i]])
+        return triangles
 
     def draw_maps(self, plan: ShadowPlan, indices: list[int]) -> int:
         """Render the listed maps into their layers, one framebuffer each; returns the
@@ -133,7 +156,7 @@ class ShadowMapPass:
 
     @property
     def memory_bytes(self) -> int:
-        return self.array.bytes if self.array is not None else 0
+        return self.array.bytes + self.bounds.bytes if self.array is not None else 0
 
     def _programs(self) -> list:
         return [p for p in (self.depth_prog, self.layered_prog) if p is not None]
@@ -142,13 +165,14 @@ class ShadowMapPass:
         """Programs, their attached shaders, vertex arrays, and the array's texture and
         framebuffers."""
         programs = self._programs()
-        array = 0 if self.array is None else self.array.gl_objects()
+        array = 0 if self.array is None else self.array.gl_objects() + self.bounds.gl_objects()
         return 2 * len(programs) + resources.attached_shaders(programs) + array
 
     def release(self) -> None:
         if self.array is not None:
             self.array.release()
-            self.array = None
+            self.bounds.release()
+            self.array = self.bounds = None
         for obj in (self.depth_vao, self.layered_vao, *self._programs()):
             if obj is not None:
                 obj.release()

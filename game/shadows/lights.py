@@ -148,15 +148,31 @@ class LightShadows:
                  max_layers: int, max_maps: int):
         # The baselines' maps are sized anew where their array is over the baselines' budget;
         # each time every side halves, so this ends.
+        # A budgeted method's lights are planned again within less where their layers, laid
+        # out in whole array layers, take more than the budget: each time the budget shrinks by
+        # what they took past it, at least a layer, so this ends.
         budget_notes: list[str] = []
+        asked, packed = settings.budget_mib, None
         while True:
             self._make(geom, lights, settings, max_layers, max_maps)
             fitted = fit_baseline_memory(settings, self._resolution(), self._places()[1])
-            if fitted is None:
+            if fitted is not None:
+                settings, note = fitted
+                budget_notes.append(note)
+                continue
+            over = self.array_mib - asked
+            step = max(over, layer_bytes(self._resolution()) / 2**20)
+            if not registry.method_class(settings.method).budgeted or over <= 0 \
+                    or settings.budget_mib <= step:
                 break
-            settings, note = fitted
-            budget_notes.append(note)
-        self._notes[:0] = budget_notes
+            settings = dataclasses.replace(settings, budget_mib=settings.budget_mib - step)
+            packed = (f"the lights' maps, laid out in whole layers of the array, took more than "
+                      f"the {asked:g} MiB budget; they are planned within "
+                      f"{settings.budget_mib:.4g} MiB")
+        if packed and self.array_mib > asked:
+            packed = (f"the lights' maps need {self.array_mib:.4g} MiB of array layers at the "
+                      f"fewest, more than the {asked:g} MiB budget")
+        self._notes[:0] = budget_notes + ([packed] if packed else [])
 
     def _make(self, geom: PackedGeometry, lights: list[Light], settings: ShadowSettings,
               max_layers: int, max_maps: int) -> None:
@@ -279,6 +295,11 @@ class LightShadows:
         first where characters or clumps came or went."""
         self._check_view_budget()
         return ArrayShape(self._resolution(), self._places()[1])
+
+    @property
+    def array_mib(self) -> float:
+        """The memory of the depth array the plans need, with its depth bounds."""
+        return self._places()[1] * layer_bytes(self._resolution()) / 2**20
 
     def _resolution(self) -> int:
         """Texels per side of the array's layers: the largest any light's method asks."""

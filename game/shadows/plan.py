@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from game.gpu import depth_bounds
 from game.scene.geometry import Piece
 from game.shadows.fit import MapFit
 
@@ -48,8 +49,9 @@ CASCADE_RESOLUTION = 2048      # csm: texels per side of each cascade
 
 
 def layer_bytes(resolution: int) -> int:
-    """The bytes of one depth-array layer of ``resolution`` texels per side."""
-    return DEPTH_TEXEL_BYTES * resolution * resolution
+    """The bytes of one depth-array layer of ``resolution`` texels per side, with its depth
+    bounds (game/gpu/depth_bounds.py)."""
+    return DEPTH_TEXEL_BYTES * resolution * resolution + depth_bounds.layer_bytes(resolution)
 
 
 @dataclass

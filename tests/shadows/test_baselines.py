@@ -9,7 +9,7 @@ from game.app import capture
 from game.render.renderer import Renderer, View
 from game.scene import Camera, load_scene
 from game.shadows.methods import cascaded
-from game.shadows.plan import ShadowSettings
+from game.shadows.plan import ShadowSettings, layer_bytes
 from tests.cli.cli_helpers import in_process
 from tests.helpers import ACCURACY_SCENES, POINT_AMONG, TINY
 
@@ -82,7 +82,8 @@ def test_static_dynamic_caches_the_static_map(ctx, tmp_path, courtyard):
     for f in later:
         assert f["maps_rendered"] == 1 and f["maps_cached"] == 1
         assert f["triangles_to_maps"] == character_triangles
-    assert stats["shadow_memory_mib"] == pytest.approx(2 * 4 * 1024 ** 2 / 2 ** 20)
+    # Two layers of 1024^2 (the statics' map and the characters'), with their depth bounds.
+    assert stats["shadow_memory_mib"] == pytest.approx(2 * layer_bytes(1024) / 2 ** 20, abs=1e-3)
 
 
 def test_csm_renders_every_cascade_every_frame(ctx, tmp_path, courtyard):

@@ -16,7 +16,7 @@ from game.gpu.limits import GLLimits
 from game.render.renderer import Renderer
 from game.scene import parse_scene
 from game.shadows.budget import fit_settings
-from game.shadows.plan import KIND_CHARACTER, ShadowSettings
+from game.shadows.plan import KIND_CHARACTER, ShadowSettings, layer_bytes
 from tests.helpers import ACCURACY_SIZE as SIZE
 from tests.helpers import MAX_ERROR
 from tests.helpers import TINY as TINY_PATH
@@ -146,7 +146,7 @@ def test_character_maps_take_at_most_half_the_budget(ctx):
     """Six characters whose largest maps each fill a layer, in a budget of eight layers: they
     get four, and the clumps keep the other four (not the two the worst case would leave)."""
     settings = ShadowSettings(clump_resolution=256, character_resolution=256,
-                              budget_mib=8 * 256 * 256 * 4 / 2**20)
+                              budget_mib=8 * layer_bytes(256) / 2**20)
     renderer = Renderer(ctx, crowd_scene(), SIZE, settings, gbuffer=True)
     try:
         method = renderer.method
@@ -172,16 +172,17 @@ def test_more_maps_than_the_uniform_block_holds(ctx):
 
 def test_small_max_texture_size_and_budget(ctx):
     limits = GLLimits.of(ctx).tightened(max_texture_size=512)
-    settings = ShadowSettings(clump_resolution=2048, budget_mib=2)
+    budget = 2 * layer_bytes(512)
+    settings = ShadowSettings(clump_resolution=2048, budget_mib=budget / 2**20)
     renderer = Renderer(ctx, crowd_scene(), SIZE, settings, gbuffer=True, limits=limits)
     try:
         notes = renderer.notes
         assert renderer.settings.clump_resolution == 512
         assert any("GL_MAX_TEXTURE_SIZE" in n for n in notes)
-        # 2 MiB holds two 512^2 layers: the clumps and the characters share them.
+        # The budget holds two 512^2 layers: the clumps and the characters share them.
         assert renderer.shadow_memory_bytes == 0
         check(renderer)
-        assert renderer.shadow_memory_bytes <= 2 * 2**20
+        assert renderer.shadow_memory_bytes <= budget
     finally:
         renderer.release()
 

@@ -1,0 +1,138 @@
+"""Depth bounds of the cached maps: each block's nearest and farthest texel, made only for maps
+kept across frames, and a shading pass that reads them gives the very frame it gives without."""
+
+import numpy as np
+import pytest
+
+from game.gpu.depth_bounds import BLOCK
+from game.render import shadow_pass
+from game.render.renderer import Renderer, View
+from game.scene import default_scene_path, load_scene, parse_scene
+from game.shadows.plan import ShadowSettings
+from tests.helpers import SMALL_SIZE
+
+ASSETS = default_scene_path().parent
+
+
+def _depth_layers(array) -> np.ndarray:
+    from OpenGL import GL  # after the context: PyOpenGL picks its platform on import
+
+    GL.glBindTexture(GL.GL_TEXTURE_2D_ARRAY, array.texture)
+    data = GL.glGetTexImage(GL.GL_TEXTURE_2D_ARRAY, 0, GL.GL_DEPTH_COMPONENT, GL.GL_FLOAT)
+    GL.glBindTexture(GL.GL_TEXTURE_2D_ARRAY, 0)
+    r = array.resolution
+    return np.frombuffer(data, np.float32).reshape(array.layers, r, r)
+
+
+def test_each_block_holds_the_nearest_and_farthest_of_its_texels(ctx):
+    scene = load_scene(ASSETS / "courtyard.toml")
+    r = Renderer(ctx, scene, SMALL_SIZE)
+    try:
+        r.render(0.0, View.from_camera(scene.camera, SMALL_SIZE))
+        plan, maps = r.last_plan, r.shadow_pass
+        depth = _depth_layers(maps.array)
+        side = maps.bounds.side
+        bounds = np.frombuffer(maps.bounds.texture.read(), np.float32)
+        bounds = bounds.reshape(maps.array.layers, side, side, 2)
+        marked = shadow_pass.bounded_maps(plan)
+        assert any(marked)
+        for i, rec in enumerate(plan.maps):
+            if not marked[i]:
+                continue
+            x, y, n = *rec.origin, rec.viewport
+            texels = depth[rec.layer, y:y + n, x:x + n]
+            blocks = texels.reshape(n // BLOCK, BLOCK, n // BLOCK, BLOCK)
+            got = bounds[rec.layer, y // BLOCK:(y + n) // BLOCK, x // BLOCK:(x + n) // BLOCK]
+            np.testing.assert_array_equal(got[..., 0], blocks.min(axis=(1, 3)))
+            np.testing.assert_array_equal(got[..., 1], blocks.max(axis=(1, 3)))
+    finally:
+        r.release()
+
+
+def test_only_maps_kept_across_frames_and_made_of_whole_blocks_have_bounds(ctx):
+    scene = load_scene(ASSETS / "default.toml")
+    for method in ("clumped", "single", "static-dynamic"):
+        r = Renderer(ctx, scene, SMALL_SIZE, ShadowSettings(method=method))
+        try:
+            r.render(0.0, View.from_camera(scene.camera, SMALL_SIZE))
+            plan = r.last_plan
+            marked = shadow_pass.bounded_maps(plan)
+            each_frame = set(plan.render_dynamic)
+            for i, rec in enumerate(plan.maps):
+                whole = rec.viewport % BLOCK == 0 and rec.origin[0] % BLOCK == 0 \
+                    and rec.origin[1] % BLOCK == 0
+                assert marked[i] == (i not in each_frame and whole)
+            # single draws its one map every frame: nothing to bound, and no bounds are read.
+            assert any(marked) == (method != "single")
+            assert r.shading.last[0].depth_bounds == any(marked)
+        finally:
+            r.release()
+
+
+POINT_AMONG_BOXES = """
+[camera]
+position = [6.0, 5.0, 9.0]
+target = [0.0, 0.5, 0.0]
+[light]
+kind = "point"
+position = [0.3, 2.5, 0.2]
+[[floor]]
+shape = "box"
+size = [14.0, 0.2, 14.0]
+position = [0.0, -0.1, 0.0]
+[[static]]
+shape = "box"
+size = [1.0, 1.0, 1.0]
+position = [2.0, 0.5, 0.0]
+[[static]]
+shape = "sphere"
+radius = 0.6
+position = [-1.5, 0.6, 1.2]
+[[static]]
+shape = "box"
+size = [0.4, 2.0, 0.4]
+position = [0.5, 1.0, -2.0]
+"""
+
+
+@pytest.mark.parametrize("source", ["courtyard.toml", "default.toml", POINT_AMONG_BOXES])
+@pytest.mark.parametrize("pcf", [False, True])
+def test_a_frame_read_through_the_bounds_is_the_frame_read_without(ctx, monkeypatch, source,
+                                                                  pcf):
+    scene = (parse_scene(source) if "\n" in source
+             else load_scene(ASSETS / source))
+    size = SMALL_SIZE
+
+    def frame():
+        r = Renderer(ctx, scene, size, ShadowSettings(pcf=pcf), gbuffer=True)
+        try:
+            out = r.render(0.0, View.from_camera(scene.camera, size))
+            return out, r.shading.last[0].depth_bounds
+        finally:
+            r.release()
+
+    with_bounds, used = frame()
+    monkeypatch.setattr(shadow_pass, "holds", lambda origin, side: False)
+    without, unused = frame()
+    assert used and not unused
+    np.testing.assert_array_equal(with_bounds.image, without.image)
+    np.testing.assert_array_equal(with_bounds.gbuffer["lit"], without.gbuffer["lit"])
+
+
+def test_the_shading_pass_reads_the_bounds(ctx):
+    # Bounds that call every block's texels as far as can be (depth 1) light every fragment
+    # of the cached maps without reading a texel: the shadows of the statics are gone.
+    scene = load_scene(ASSETS / "courtyard.toml")
+    r = Renderer(ctx, scene, SMALL_SIZE, gbuffer=True)
+    try:
+        view = View.from_camera(scene.camera, SMALL_SIZE)
+        before = r.render(0.0, view).gbuffer["lit"]
+        bounds = r.shadow_pass.bounds.texture
+        bounds.write(np.ones(bounds.width * bounds.height * bounds.layers * 2, np.float32))
+        after = r.render(0.0, view).gbuffer["lit"]
+    finally:
+        r.release()
+    assert not r.last_plan.render_static   # the maps came from the cache, the bounds kept
+    shadowed = before < 0.5
+    assert shadowed.sum() > 100
+    assert (after[shadowed] > 0.5).mean() > 0.5
