@@ -42,7 +42,10 @@ def merged_squares(squares: set[tuple[int, int, int, int]]) -> set[tuple[int, in
 
 def bounded_maps(plan: ShadowPlan) -> list[bool]:
     """Which of the plan's maps have depth bounds (game/gpu/depth_bounds.py): those drawn once
-    and kept, not those drawn every frame, whose squares are made of whole blocks."""
+    and kept, not those drawn every frame, whose squares are made of whole blocks; none where
+    the plan has several lights (docs/design/depth-bounds.md says why)."""
+    if len(plan.light_first_maps) > 1:
+        return [False] * len(plan.maps)
     each_frame = set(plan.render_dynamic)
     return [i not in each_frame and holds(rec.origin, rec.viewport)
             for i, rec in enumerate(plan.maps)]

@@ -13,8 +13,8 @@ so the window neither accumulates nor filters it. Per frame:
    one visibility takes that value; one whose points all show geometry and differ by at most
    :data:`TOLERANCE` (a smooth stretch of a wide penumbra) interpolates them bilinearly; the
    others (the penumbrae's edges, depth edges, mixed coverage) look it up at each of their
-   pixels. Blocks in a row that share a class and a value join into one run, a rectangle of
-   the frame.
+   pixels. Blocks in a row that share a class and a value join into one run, and runs with
+   the same columns and value in consecutive rows into one rectangle of the frame.
 4. **Composite** (game/soft/composite.py, ``draw_runs``): the frame's picture is copied, then
    the runs are drawn over it, the agreed ones with their value and the others with the
    method's lookup at each pixel. Runs in the sky or in the umbra (agreed visibility 0) gain
@@ -113,10 +113,11 @@ def block_runs(values: np.ndarray, divisor: int, size: tuple[int, int]) -> Runs:
     value = values[rows, cols]
     drawn = value != SKIP
     rows, cols, ends, value = rows[drawn], cols[drawn], ends[drawn], value[drawn]
+    first, last, cols, ends, value = _stacked(rows, cols, ends, value)
     x0 = cols * divisor
     x1 = np.minimum(ends * divisor, size[0])
-    y0 = rows * divisor
-    y1 = np.minimum((rows + 1) * divisor, size[1])
+    y0 = first * divisor
+    y1 = np.minimum((last + 1) * divisor, size[1])
     corners = [(x0, y0), (x1, y0), (x1, y1), (x0, y0), (x1, y1), (x0, y1)]
     vertices = np.stack([np.stack([x, y, value], axis=1) for x, y in corners], axis=1)
     vertices = vertices.reshape(-1, 3).astype(np.float32)
@@ -126,6 +127,20 @@ def block_runs(values: np.ndarray, divisor: int, size: tuple[int, int]) -> Runs:
               "lookup": int(np.sum(values == LOOKUP)), "skipped": int(np.sum(values == SKIP))}
     lookup = per_vertex == LOOKUP
     return Runs(flat=vertices[~lookup], lookup=vertices[lookup], blocks=counts)
+
+
+def _stacked(rows: np.ndarray, cols: np.ndarray, ends: np.ndarray, value: np.ndarray) -> tuple:
+    """Runs of consecutive rows with the same columns and value joined into one rectangle:
+    llvmpipe sets up and bins every triangle, and a frame's runs are many and thin. Returns
+    each rectangle's first and last row, its columns and its value."""
+    order = np.lexsort((rows, value, ends, cols))
+    rows, cols, ends, value = rows[order], cols[order], ends[order], value[order]
+    starts = np.ones(len(rows), bool)
+    starts[1:] = ((cols[1:] != cols[:-1]) | (ends[1:] != ends[:-1])
+                  | (value[1:] != value[:-1]) | (rows[1:] != rows[:-1] + 1))
+    begin = np.flatnonzero(starts)
+    finish = np.append(begin[1:], len(rows)) - 1
+    return rows[begin], rows[finish], cols[begin], ends[begin], value[begin]
 
 
 class DirectRaster:

@@ -69,6 +69,19 @@ def test_only_maps_kept_across_frames_and_made_of_whole_blocks_have_bounds(ctx):
             r.release()
 
 
+def test_a_plan_of_several_lights_has_no_bounds(ctx):
+    scene = load_scene(ASSETS / "night_town.toml")
+    assert len(scene.lights) > 1
+    r = Renderer(ctx, scene, SMALL_SIZE)
+    try:
+        r.render(0.0, View.from_camera(scene.camera, SMALL_SIZE))
+        assert r.last_plan.render_static   # cached maps, which one light would bound
+        assert not any(shadow_pass.bounded_maps(r.last_plan))
+        assert not r.shading.last[0].depth_bounds
+    finally:
+        r.release()
+
+
 POINT_AMONG_BOXES = """
 [camera]
 position = [6.0, 5.0, 9.0]

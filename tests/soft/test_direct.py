@@ -56,6 +56,20 @@ def test_runs_cover_the_drawn_blocks_once_and_carry_their_values():
     assert runs.blocks["lookup"] == int(np.sum(values == LOOKUP))
 
 
+def test_runs_of_the_same_columns_and_value_in_consecutive_rows_are_one_rectangle():
+    values = np.full((5, 6), SKIP, np.float32)
+    values[0:4, 1:3] = LOOKUP       # four rows of the same run: one rectangle
+    values[0:2, 4:6] = 1.0          # two rows ...
+    values[3:5, 4:6] = 1.0          # ... a gap, two more: two rectangles
+    values[2, 0] = 0.5              # a run of one row
+    runs = block_runs(values, 2, (12, 10))
+    lookup = runs.lookup.reshape(-1, 6, 3)
+    assert len(lookup) == 1
+    assert lookup[0, :, :2].min(axis=0).tolist() == [2, 0]
+    assert lookup[0, :, :2].max(axis=0).tolist() == [6, 8]
+    assert len(runs.flat) // 6 == 3
+
+
 @pytest.fixture
 def renderer(ctx, tiny):
     made = Renderer(ctx, tiny, SIZE, gbuffer=True)
