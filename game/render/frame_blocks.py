@@ -16,7 +16,6 @@ from game import transforms
 from game.gpu import blocks, depth_bounds
 from game.gpu.blocks import FRAME_DTYPE, LIGHT_DTYPE, MAP_DTYPE
 from game.render.frame import View
-from game.render.shadow_pass import bounded_maps
 from game.scene.geometry import PackedGeometry, srgb_to_linear
 from game.scene.model import Light
 from game.shadows.light_kinds import kind_of
@@ -83,11 +82,12 @@ class FrameBlocks:
         self.pixels = ctx.buffer(reserve=4 * self.max_maps)  # per map: pixels near its edges
         self._frame_data = np.zeros(1, FRAME_DTYPE)
 
-    def upload(self, plan: ShadowPlan, spans: list[LightSpan], view: View,
-               grids: list[MapGrid], models: np.ndarray, geom: PackedGeometry,
+    def upload(self, plan: ShadowPlan, bounded: list[bool], spans: list[LightSpan],
+               view: View, grids: list[MapGrid], models: np.ndarray, geom: PackedGeometry,
                lights: list[Light], settings: ShadowSettings, enabled=None) -> None:
-        """Fill every block for this frame: ``spans`` and ``grids`` are each light's maps and
-        map grid; a light not ``enabled`` (default: all are) gives no light this frame."""
+        """Fill every block for this frame: ``bounded`` says which maps have depth bounds,
+        ``spans`` and ``grids`` are each light's maps and map grid; a light not ``enabled``
+        (default: all are) gives no light this frame."""
         if len(plan.maps) > self.max_maps:
             raise RuntimeError(f"{len(plan.maps)} maps exceed the uniform block ({self.max_maps})")
         n = geom.n_characters
@@ -101,7 +101,7 @@ class FrameBlocks:
                         for obj in rec.objects:  # a shared map holds several
                             character_maps[k, obj - geom.first_character] = index
             self.character_maps.write(character_maps.tobytes())
-        self.maps.write(self._maps(plan).tobytes())
+        self.maps.write(self._maps(plan, bounded).tobytes())
         data, bases = _joined(grids, spans)
         tile_base = len(data)
         tiles_x, tiles = tile_lights(lights, view, tile_base, enabled)
@@ -132,7 +132,7 @@ class FrameBlocks:
         self.frame.write(self._frame_data.tobytes())
 
     @staticmethod
-    def _maps(plan: ShadowPlan) -> np.ndarray:
+    def _maps(plan: ShadowPlan, bounded: list[bool]) -> np.ndarray:
         block = np.zeros(max(1, len(plan.maps)), MAP_DTYPE)
         maps = plan.maps
         if not maps:
@@ -146,7 +146,6 @@ class FrameBlocks:
         block["texel"][:n] = [f.texel for f in fits]
         block["uv_scale"][:n] = np.array([rec.viewport for rec in maps], float) / plan.resolution
         block["uv_offset"][:n] = np.array([rec.origin for rec in maps], float) / plan.resolution
-        bounded = bounded_maps(plan)
         block["flags"][:n] = [(blocks.MAP_FRESH if i in fresh else 0)
                               | (blocks.MAP_BOUNDED if bounded[i] else 0) for i in range(n)]
         block["eye"][:n] = np.stack([f.eye for f in fits])

@@ -193,9 +193,9 @@ class Renderer(SceneEdits):
         """Plan, draw the maps and shade: the plan, the triangles drawn into maps, and whether
         the camera pass drew only the culled triangles."""
         timer = self.timer
-        plan, grid_mode = self._plan(models, view)
+        plan, grid_mode, bounded = self._plan(models, view)
         with timer.measure(passes.SHADOW_STATIC):
-            triangles = self.shadow_pass.draw_static(plan, SHADOW_UNIT)
+            triangles = self.shadow_pass.draw_static(plan, bounded, SHADOW_UNIT)
         with timer.measure(passes.SHADOW_DYNAMIC):
             triangles += self.shadow_pass.draw_dynamic(plan)
         culled = self.cull and self.culler is not None
@@ -206,15 +206,16 @@ class Renderer(SceneEdits):
             count = self.counts.count_now(self.shadows)
             variant = Variant.of(self.target.gbuffer, self.scene.lights, self.settings.pcf,
                                  grid_mode, blocks.DEBUG_VIEWS[self.debug_view], count,
-                                 any(bounded_maps(plan)))
+                                 any(bounded))
             if count:
                 self.blocks.count_pixels()
             self.shading.draw(self.target, self.shadow_pass, variant, self.culler, culled)
             self.counts.drawn(plan, count)
         return plan, triangles, culled
 
-    def _plan(self, models: np.ndarray, view: View) -> tuple[ShadowPlan, int]:
-        """The method's plan for this frame, in the blocks; and the map grid's mode."""
+    def _plan(self, models: np.ndarray, view: View) -> tuple[ShadowPlan, int, list[bool]]:
+        """The method's plan for this frame, in the blocks; the map grid's mode; and which
+        maps have depth bounds (:func:`bounded_maps`)."""
         # The array first: making it anew loses every cached layer.
         shape = self.shadows.prepare()
         if self.shadow_pass.prepare(shape.resolution, shape.layers):
@@ -225,12 +226,13 @@ class Renderer(SceneEdits):
             self.culler.set_layout()
         s, lights = self.settings, self.scene.lights
         grids = build_grids(self.grids, plan, spans, lights, s)
-        self.blocks.upload(plan, spans, view, grids, models, self.geom, lights, s,
+        bounded = bounded_maps(plan)
+        self.blocks.upload(plan, bounded, spans, view, grids, models, self.geom, lights, s,
                            self.lights_on)
         self.blocks.bind()
         self.last_plan, self.last_spans = plan, spans
         self.last_view, self.last_models = view, models
-        return plan, grids[0].mode
+        return plan, grids[0].mode, bounded
 
     def _frame(self, counts: dict, culled: bool, read: bool) -> Frame:
         """The frame's record, with its ``counts`` (:func:`plan_counts`)."""

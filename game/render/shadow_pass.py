@@ -89,15 +89,14 @@ class ShadowMapPass:
         self.bounds = DepthBounds(self.ctx, resolution, layers)
         return True
 
-    def draw_static(self, plan: ShadowPlan, unit: int) -> int:
+    def draw_static(self, plan: ShadowPlan, bounded: list[bool], unit: int) -> int:
         """Render the plan's cached maps due this frame, and make the depth bounds of those
-        that :func:`bounded_maps` marks (reading the array through texture unit ``unit``);
-        returns the triangles drawn."""
+        that ``bounded`` (:func:`bounded_maps`) marks, reading the array through texture unit
+        ``unit``; returns the triangles drawn."""
         triangles = self.draw_maps(plan, plan.render_static)
-        marked = bounded_maps(plan)
         self.bounds.build(self.array, unit, [
             (plan.maps[i].layer, *plan.maps[i].origin, plan.maps[i].viewport)
-            for i in plan.render_static if marked[i]])
+            for i in plan.render_static if bounded[i]])
         return triangles
 
     def draw_maps(self, plan: ShadowPlan, indices: list[int]) -> int:
