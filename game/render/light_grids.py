@@ -27,6 +27,7 @@ def build_grids(builders: list[GridBuilder], plan: ShadowPlan, spans: list[Light
         grids.append(builder.build([m.fit for m in maps], kind_of(light).eye(light),
                                    settings.grid, [m.cover for m in maps], reach,
                                    tiles=[m.tile for m in maps],
+                                   spheres=[m.spheres for m in maps],
                                    steady=min(dynamic, default=len(maps))))
     return grids
 

@@ -28,7 +28,7 @@ from game.scene.model import Light
 from game.shadows import registry
 from game.shadows.budget import BASELINE_BUDGET_SHARE, fit_baseline_memory
 from game.shadows.light_kinds import kind_of
-from game.shadows.method import ShadowMethod, SharesBudget, ViewSized
+from game.shadows.method import ShadowMethod, SharesBudget, ViewSized, bounding_sphere
 from game.shadows.plan import (
     MIN_CLUMP_RESOLUTION,
     CharacterCounts,
@@ -153,6 +153,11 @@ class LightShadows:
         # what they took past it, at least a layer, so this ends.
         budget_notes: list[str] = []
         asked, packed = settings.budget_mib, None
+        self._n_floors = geom.n_floors
+        # Whole statics' bounding spheres: the other lights' clumps are drawn whole (plan).
+        self._whole = np.array([[*c, r] for c, r in (bounding_sphere(p) if len(p) else
+                                                     (np.zeros(3), 0.0)
+                                                     for p in geom.static_points)])
         while True:
             self._make(geom, lights, settings, max_layers, max_maps)
             fitted = fit_baseline_memory(settings, self._resolution(), self._places()[1])
@@ -385,10 +390,14 @@ class LightShadows:
                 origin = (within % side * plan.resolution + rec.origin[0],
                           within // side * plan.resolution + rec.origin[1])
                 # The index buffer holds light 0's clump order; other lights' clumps are drawn
-                # as whole statics (the map's frustum keeps only what it holds).
+                # as whole statics (the map's frustum keeps only what it holds), so their
+                # casters' spheres are the whole statics'.
+                whole = k > 0 and rec.spheres is not None
                 combined.maps.append(dataclasses.replace(
                     rec, layer=base + square // (side * side), origin=origin,
-                    pieces=rec.pieces if k == 0 else None))
+                    pieces=rec.pieces if k == 0 else None,
+                    spheres=self._whole[np.array(rec.objects, int) - self._n_floors]
+                    if whole else rec.spheres))
             combined.render_static += [first + i for i in plan.render_static]
             combined.render_dynamic += [first + i for i in plan.render_dynamic]
             if plan.characters is not None:

@@ -231,11 +231,50 @@ def _cell_directions(size: int) -> np.ndarray:
     return directions
 
 
-def _octahedral_pairs(fits: list[MapFit], eye: np.ndarray, first: int = 0) -> np.ndarray:
-    """As :func:`_ortho_pairs`, over the directions from a spot or point light at ``eye``."""
+@functools.lru_cache(maxsize=4)
+def _cell_cones(size: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per cell a cone holding its cone of directions: the unit axis (cells, 3) through the mean
+    of :func:`_cell_points`' directions and the widest angle (cells,) from it to one of them."""
+    dirs = _cell_directions(size).reshape(-1, 8, 3)
+    axis = dirs.sum(axis=1)
+    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+    half = np.arccos(np.clip(np.einsum("cj,ckj->ck", axis, dirs), -1.0, 1.0)).max(axis=1)
+    for a in (axis, half):
+        a.flags.writeable = False
+    return axis, half
+
+
+def _sphere_cells(spheres: np.ndarray, eye: np.ndarray, grow: float) -> np.ndarray:
+    """Which cells' cones (bool, cells) meet the cone from ``eye`` through one of ``spheres``
+    ((K, 4) centres and radii), its half-angle grown by ``grow`` radians."""
+    axis, half = _cell_cones(OCTAHEDRAL_GRID)
+    to = np.asarray(spheres, float)[:, :3] - eye
+    dist = np.linalg.norm(to, axis=1)
+    radius = np.asarray(spheres, float)[:, 3]
+    inside = dist <= radius * (1.0 + 1e-6)   # the light within a sphere: every direction
+    if inside.any():
+        return np.ones(len(axis), bool)
+    cone = np.arcsin(np.clip(radius / dist, 0.0, 1.0)) + grow
+    meet = np.zeros(len(axis), bool)
+    # In slices, so that a clump of thousands of pieces stays small in memory.
+    for lo in range(0, len(to), 512):
+        unit = to[lo:lo + 512] / dist[lo:lo + 512, None]
+        apart = np.arccos(np.clip(axis @ unit.T, -1.0, 1.0))
+        # A sliver of slack, as the shader computes the cell in float32.
+        meet |= (apart <= half[:, None] + cone[None, lo:lo + 512] + 1e-4).any(axis=1)
+    return meet
+
+
+def _octahedral_pairs(fits: list[MapFit], eye: np.ndarray, first: int = 0,
+                      spheres: list[np.ndarray | None] | None = None,
+                      reach: float = 0.0) -> np.ndarray:
+    """As :func:`_ortho_pairs`, over the directions from a spot or point light at ``eye``: a
+    cell lists a map where its cone meets the map's frustum and, when ``spheres`` gives the
+    map's casters, the cone through one of them grown by ``reach`` texels."""
+    eye = np.asarray(eye, float)
     dirs = _cell_directions(OCTAHEDRAL_GRID)
     cells = len(dirs) // 8
-    world = np.asarray(eye, float) + dirs  # one point along each direction
+    world = eye + dirs  # one point along each direction
     hom = np.concatenate([world, np.ones((len(world), 1))], axis=1)
     hits = np.zeros((cells, len(fits)), bool)
     for j, fit in enumerate(fits):
@@ -249,6 +288,11 @@ def _octahedral_pairs(fits: list[MapFit], eye: np.ndarray, first: int = 0) -> np
         hi = np.where(front[..., None], ndc, -np.inf).max(axis=1)
         overlap = (lo[:, 0] <= 1) & (hi[:, 0] >= -1) & (lo[:, 1] <= 1) & (hi[:, 1] >= -1)
         hits[:, j] = np.where(all_front, overlap, any_front)
+        own = spheres[j] if spheres is not None else None
+        if own is not None and len(own):
+            # A texel's offset of ``texel`` per metre of depth turns the ray by at most as
+            # many radians.
+            hits[:, j] &= _sphere_cells(own, eye, reach * fit.texel)
     cell, owner = np.nonzero(hits)
     return np.unique(cell.astype(np.int64) * KEY_MAPS + owner + first)
 
@@ -273,15 +317,17 @@ class GridBuilder:
     def build(self, fits: list[MapFit], eye: np.ndarray | None, use: str = "auto",
               covers: list[np.ndarray | None] | None = None,
               reach: float = 0.0, steady: int | None = None,
-              tiles: list[np.ndarray | None] | None = None) -> MapGrid:
+              tiles: list[np.ndarray | None] | None = None,
+              spheres: list[np.ndarray | None] | None = None) -> MapGrid:
         """The grid for these maps, or none when a plain loop is cheap enough: over the
         light space of orthographic maps, or over the directions from a light at ``eye``.
 
         ``use`` is "auto" (a grid above LOOP_MAX_MAPS maps), "on" or "off"; ``covers`` and
-        ``reach`` as in :func:`build_ortho`; the first ``steady`` maps (all by default) are
-        the ones whose cells are kept while they do not change. Where every steady map has a
-        tile of a partition (``tiles``), the grid is aligned to the tiles and lists each such
-        map in its tile's cells only: a fragment then finds one static map.
+        ``reach`` as in :func:`build_ortho` (``spheres`` and ``reach`` as in
+        :func:`_octahedral_pairs` for a light at ``eye``); the first ``steady`` maps (all by
+        default) are the ones whose cells are kept while they do not change. Where every
+        steady map has a tile of a partition (``tiles``), the grid is aligned to the tiles and
+        lists each such map in its tile's cells only: a fragment then finds one static map.
         """
         if not fits or use == "off" or (use == "auto" and len(fits) <= LOOP_MAX_MAPS):
             return no_grid()
@@ -298,29 +344,33 @@ class GridBuilder:
         else:
             rect, size, mode = np.array([-1.0, -1.0, 1.0, 1.0]), OCTAHEDRAL_GRID, GRID_OCTAHEDRAL
         cover = covers if covers is not None else [None] * len(fits)
+        sphere = spheres if spheres is not None else [None] * len(fits)
         key = (mode, size, float(reach), rect.tobytes(),
                None if ortho else np.asarray(eye, float).tobytes(), lattice is not None,
-               tuple(_fit_key(f, c) for f, c in zip(fits[:steady], cover[:steady], strict=True)))
+               tuple(_fit_key(f, c, b) for f, c, b
+                     in zip(fits[:steady], cover[:steady], sphere[:steady], strict=True)))
         if key != self._key:
             if lattice is not None:
                 self._keys = _tile_pairs(own, rect, size)
             elif ortho:
                 self._keys = _ortho_pairs(fits[:steady], cover[:steady], reach, rect, size)
             else:
-                self._keys = _octahedral_pairs(fits[:steady], eye)
+                self._keys = _octahedral_pairs(fits[:steady], eye, 0, sphere[:steady], reach)
             self._key = key
         moving = (_ortho_pairs(fits[steady:], cover[steady:], reach, rect, size, steady)
-                  if ortho else _octahedral_pairs(fits[steady:], eye, steady))
+                  if ortho else _octahedral_pairs(fits[steady:], eye, steady, sphere[steady:],
+                                                  reach))
         if lattice is not None:
             return _pack_tiles(self._keys, moving, size, rect)
         keys = self._keys if not len(moving) else np.sort(np.concatenate([self._keys, moving]))
         return _pack(keys, size, mode, rect)
 
 
-def _fit_key(fit: MapFit, cover: np.ndarray | None) -> tuple:
+def _fit_key(fit: MapFit, cover: np.ndarray | None, spheres: np.ndarray | None) -> tuple:
     """What a map's cells depend on."""
     return (fit.view_proj.tobytes(), fit.rect.tobytes(), float(fit.texel),
-            None if cover is None else np.asarray(cover, float).tobytes())
+            None if cover is None else np.asarray(cover, float).tobytes(),
+            None if spheres is None else np.asarray(spheres, float).tobytes())
 
 
 def build(fits: list[MapFit], eye: np.ndarray | None, use: str = "auto",

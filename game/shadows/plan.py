@@ -112,6 +112,11 @@ class MapRecord:
     # than the map's own rectangle when a clump is spread out; the map grid lists a map for a
     # cell only where one of these (grown by the bias reach) overlaps it.
     cover: np.ndarray | None = None
+    # Spot or point light: bounding spheres (K, 4: centre, radius) of the casters drawn into the
+    # map. The map grid lists the map for a cell of directions only where the cone from the
+    # light through one of them (grown by the bias reach) meets the cell's cone: a cube face
+    # around the light then reaches the fragments behind its casters, not its whole quarter.
+    spheres: np.ndarray | None = None
     # A clump of parts: the pieces drawn (indices into the plan's ``static_pieces``), where
     # ``objects`` only names the statics they belong to. None: the objects are drawn whole.
     pieces: list[int] | None = None

@@ -99,7 +99,7 @@ def test_floors_are_never_drawn_into_a_map(ctx):
     assert np.all(np.abs(p[shadowed_ground][:, 0] - 2.0) < 2.0)
 
 
-@pytest.mark.parametrize("scene_name", ["tiny.toml", "spot.toml", "point.toml"])
+@pytest.mark.parametrize("scene_name", ["tiny.toml", "spot.toml", "point.toml", "lamps.toml"])
 def test_grid_and_loop_give_the_same_shadows(ctx, scene_name):
     scene = load_scene(SCENES / scene_name)
     base = ShadowSettings(clump_count=6)

@@ -105,6 +105,9 @@ class ClumpMaps:
             theirs[:, :2] = np.maximum(theirs[:, :2], rect[:2])
             theirs[:, 2:] = np.minimum(theirs[:, 2:], rect[2:])
             cover = np.concatenate([rects, theirs])
+        spheres = (None if footprint is not None
+                   else np.array([[*c, r] for c, r in (bounding_sphere(points[u])
+                                                       for u in (*members, *extra))]))
         depth = np.concatenate([points[u] for u in extra]) if extra else None
         core_points = np.concatenate([points[u] for u in members])
         self.geometry[k] = ClumpGeometry(core_points, depth)
@@ -120,7 +123,7 @@ class ClumpMaps:
                 name=f"clump_{k}", kind=KIND_FALLBACK if fallback else KIND_CLUMP, fit=fit,
                 layer=layer, viewport=s.clump_resolution,
                 objects=[ctx.geom.static_object(i) for i in statics], cover=cover,
-                pieces=pieces))
+                spheres=spheres, pieces=pieces))
 
     def _clump_fits(self, k: int, points: np.ndarray, depth_points: np.ndarray | None
                     ) -> list[MapFit]:

@@ -1,0 +1,88 @@
+"""A spot or point light's map carries its casters' bounding spheres, and the map grid lists the
+map for a cell of directions only where the cone through one of them meets the cell's
+(game/shadows/map_grid.py). A caster outside every sphere would lose its shadow there, so each
+piece a map draws must lie inside one of its spheres: light 0's clumps draw their pieces, the
+other lights' clumps whole statics (game/shadows/lights.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from game.render.renderer import View
+from game.scene import load_scene
+from game.scene.geometry import pack
+from game.shadows import map_grid
+from game.shadows.fit import fit_cube_faces
+from game.shadows.lights import LightShadows
+from game.shadows.plan import ShadowSettings
+from tests.helpers import ASSETS, SCENES
+
+SIZE = (320, 180)
+
+
+def _drawn(plan, record, geom) -> list[np.ndarray]:
+    """The vertices of each piece or whole static drawn into ``record``."""
+    if record.pieces is not None:
+        return [geom.static_corners(*plan.static_pieces[p]) for p in record.pieces]
+    return [geom.static_corners(o - geom.n_floors) for o in record.objects]
+
+
+@pytest.mark.parametrize("path", [ASSETS / "night_town.toml", SCENES / "point.toml",
+                                  SCENES / "lamps.toml", SCENES / "point_among.toml"])
+def test_each_piece_a_map_draws_lies_in_one_of_its_spheres(path):
+    scene = load_scene(path)
+    geom = pack(scene)
+    shadows = LightShadows(geom, scene.lights, ShadowSettings(), 2048, 4096)
+    models = (np.stack([c.model_matrix(0.5) for c in scene.characters]) if scene.characters
+              else np.zeros((0, 4, 4)))
+    plan, spans = shadows.plan(models, View.from_camera(scene.camera, SIZE))
+    checked = 0
+    for k, span in enumerate(spans):
+        for record in plan.maps[span.first_map:span.first_map + span.map_count]:
+            if record.spheres is None:
+                continue
+            centres, radii = record.spheres[:, :3], record.spheres[:, 3]
+            for points in _drawn(plan, record, geom):
+                outside = (np.linalg.norm(points[:, None] - centres[None], axis=2)
+                           - radii[None])  # (points, spheres)
+                # The drawn vertices are float32, the spheres float64: a few micrometres.
+                assert (outside.max(axis=0) <= 1e-5).any(), (k, record.name)
+            checked += 1
+    assert checked  # every scene here has a spot or point light with clumps
+
+
+def test_spheres_keep_a_cube_face_to_the_directions_of_its_casters():
+    """A light among a ring of small casters: each face of the cube around it reaches the
+    directions of the casters in front of it, not its whole quarter of the sphere. Every
+    direction that can find a caster (within its cone grown by the reach) still lists it."""
+    rng = np.random.default_rng(4)
+    eye = np.array([0.0, 5.0, 0.0])
+    angles = np.linspace(0.0, 2 * np.pi, 8, endpoint=False)
+    centres = np.stack([3 * np.cos(angles), np.full(8, 1.0), 3 * np.sin(angles)], axis=1)
+    spheres = np.concatenate([centres, np.full((8, 1), 0.5)], axis=1)
+    points = np.concatenate([c + rng.uniform(-0.35, 0.35, (20, 3)) for c in centres])
+    fits = fit_cube_faces(points, eye, 256)
+    reach = 4.0
+    plain = map_grid.GridBuilder().build(fits, eye, "on")
+    grid = map_grid.GridBuilder().build(fits, eye, "on", reach=reach,
+                                        spheres=[spheres] * len(fits))
+    assert grid.mean_list < 0.5 * plain.mean_list
+    dirs = rng.normal(size=(20000, 3))
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    to = centres - eye
+    dist = np.linalg.norm(to, axis=1)
+    apart = np.arccos(np.clip(dirs @ (to / dist[:, None]).T, -1, 1))
+    cells = _cell(map_grid.octahedral_encode(dirs), grid)
+    for j, fit in enumerate(fits):
+        clip = np.concatenate([eye + dirs, np.ones((len(dirs), 1))], axis=1) @ fit.view_proj.T
+        held = (clip[:, 3] > 0) & np.all(np.abs(clip[:, :2]) <= clip[:, 3:4], axis=1)
+        near = (apart <= np.arcsin(0.5 / dist) + reach * fit.texel).any(axis=1)
+        for cell in np.unique(cells[held & near]):
+            assert j in grid.data[grid.data[cell]:grid.data[cell + 1]], (j, cell)
+
+
+def _cell(coord: np.ndarray, grid) -> np.ndarray:
+    f = (coord - grid.rect[:2]) / (grid.rect[2:] - grid.rect[:2])
+    cell = np.clip(np.floor(f * grid.size).astype(int), 0, grid.size - 1)
+    return cell[:, 1] * grid.size + cell[:, 0]
