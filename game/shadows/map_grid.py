@@ -29,6 +29,7 @@ from game.shadows.fit import MapFit
 LOOP_MAX_MAPS = 2         # beyond this many maps the grid is cheaper than looping over all
 MAX_GRID = 128
 MAX_TILE_GRID = 512       # a partition's grid: most cells per side (a wider one is not aligned)
+MAX_WIDE_GRID = 2 * MAX_GRID  # most cells per side of a grid grown over walkers outside it
 GRID_CELLS_PER_MAP = 8  # cells per side per sqrt(map count): short lists, small grid
 OCTAHEDRAL_GRID = 32      # even, so that no cell straddles an octant boundary
 
@@ -134,13 +135,20 @@ def _cell_keys(lo: np.ndarray, hi: np.ndarray, owner: np.ndarray, size: int) -> 
     return np.unique((cy * size + cx) * KEY_MAPS + owner[which])
 
 
-def _tile_lattice(tiles: list[np.ndarray], want: int) -> tuple[np.ndarray, int] | None:
+def _tile_lattice(tiles: list[np.ndarray], want: int, around: np.ndarray | None
+                  ) -> tuple[np.ndarray, int] | None:
     """The grid's rectangle and size for a partition's tiles (equal squares on one lattice):
     whole tiles per side, each split into the same number of cells, so that no cell straddles
-    two tiles; None where the tiles span more cells than MAX_TILE_GRID per side."""
+    two tiles; None where the tiles span more cells than MAX_TILE_GRID per side. The lattice
+    reaches on by whole tiles over ``around`` (the moving maps' rectangles): the shader clamps a
+    fragment outside the grid to an edge cell, which would list every walker's map beyond that
+    edge."""
     t = np.asarray(tiles, float)
     span = float(t[0, 2] - t[0, 0])
     lo, hi = t[:, :2].min(axis=0), t[:, 2:].max(axis=0)
+    if around is not None:
+        lo = lo - np.ceil(np.maximum(lo - around[:2], 0.0) / span) * span
+        hi = hi + np.ceil(np.maximum(around[2:] - hi, 0.0) / span) * span
     n = max(1, int(round(float((hi - lo).max()) / span)))
     if n > MAX_TILE_GRID:
         return None
@@ -155,6 +163,30 @@ def _tile_pairs(tiles: list[np.ndarray], rect: np.ndarray, size: int) -> np.ndar
     lo = np.rint((t[:, :2] - rect[:2]) / cell).astype(np.int64)
     hi = np.rint((t[:, 2:] - rect[:2]) / cell).astype(np.int64) - 1
     return _cell_keys(lo, hi, np.arange(len(t)), size)
+
+
+def _widen(rect: np.ndarray, size: int, around: np.ndarray
+           ) -> tuple[np.ndarray, int, np.ndarray]:
+    """The grid's rectangle grown by whole cells to hold ``around`` (the moving maps'
+    rectangles' union), as :func:`_tile_lattice` grows a partition's; its new size, and the
+    columns and rows added before the old first cell. Left as it is where that would pass
+    MAX_WIDE_GRID cells per side."""
+    cell = (rect[2:] - rect[:2]) / size
+    before = np.ceil(np.maximum(rect[:2] - around[:2], 0.0) / cell).astype(np.int64)
+    after = np.ceil(np.maximum(around[2:] - rect[2:], 0.0) / cell).astype(np.int64)
+    grow = int((before + after).max())
+    if grow == 0 or size + grow > MAX_WIDE_GRID:
+        return rect, size, np.zeros(2, np.int64)
+    lo = rect[:2] - before * cell
+    return np.concatenate([lo, lo + (size + grow) * cell]), size + grow, before
+
+
+def _moved_keys(keys: np.ndarray, size: int, wide: int, shift: np.ndarray) -> np.ndarray:
+    """Keys of a ``size`` grid in the ``wide`` grid that adds ``shift`` columns and rows before
+    it (:func:`_widen`); still sorted, as rows and columns keep their order."""
+    cell, owner = keys // KEY_MAPS, keys % KEY_MAPS
+    row, column = cell // size + shift[1], cell % size + shift[0]
+    return (row * wide + column) * KEY_MAPS + owner
 
 
 def build_ortho(fits: list[MapFit], covers: list[np.ndarray | None] | None = None,
@@ -306,8 +338,9 @@ class GridBuilder:
     """Builds each frame's grid, keeping the cells of the steady maps from the frame before.
 
     The steady maps are the plan's first ones (cached statics); the grid's rectangle is theirs,
-    so maps that move every frame (characters) do not disturb it, and a frame whose steady maps
-    are unchanged only places the others. Holds no GL object.
+    grown by whole cells (or tiles) over the maps that move every frame (characters) where they
+    lie outside it. So those do not disturb the steady maps' cells, and a frame whose steady
+    maps are unchanged only places the others. Holds no GL object.
     """
 
     def __init__(self):
@@ -334,7 +367,10 @@ class GridBuilder:
         steady = len(fits) if steady is None else min(steady, len(fits))
         ortho = eye is None
         own = (tiles or [None] * len(fits))[:steady]
-        lattice = (_tile_lattice(own, _grid_size(len(fits)))
+        # Where the moving maps lie: the grid reaches on over them.
+        around = (_union(np.array([f.rect for f in fits[steady:]], float))
+                  if ortho and steady < len(fits) else None)
+        lattice = (_tile_lattice(own, _grid_size(len(fits)), around)
                    if ortho and own and all(t is not None for t in own) else None)
         if lattice is not None:
             (rect, size), mode = lattice, GRID_TILES
@@ -357,12 +393,18 @@ class GridBuilder:
             else:
                 self._keys = _octahedral_pairs(fits[:steady], eye, 0, sphere[:steady], reach)
             self._key = key
+        keys = self._keys
+        if mode == GRID_ORTHO and around is not None:
+            wide_rect, wide, shift = _widen(rect, size, around)
+            if wide != size:
+                keys = _moved_keys(keys, size, wide, shift)
+                rect, size = wide_rect, wide
         moving = (_ortho_pairs(fits[steady:], cover[steady:], reach, rect, size, steady)
                   if ortho else _octahedral_pairs(fits[steady:], eye, steady, sphere[steady:],
                                                   reach))
         if lattice is not None:
-            return _pack_tiles(self._keys, moving, size, rect)
-        keys = self._keys if not len(moving) else np.sort(np.concatenate([self._keys, moving]))
+            return _pack_tiles(keys, moving, size, rect)
+        keys = keys if not len(moving) else np.sort(np.concatenate([keys, moving]))
         return _pack(keys, size, mode, rect)
 
 

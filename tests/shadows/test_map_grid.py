@@ -3,7 +3,7 @@
 import numpy as np
 
 from game import transforms
-from game.gpu.blocks import GRID_NONE, GRID_OCTAHEDRAL, GRID_ORTHO
+from game.gpu.blocks import GRID_NONE, GRID_OCTAHEDRAL, GRID_ORTHO, GRID_TILES
 from game.shadows import map_grid
 from game.shadows.fit import fit_directional, fit_perspective
 
@@ -86,9 +86,10 @@ def test_octahedral_grid_lists_every_map_that_holds_a_point():
 
 
 def test_moving_maps_outside_the_steady_ones_are_found_and_steady_cells_are_kept():
-    """The grid lies over the steady maps; maps that move, even far outside them, are still
-    listed for every point they hold (the edge cells take them), frame after frame, and the
-    kept cells equal a fresh build's."""
+    """The grid lies over the steady maps, grown by whole cells over maps that move far
+    outside them: those are listed for every point they hold, in cells of their own (not an
+    edge cell that gathers every map beyond it), frame after frame, and the kept cells equal a
+    fresh build's."""
     rng = np.random.default_rng(4)
     rot = transforms.light_rotation(np.array([0.3, -1.0, 0.2]) / np.linalg.norm([0.3, -1, 0.2]))
 
@@ -107,16 +108,48 @@ def test_moving_maps_outside_the_steady_ones_are_found_and_steady_cells_are_kept
         assert np.array_equal(grid.data, fresh.data) and np.array_equal(grid.rect, fresh.rect)
         points = np.concatenate([rng.uniform(-45, 45, (1500, 3)),
                                  np.repeat(centres, 200, axis=0) + rng.normal(0, 2, (1200, 3))])
-        outside = 0
+        steady_rect = map_grid.build(steady, None).rect
         xy = points @ rot[:2].T
-        beyond = np.any((xy < grid.rect[:2]) | (xy > grid.rect[2:]), axis=1)
+        beyond = np.any((xy < steady_rect[:2]) | (xy > steady_rect[2:]), axis=1)
+        lengths = []
         for p, cell, out in zip(points, cell_of(xy, grid), beyond, strict=True):
             holders = holders_of(p, fits)
-            outside += out and bool(holders)
             assert holders <= listed(grid, cell), frame
-        assert outside > 50  # points held by moving maps beyond the steady rectangle
+            if out and holders:
+                lengths.append(len(listed(grid, cell)))
+        assert len(lengths) > 50  # points held by moving maps beyond the steady rectangle
+        assert np.mean(lengths) < 1.1, frame  # each finds its own map, about alone
     # A steady map that changes is placed again.
     steady[0] = fits_at([[30.0, 0.0, 30.0]], 1.0)[0]
     grid = builder.build(steady + moving, None, steady=len(steady))
     fresh = map_grid.GridBuilder().build(steady + moving, None, steady=len(steady))
     assert np.array_equal(grid.data, fresh.data)
+
+
+def test_a_partitions_grid_reaches_over_walkers_beyond_its_tiles():
+    """Tiles of 10 m on a 2 x 2 lattice and walkers' maps up to 25 m beyond it: the lattice
+    grows by whole tiles over them, so each walker's map has cells of its own, and every tile
+    keeps exactly its cells."""
+    rng = np.random.default_rng(5)
+    rot = transforms.light_rotation(np.array([0.0, -1.0, 0.0]))
+    tiles = [np.array([x, y, x + 10.0, y + 10.0]) for x in (0.0, 10.0) for y in (0.0, 10.0)]
+    # A tile's map: its square in light space (x, -z as the rotation for a light straight down
+    # has it); the test reads only its tile.
+    steady = [fit_directional(np.array([[t[0], 0, -t[1]], [t[2], 1, -t[3]]]), rot, 128)
+              for t in tiles]
+    walkers = rng.uniform(-25, 45, (12, 2))
+    moving = [fit_directional(np.array([[x - 0.5, 0, -y + 0.5], [x + 0.5, 2, -y - 0.5]]), rot, 64)
+              for x, y in walkers]
+    grid = map_grid.GridBuilder().build(steady + moving, None, tiles=tiles + [None] * 12,
+                                        steady=4)
+    assert grid.mode == GRID_TILES
+    rects = np.array([f.rect for f in moving])
+    assert np.all(grid.rect[:2] <= rects[:, :2].min(axis=0))
+    assert np.all(grid.rect[2:] >= rects[:, 2:].max(axis=0))
+    span = (grid.rect[2:] - grid.rect[:2]) / 10.0  # whole tiles per side
+    assert np.allclose(span, np.round(span)) and np.allclose(grid.rect[:2] % 10.0, 0.0)
+    for j, fit in enumerate(moving):
+        centre = (fit.rect[:2] + fit.rect[2:]) / 2
+        cell = cell_of(centre, grid)
+        found = listed(grid, int(cell))
+        assert 4 + j in found and len(found - {-1}) <= 3, (j, found)
