@@ -70,6 +70,7 @@ def shading_section(runs, here: Path, header: Callable[[object, Path], list[str]
         if chart.is_file():
             where = Path(os.path.relpath(chart, here)).as_posix()
             lines += [f"![camera pass against maps, run {run.name}]({where})", ""]
+    lines += density_section(runs, here, header)
     lines += ["Why the remaining cost is the depth read and not the search: "
               "[the architecture](design/architecture.md#many-small-maps-or-one-large-one); how "
               "the cached maps' [depth bounds](design/depth-bounds.md) settle most reads.", ""]
@@ -83,3 +84,54 @@ def _frame_ratio(clumped: dict, single: dict) -> float:
 def _share(row: dict, column: str) -> str:
     value = row_number(row, column)
     return f"{value:.2f}" if math.isfinite(value) else "n/a"
+
+
+def density_rows(rows: list[dict]) -> dict[tuple[str, str], list[dict]]:
+    """Per (scene, size) where ``single`` ran at more than one side: clumped at its defaults,
+    then ``single`` at each side recorded, smallest first."""
+    groups: dict[tuple[str, str], list[dict]] = {}
+    for r in rows:
+        params = r["run"].split("|")[2]
+        wanted = (r["method"] == "clumped" and params == "defaults") or (
+            r["method"] == "single" and (params == "defaults"
+                                         or params.startswith("single_resolution=")))
+        if wanted:
+            groups.setdefault((r["scene"], f"{r['width']}x{r['height']}"), []).append(r)
+    out = {}
+    for key, group in groups.items():
+        singles = sorted((r for r in group if r["method"] == "single"),
+                         key=lambda r: row_number(r, "single_resolution"))
+        clumped = [r for r in group if r["method"] == "clumped"]
+        if clumped and len(singles) > 1:
+            out[key] = clumped[:1] + singles
+    return out
+
+
+def density_section(runs, here: Path, header: Callable[[object, Path], list[str]]
+                    ) -> list[str]:
+    """The camera pass beside the shadow error, for runs that vary one map's side: a finer map
+    costs the shading pass more, at every side."""
+    found = [(run, density_rows(run.rows)) for run in runs]
+    if not any(groups for _, groups in found):
+        return []
+    lines = ["**The camera pass at equal accuracy.** Finer shadow texels cost the shading pass "
+             "too: each pixel reads texels its neighbours do not share, so fewer reads hit the "
+             "texture cache. The runs below give one map at several sides beside clumped, so "
+             "the camera pass can be compared where the errors are alike.", ""]
+    head = ["scene", "size", "method", "camera ms", "frame ms", "error"]
+    for run, groups in found:
+        if not groups:
+            continue
+        body = []
+        for (scene, size), group in groups.items():
+            for r in group:
+                name = (r["method"] if r["method"] == "clumped"
+                        else f"single {int(row_number(r, 'single_resolution'))}^2")
+                error = row_number(r, "error")
+                body.append([scene, size, name, f"{camera_ms(r):.1f}",
+                             f"{row_number(r, 'total_ms_median'):.1f}",
+                             f"{100 * error:.2f}%" if math.isfinite(error) else "n/a"])
+        lines += header(run, here) + ["| " + " | ".join(head) + " |",
+                                      "|" + "---|" * len(head)]
+        lines += ["| " + " | ".join(row) + " |" for row in body] + [""]
+    return lines

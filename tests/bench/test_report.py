@@ -59,9 +59,9 @@ def test_each_table_is_headed_by_its_run(root):
     head = ("Run [`fake`](runs/fake/run.json): `python -m game bench --scenes courtyard "
             "--repeat 3 --out docs/runs/fake`; llvmpipe (LLVM 15.0.6, 256 bits), OpenGL 4.5 "
             "(Core Profile); 2026-01-02 03:04 UTC; code `0123456789`.")
-    # Question 1, question 2, its shading pass, and the run's own table: four tables, each
-    # under the header.
-    assert text.count(head) == 4
+    # Question 1, question 2, its shading pass and the camera pass at equal accuracy (one map
+    # at two sides), and the run's own table: five tables, each under the header.
+    assert text.count(head) == 5
     assert text.index("## Question 1") < text.index("## Question 2") < text.index(
         "## Every recorded run")
 
@@ -79,6 +79,10 @@ def test_the_figures_are_the_runs_medians_and_their_ratios(root):
     assert ("| `single` | single_resolution=1024 | 1 | 7 | 64 | 8.00 (5%) | 2.00 | 5.00 | 2.00% "
             "| 0.80 |") in text
     assert "frame: clumped lower in 1 of 2, `single` in 1; error: clumped lower in 2 of 2" in text
+    # The camera pass beside the error: clumped, then one map from its smallest side up.
+    assert ("| courtyard | 320x180 | clumped | 5.0 | 10.0 | 0.20% |\n"
+            "| courtyard | 320x180 | single 1024^2 | 5.0 | 8.0 | 2.00% |\n"
+            "| courtyard | 320x180 | single 4096^2 | 5.0 | 30.0 | 0.50% |") in text
 
 
 def test_the_readme_block_is_replaced_and_the_rest_kept(root):
