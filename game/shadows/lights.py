@@ -28,7 +28,7 @@ from game.scene.model import Light
 from game.shadows import registry
 from game.shadows.budget import BASELINE_BUDGET_SHARE, fit_baseline_memory
 from game.shadows.light_kinds import kind_of
-from game.shadows.method import ShadowMethod, SharesBudget, ViewSized, bounding_sphere
+from game.shadows.method import ShadowMethod, SharesBudget, ViewSized, caster_spheres
 from game.shadows.plan import (
     MIN_CLUMP_RESOLUTION,
     CharacterCounts,
@@ -153,11 +153,11 @@ class LightShadows:
         # what they took past it, at least a layer, so this ends.
         budget_notes: list[str] = []
         asked, packed = settings.budget_mib, None
-        self._n_floors = geom.n_floors
-        # Whole statics' bounding spheres: the other lights' clumps are drawn whole (plan).
-        self._whole = np.array([[*c, r] for c, r in (bounding_sphere(p) if len(p) else
-                                                     (np.zeros(3), 0.0)
-                                                     for p in geom.static_points)])
+        # The other lights' clumps are drawn as whole statics (plan): their casters' spheres
+        # are the whole statics', per light and static, made once.
+        self._geom = geom
+        self._eyes = [kind_of(light).eye(light) for light in lights]
+        self._whole: dict[tuple[int, int], np.ndarray] = {}
         while True:
             self._make(geom, lights, settings, max_layers, max_maps)
             fitted = fit_baseline_memory(settings, self._resolution(), self._places()[1])
@@ -346,6 +346,16 @@ class LightShadows:
             if own is not None and isinstance(method, ViewSized):
                 method.served(own)
 
+    def _whole_spheres(self, k: int, objects: list[int]) -> np.ndarray:
+        """The casters' spheres of light ``k``'s map drawn as the whole statics ``objects``."""
+        g = self._geom
+        for o in objects:
+            if (k, o) not in self._whole:
+                i = o - g.n_floors
+                self._whole[(k, o)] = caster_spheres(
+                    g.static_points[i], lambda i=i: g.static_corners(i), self._eyes[k])
+        return np.concatenate([self._whole[(k, o)] for o in objects])
+
     @property
     def placed_blind(self) -> bool:
         """Whether the last plan placed view-sized maps before any pixels were counted (the
@@ -396,8 +406,7 @@ class LightShadows:
                 combined.maps.append(dataclasses.replace(
                     rec, layer=base + square // (side * side), origin=origin,
                     pieces=rec.pieces if k == 0 else None,
-                    spheres=self._whole[np.array(rec.objects, int) - self._n_floors]
-                    if whole else rec.spheres))
+                    spheres=self._whole_spheres(k, rec.objects) if whole else rec.spheres))
             combined.render_static += [first + i for i in plan.render_static]
             combined.render_dynamic += [first + i for i in plan.render_dynamic]
             if plan.characters is not None:

@@ -276,25 +276,31 @@ def _cell_cones(size: int) -> tuple[np.ndarray, np.ndarray]:
     return axis, half
 
 
-def _sphere_cells(spheres: np.ndarray, eye: np.ndarray, grow: float) -> np.ndarray:
-    """Which cells' cones (bool, cells) meet the cone from ``eye`` through one of ``spheres``
-    ((K, 4) centres and radii), its half-angle grown by ``grow`` radians."""
+def _sphere_cells(spheres: np.ndarray, eye: np.ndarray, grow: float, cells: np.ndarray
+                  ) -> np.ndarray:
+    """Which of the cells ``cells`` (bool mask) have cones that meet the cone from ``eye``
+    through one of ``spheres`` ((K, 4) centres and radii), its half-angle grown by ``grow``
+    radians; the others stay False."""
     axis, half = _cell_cones(OCTAHEDRAL_GRID)
     to = np.asarray(spheres, float)[:, :3] - eye
     dist = np.linalg.norm(to, axis=1)
     radius = np.asarray(spheres, float)[:, 3]
     inside = dist <= radius * (1.0 + 1e-6)   # the light within a sphere: every direction
     if inside.any():
-        return np.ones(len(axis), bool)
+        return cells.copy()
     cone = np.arcsin(np.clip(radius / dist, 0.0, 1.0)) + grow
-    meet = np.zeros(len(axis), bool)
+    which = np.flatnonzero(cells)
+    axis, half = axis[which], half[which]
+    meet = np.zeros(len(which), bool)
     # In slices, so that a clump of thousands of pieces stays small in memory.
     for lo in range(0, len(to), 512):
         unit = to[lo:lo + 512] / dist[lo:lo + 512, None]
         apart = np.arccos(np.clip(axis @ unit.T, -1.0, 1.0))
         # A sliver of slack, as the shader computes the cell in float32.
         meet |= (apart <= half[:, None] + cone[None, lo:lo + 512] + 1e-4).any(axis=1)
-    return meet
+    out = np.zeros(len(cells), bool)
+    out[which] = meet
+    return out
 
 
 def _octahedral_pairs(fits: list[MapFit], eye: np.ndarray, first: int = 0,
@@ -324,7 +330,7 @@ def _octahedral_pairs(fits: list[MapFit], eye: np.ndarray, first: int = 0,
         if own is not None and len(own):
             # A texel's offset of ``texel`` per metre of depth turns the ray by at most as
             # many radians.
-            hits[:, j] &= _sphere_cells(own, eye, reach * fit.texel)
+            hits[:, j] = _sphere_cells(own, eye, reach * fit.texel, hits[:, j])
     cell, owner = np.nonzero(hits)
     return np.unique(cell.astype(np.int64) * KEY_MAPS + owner + first)
 

@@ -14,6 +14,7 @@ what the plan lists. Planning is kept apart from drawing as in Filament, whose
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Callable
 from typing import ClassVar
 
 import numpy as np
@@ -34,6 +35,46 @@ def bounding_sphere(points: np.ndarray) -> tuple[np.ndarray, float]:
     """A sphere holding ``points``: the centre of their box and the farthest point's distance."""
     centre = (points.min(axis=0) + points.max(axis=0)) / 2
     return centre, float(np.linalg.norm(points - centre, axis=1).max())
+
+
+def triangle_spheres(corners: np.ndarray) -> np.ndarray:
+    """(n, 4) bounding spheres (centre, radius) of the triangles whose corners are ``corners``
+    ((3n, 3))."""
+    tri = np.asarray(corners, float).reshape(-1, 3, 3)
+    centre = (tri.min(axis=1) + tri.max(axis=1)) / 2
+    radius = np.linalg.norm(tri - centre[:, None], axis=2).max(axis=1)
+    return np.concatenate([centre, radius[:, None]], axis=1)
+
+
+SPLIT_DEPTH = 4  # halvings of a triangle whose sphere holds the light: 1/16 of its side
+
+
+def caster_spheres(points: np.ndarray, corners: Callable[[], np.ndarray],
+                   eye: np.ndarray) -> np.ndarray:
+    """Bounding spheres (K, 4) of one caster as a light at ``eye`` sees it: the sphere of its
+    ``points``, or, where that sphere holds the light (a lamp beside its own post), spheres of
+    the triangles of ``corners()`` ((3n, 3)), a triangle whose sphere still holds it split in
+    four, up to SPLIT_DEPTH times: the light's directions that the caster can cover are then
+    not all of them."""
+    if not len(points):
+        return np.zeros((0, 4))
+    eye = np.asarray(eye, float)
+    centre, radius = bounding_sphere(points)
+    if np.linalg.norm(eye - centre) > radius:
+        return np.array([[*centre, radius]])
+    tri, out = np.asarray(corners(), float).reshape(-1, 3, 3), []
+    for depth in range(SPLIT_DEPTH + 1):
+        spheres = triangle_spheres(tri)
+        holds = np.linalg.norm(spheres[:, :3] - eye, axis=1) <= spheres[:, 3]
+        if depth == SPLIT_DEPTH or not holds.any():
+            out.append(spheres)
+            break
+        out.append(spheres[~holds])
+        a, b, c = (tri[holds, j] for j in range(3))
+        ab, bc, ca = (a + b) / 2, (b + c) / 2, (c + a) / 2
+        tri = np.concatenate([np.stack(t, axis=1) for t in
+                              ((a, ab, ca), (ab, b, bc), (ca, bc, c), (ab, bc, ca))])
+    return np.concatenate(out)
 
 
 def reached_statics(geom: PackedGeometry, light: Light) -> list[int]:

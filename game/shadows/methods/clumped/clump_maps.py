@@ -13,7 +13,7 @@ import numpy as np
 from game.scene.geometry import Piece
 from game.shadows import clumping
 from game.shadows.fit import MapFit, cube_face_reach, fit_directional
-from game.shadows.method import bounding_sphere
+from game.shadows.method import bounding_sphere, caster_spheres
 from game.shadows.methods.clumped.context import LightContext
 from game.shadows.methods.clumped.statics import ClumpMembers
 from game.shadows.plan import KIND_CLUMP, KIND_FALLBACK, MapRecord
@@ -105,9 +105,12 @@ class ClumpMaps:
             theirs[:, :2] = np.maximum(theirs[:, :2], rect[:2])
             theirs[:, 2:] = np.minimum(theirs[:, 2:], rect[2:])
             cover = np.concatenate([rects, theirs])
-        spheres = (None if footprint is not None
-                   else np.array([[*c, r] for c, r in (bounding_sphere(points[u])
-                                                       for u in (*members, *extra))]))
+        spheres = None
+        if footprint is None:  # a spot or point light
+            eye = ctx.kind.eye(ctx.light)
+            spheres = np.concatenate([
+                caster_spheres(points[u], lambda u=u: ctx.geom.static_corners(*m.units.pieces[u]),
+                               eye) for u in (*members, *extra)])
         depth = np.concatenate([points[u] for u in extra]) if extra else None
         core_points = np.concatenate([points[u] for u in members])
         self.geometry[k] = ClumpGeometry(core_points, depth)
