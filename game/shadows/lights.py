@@ -154,10 +154,10 @@ class LightShadows:
         budget_notes: list[str] = []
         asked, packed = settings.budget_mib, None
         # The other lights' clumps are drawn as whole statics (plan): their casters' spheres
-        # are the whole statics', per light and static, made once.
+        # are the whole statics'.
         self._geom = geom
         self._eyes = [kind_of(light).eye(light) for light in lights]
-        self._whole: dict[tuple[int, int], np.ndarray] = {}
+        self._whole: dict[tuple[int, tuple[int, ...]], np.ndarray] = {}
         while True:
             self._make(geom, lights, settings, max_layers, max_maps)
             fitted = fit_baseline_memory(settings, self._resolution(), self._places()[1])
@@ -347,14 +347,16 @@ class LightShadows:
                 method.served(own)
 
     def _whole_spheres(self, k: int, objects: list[int]) -> np.ndarray:
-        """The casters' spheres of light ``k``'s map drawn as the whole statics ``objects``."""
-        g = self._geom
-        for o in objects:
-            if (k, o) not in self._whole:
-                i = o - g.n_floors
-                self._whole[(k, o)] = caster_spheres(
-                    g.static_points[i], lambda i=i: g.static_corners(i), self._eyes[k])
-        return np.concatenate([self._whole[(k, o)] for o in objects])
+        """The casters' spheres of light ``k``'s map drawn as the whole statics ``objects``,
+        made once per light and set of statics (the plan asks again every frame)."""
+        key = (k, tuple(objects))
+        if key not in self._whole:
+            g = self._geom
+            self._whole[key] = np.concatenate([
+                caster_spheres(g.static_points[o - g.n_floors],
+                               lambda i=o - g.n_floors: g.static_corners(i), self._eyes[k])
+                for o in objects])
+        return self._whole[key]
 
     @property
     def placed_blind(self) -> bool:
