@@ -29,7 +29,7 @@ CHARACTER_RESOLUTION = 512     # most texels per side of a character's map
 MIN_CHARACTER_RESOLUTION = 32  # fewest texels per side of a character's map
 CHARACTER_TEXELS_PER_PIXEL = 4.0  # a character map's texels per screen pixel where its shadow
 #                                  can be nearest the camera (0: always the most, every frame)
-CHARACTER_DENSITY_FLOOR = 0.5  # ... and at least this share of the clump maps' texels per metre
+CHARACTER_DENSITY_FLOOR = 1.0  # ... and at least this share of the clump maps' texels per metre
 SINGLE_RESOLUTION = 4096       # the baseline's one map
 LAMP_RESOLUTION = 1024         # the baselines' maps (or cube faces) of a light with a range
 NORMAL_BIAS_TEXELS = 0.25      # offset along the normal, times sin(angle to the light)
