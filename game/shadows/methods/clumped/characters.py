@@ -51,9 +51,7 @@ class CharacterMaps:
         """Hold enough layers for every character's map at the largest size (the maps are
         packed into them anew each frame), as far as the ``clump_layers`` leave room and at
         most half the layers. The half keeps the cached clump maps, where the method's accuracy
-        comes from, from being starved by a worst case that maps sized by need rarely reach.
-        A lamp holds as many as a sun: a crowd can stand within its range, and one layer
-        shared by a crowd packs its maps too coarse to shadow the walkers right."""
+        comes from, from being starved by a worst case that maps sized by need rarely reach."""
         ctx, pool = self.ctx, self.pool
         n = ctx.geom.n_characters
         square = crowd.layer_square(ctx.settings.clump_resolution)
@@ -64,6 +62,10 @@ class CharacterMaps:
                      f"layers; they get {max(1, pool.limit // 2)}, half the budget's: the "
                      "largest maps of a frame are made coarser when they do not fit")
             want = max(1, pool.limit // 2)
+        if ctx.light.range is not None:
+            # A lamp reaches few characters at once: one shared layer, the maps made smaller
+            # when more come (crowd.pack), leaves the rest to its clumps' maps.
+            want = min(want, 1)
         room = pool.limit - max(1, clump_layers)
         count = min(want, max(room, 1)) if n else 0
         while len(self.layers) > count:
