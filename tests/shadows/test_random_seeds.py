@@ -38,6 +38,15 @@ def _scene(seed: int, folder):
     return load_scene(folder / drawn.file_name)
 
 
+def _light_scores(ctx, scene, method: str, out: Path) -> list[dict]:
+    """Each light's Embree score of one 320x180 frame of ``scene`` drawn by ``method``."""
+    from game.reference.score import score_dump_lights
+
+    capture.run(ctx, scene, capture.CaptureOptions(
+        out=out, frames=1, size=(320, 180), dump=True, settings=ShadowSettings(method=method)))
+    return score_dump_lights(out / "frame_0000.npz", scene.lights)["lights"]
+
+
 def _lamp(reach: float) -> Light:
     return Light(kind="point", direction=None, position=np.array([0.0, 4.0, 0.0]), cone=None,
                  range=reach)
@@ -62,14 +71,9 @@ def test_a_baseline_lamp_whose_range_spans_the_scene_keeps_its_shadows(ctx, tmp_
     square. With a street lamp's 1024-texel cube faces, static-dynamic misses the edges of every
     walker's long shadow from lamp 1, 40 m off: 14% of its shadowed pixels."""
     pytest.importorskip("embreex")
-    from game.reference.score import score_dump_lights
-
     scene = _scene(20, tmp_path / "scene")
     out = tmp_path / "frames"
-    capture.run(ctx, scene, capture.CaptureOptions(
-        out=out, frames=1, size=(320, 180), dump=True,
-        settings=ShadowSettings(method="static-dynamic")))
-    scores = score_dump_lights(out / "frame_0000.npz", scene.lights)["lights"]
+    scores = _light_scores(ctx, scene, "static-dynamic", out)
     for k, score in enumerate(scores):
         assert score["shadowed"] >= 200, f"light {k}: too few shadowed pixels to judge"
         assert score["error"] <= MAX_ERROR, (
@@ -139,16 +143,6 @@ def test_walkers_are_not_shadowed_by_their_own_or_their_neighbours_maps(ctx, tmp
         f"{wrong} of {lit} lit walker pixels shadowed; dumps in {out}")
 
 
-def _misclassified(ctx, scene, method: str, out: Path) -> int:
-    """Pixels ``method`` misclassifies in one 320x180 frame of ``scene``, every light summed."""
-    from game.reference.score import score_dump_lights
-
-    capture.run(ctx, scene, capture.CaptureOptions(
-        out=out, frames=1, size=(320, 180), dump=True, settings=ShadowSettings(method=method)))
-    lights = score_dump_lights(out / "frame_0000.npz", scene.lights)["lights"]
-    return sum(score["misclassified"] for score in lights)
-
-
 @needs_corpus
 @pytest.mark.parametrize("seed", [168])
 def test_a_crowd_is_shadowed_as_well_as_the_baselines_shadow_it(ctx, tmp_path, seed):
@@ -157,7 +151,7 @@ def test_a_crowd_is_shadowed_as_well_as_the_baselines_shadow_it(ctx, tmp_path, s
     of the crowd."""
     pytest.importorskip("embreex")
     scene = _scene(seed, tmp_path / "scene")
-    got = {m: _misclassified(ctx, scene, m, tmp_path / m)
+    got = {m: sum(score["misclassified"] for score in _light_scores(ctx, scene, m, tmp_path / m))
            for m in ("clumped", "single", "static-dynamic")}
     best = min(got["single"], got["static-dynamic"])
     assert got["clumped"] <= TARGET_RATIO * best + TARGET_SLACK_PX, got
