@@ -144,11 +144,12 @@ def test_walkers_are_not_shadowed_by_their_own_or_their_neighbours_maps(ctx, tmp
 
 
 @needs_corpus
-@pytest.mark.parametrize("seed", [168])
+@pytest.mark.parametrize("seed", [168, 194])
 def test_a_crowd_is_shadowed_as_well_as_the_baselines_shadow_it(ctx, tmp_path, seed):
     """Seed 168: 193 walkers under a spot lamp, seen from far above. At half the clump maps'
     density the walkers' maps drew their shadows' edges coarser than the baselines' one map
-    of the crowd."""
+    of the crowd. Seed 194: 175 walkers under a point and two spot lamps. Held to one layer
+    per lamp, the walkers' maps were halved until they fitted it."""
     pytest.importorskip("embreex")
     scene = _scene(seed, tmp_path / "scene")
     got = {m: sum(score["misclassified"] for score in _light_scores(ctx, scene, m, tmp_path / m))

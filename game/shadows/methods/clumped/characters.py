@@ -62,10 +62,6 @@ class CharacterMaps:
                      f"layers; they get {max(1, pool.limit // 2)}, half the budget's: the "
                      "largest maps of a frame are made coarser when they do not fit")
             want = max(1, pool.limit // 2)
-        if ctx.light.range is not None:
-            # A lamp reaches few characters at once: one shared layer, the maps made smaller
-            # when more come (crowd.pack), leaves the rest to its clumps' maps.
-            want = min(want, 1)
         room = pool.limit - max(1, clump_layers)
         count = min(want, max(room, 1)) if n else 0
         while len(self.layers) > count:

@@ -88,6 +88,7 @@ class ViewSizedMaps:
         self.given: SharedPlacement | None = None
         self.reserved_squares: list[Square] | None = None
         self.edge_widths: dict[int, float] = {}   # per map key, its edges in map widths
+        self.counted: dict[int, float] = {}       # per map key, its edges as last counted
         self.asked: np.ndarray | None = None      # the needs of the last view's requests
         self.planned: list[PlannedMap] = []
         self.map_ids: dict[tuple, int] = {}
@@ -173,9 +174,13 @@ class ViewSizedMaps:
         It changes little as the camera comes nearer or goes away, or the frame is resized,
         where the count itself goes with the need. Half of it is kept from the frames before:
         one frame's count moves with every step of the camera and every walker, and maps sized
-        by it alone would change side, and be drawn again, as the camera turns."""
+        by it alone would change side, and be drawn again, as the camera turns. A count that
+        repeats the last one exactly (a still camera and scene) is no chance to damp: it is kept
+        whole, so that a still view settles in a few counts, where halving the way to it each
+        count would move the budget's scale, and the side of some map near a power of two, long
+        after."""
         last, tpp = self.edge_widths, self.ctx.settings.view_texels_per_pixel
-        widths = {}
+        widths, counts = {}, {}
         for key, record, side, need in self.planned:
             if need <= 0:  # not in view: nothing was counted
                 if key in last:
@@ -185,9 +190,10 @@ class ViewSizedMaps:
             # map that shows none at one side and a few at the next would change side each
             # frame.
             counted = (int(pixels[record]) + 1.0) * side * tpp ** 2 / need ** 2
+            counts[key] = counted
             widths[key] = (EDGE_MEMORY * last[key] + (1 - EDGE_MEMORY) * counted
-                           if key in last else counted)
-        self.edge_widths = widths
+                           if key in last and self.counted.get(key) != counted else counted)
+        self.edge_widths, self.counted = widths, counts
 
     def requests(self, view) -> tuple[list[ClumpRequest], set[int]]:
         """Each clump map as the view's budget sees it, clump by clump, and those that must be
