@@ -155,7 +155,16 @@ class Spot(LightKind):
             rotation: np.ndarray | None, radius: float | None = None) -> MapFit | None:
         if outside_cone(points, light.position, light.direction, light.cone):
             return None
-        return fit_perspective(points, light.position, resolution)
+        own = fit_perspective(points, light.position, resolution)
+        # A caster wider than the cone (a level's walls before the lamp) needs no texels
+        # outside it: nothing there is lit. Aimed along the light and held to the cone, its
+        # map is then no coarser than the engine's one map over the cone. A caster that
+        # reaches behind the lamp (the lamp on it) keeps its own map, widened around the lamp.
+        if (own is None or (own.rect[2] - own.rect[0]) / 2 <= _cone_tan(light)
+                or float(((points - light.position) @ light.direction).min()) <= 0.0):
+            return own
+        cone = fit_spot(points, light.position, light.direction, light.cone, resolution)
+        return cone if cone is not None and cone.texel < own.texel else own
 
     def engine_fits(self, light: Light, points: np.ndarray, resolution: int,
                     rotation: np.ndarray | None) -> list[MapFit]:
@@ -198,6 +207,11 @@ class Point(LightKind):
             fit = fit_perspective(points, light.position, resolution)
             return [fit] if fit is not None else []
         return fit_cube_faces(points, light.position, resolution)
+
+
+def _cone_tan(light: Light) -> float:
+    """The tangent of a spot light's half-angle, as :func:`fit_spot` holds its map."""
+    return math.tan(math.radians(min(light.cone, 179.0) / 2))
 
 
 def _typical_distance(eye: np.ndarray, statics: list[np.ndarray]) -> float:

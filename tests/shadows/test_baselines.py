@@ -177,3 +177,22 @@ def test_a_spot_map_covers_the_cone_and_no_more():
     small = np.array([[0.1, -5.0, 0.1], [0.3, -5.0, 0.2], [0.2, -4.5, 0.3]])
     tight = fit_spot(small, eye, direction, 60.0, 1024)
     assert tight.rect[2] - tight.rect[0] < 0.2 * (x1 - x0)
+
+
+def test_a_clump_wider_than_the_cone_gets_no_coarser_map_than_the_cone():
+    """A wall before a spot lamp, wider than its cone (a level around the lamp): the clump's map
+    holds the cone's part of it, no coarser than the engine's one map over the cone; a caster
+    inside the cone keeps its own tight map."""
+    from game.scene import Light
+    from game.shadows.fit import fit_spot
+    from game.shadows.light_kinds import kind_of
+
+    eye, direction = np.zeros(3), np.array([0.0, 0.0, -1.0])
+    light = Light("spot", direction, eye, 50.0)
+    wall = np.array([[x, y, -4.0] for x in (-30.0, 30.0) for y in (-3.0, 3.0)])
+    fit = kind_of(light).fit(light, wall, 1024, None)
+    engine = fit_spot(wall, eye, direction, 50.0, 1024)
+    assert fit.texel <= engine.texel * 1.001
+    small = np.array([[0.1, 0.1, -5.0], [0.3, 0.2, -5.0], [0.2, 0.3, -4.5]])
+    tight = kind_of(light).fit(light, small, 1024, None)
+    assert tight.texel < 0.2 * engine.texel
