@@ -26,7 +26,10 @@ import numpy as np
 from game.gpu.blocks import GRID_NONE, GRID_OCTAHEDRAL, GRID_ORTHO, GRID_TILES
 from game.shadows.fit import MapFit
 
-LOOP_MAX_MAPS = 2         # beyond this many maps the grid is cheaper than looping over all
+# Beyond this many maps the grid is cheaper than looping over all. With two, a fragment
+# walks both records; one fetch of its cell's list, which names the one map that can
+# shadow it or none, costs less.
+LOOP_MAX_MAPS = 1
 MAX_GRID = 128
 MAX_TILE_GRID = 512       # a partition's grid: most cells per side (a wider one is not aligned)
 MAX_WIDE_GRID = 2 * MAX_GRID  # most cells per side of a grid grown over walkers outside it
