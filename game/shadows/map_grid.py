@@ -388,6 +388,8 @@ class GridBuilder:
             rect, size, mode = _union(rects), _grid_size(len(fits)), GRID_ORTHO
         else:
             rect, size, mode = np.array([-1.0, -1.0, 1.0, 1.0]), OCTAHEDRAL_GRID, GRID_OCTAHEDRAL
+        if not _representable(rect):
+            return no_grid()
         cover = covers if covers is not None else [None] * len(fits)
         sphere = spheres if spheres is not None else [None] * len(fits)
         key = (mode, size, float(reach), rect.tobytes(),
@@ -405,6 +407,8 @@ class GridBuilder:
         keys = self._keys
         if mode == GRID_ORTHO and around is not None:
             wide_rect, wide, shift = _widen(rect, size, around)
+            if wide != size and not _representable(wide_rect):
+                return no_grid()
             if wide != size:
                 keys = _moved_keys(keys, size, wide, shift)
                 rect, size = wide_rect, wide
@@ -415,6 +419,12 @@ class GridBuilder:
             return _pack_tiles(keys, moving, size, rect)
         keys = keys if not len(moving) else np.sort(np.concatenate([keys, moving]))
         return _pack(keys, size, mode, rect)
+
+
+def _representable(rect: np.ndarray) -> bool:
+    """Whether the shader's float32 holds a grid over ``rect`` (maps absurdly wide, at a
+    density target near zero, do not: the loop over every map still finds theirs)."""
+    return bool(np.all(np.abs(rect) < np.finfo(np.float32).max / 4))
 
 
 def _fit_key(fit: MapFit, cover: np.ndarray | None, spheres: np.ndarray | None) -> tuple:

@@ -39,6 +39,10 @@ def test_few_maps_use_no_grid_and_many_use_one():
     assert map_grid.build(fits[:map_grid.LOOP_MAX_MAPS], None).mode == GRID_NONE
     assert map_grid.build(fits, None).mode == GRID_ORTHO
     assert map_grid.build(fits[:3], None, use="on").mode == GRID_ORTHO
+    # Maps wider than a float32 can span (a density target near zero): the loop, not a grid.
+    huge = [fit_directional(np.array([[x * 1e300, 0, 0], [(x + 1) * 1e300, 1, 1]], float),
+                            rot, 64) for x in range(2)]
+    assert map_grid.build(huge, None, use="on").mode == GRID_NONE
 
 
 def test_ortho_grid_lists_every_map_that_holds_a_point():
