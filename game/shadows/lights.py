@@ -26,7 +26,8 @@ import numpy as np
 from game.scene.geometry import PackedGeometry
 from game.scene.model import Light
 from game.shadows import registry
-from game.shadows.budget import BASELINE_BUDGET_SHARE, fit_baseline_memory
+from game.shadows.budget import fit_baseline_memory
+from game.shadows.cube_sides import coarse_cube_notes, finer_cubes, lamp_side
 from game.shadows.light_kinds import kind_of
 from game.shadows.method import ShadowMethod, SharesBudget, ViewSized, caster_spheres
 from game.shadows.plan import (
@@ -39,12 +40,6 @@ from game.shadows.plan import (
 from game.shadows.view_budget import ViewBudget, atlas_shape
 
 MIN_LAMP_RESOLUTION = 128  # the smallest clump maps a lamp's share may make
-# A clumped point light's cube with faces this many times coarser than the baselines' cube
-# gets a note. At half the baselines' side the clumps beside the light, in frusta finer than
-# either cube, still keep clumped ahead of them (random scene 20's range-less lamp, the night
-# town's lamps); at a quarter the cube's texels decide the error where it holds the receivers
-# (random scene 59: every pixel its point light misclassifies lies in its cube alone).
-COARSE_CUBE_RATIO = 4
 
 
 @dataclass(frozen=True)
@@ -78,19 +73,6 @@ def reach_weight(light: Light, scene_radius: float) -> float:
     return min(1.0, (light.range / max(scene_radius, 1e-6)) ** 2)
 
 
-def lamp_side(light: Light, settings: ShadowSettings, scene_radius: float) -> int:
-    """The side of a baseline's maps (or cube faces) for a light with a range: texels as
-    fine at the edge of its range as ``single_resolution`` gives across the scene, from
-    ``lamp_resolution`` doubled up to ``single_resolution``. A lamp that lights a street corner
-    keeps ``lamp_resolution``; one whose range spans the scene lights as much as a sun does,
-    and at ``lamp_resolution`` its far shadows would be four times coarser than the sun's."""
-    reach = light.range / max(scene_radius, 1e-6)
-    side = min(settings.lamp_resolution, settings.single_resolution)
-    while side < settings.single_resolution * min(reach, 1.0):
-        side *= 2
-    return min(side, settings.single_resolution)
-
-
 def budget_shares(lights: list[Light], total_mib: float, resolution: int,
                   scene_radius: float) -> tuple[list[float], list[int]]:
     """Each light's share of the memory budget in MiB, and the side of its clump maps (see the
@@ -114,31 +96,6 @@ def budget_shares(lights: list[Light], total_mib: float, resolution: int,
         return [total_mib / len(lights)] * len(lights), sides
     weights = [reach_weight(light, scene_radius) for light in lights]
     return [f + spare * w / sum(weights) for f, w in zip(floors(), weights, strict=True)], sides
-
-
-def coarse_cube_notes(methods: list[ShadowMethod], settings: ShadowSettings,
-                      scene_radius: float) -> list[str]:
-    """One note per pair of sides: the clumped point lights whose cube around the light has
-    faces :data:`COARSE_CUBE_RATIO` or more times coarser than the cube the baselines give the
-    same light. The baselines spend their own budget (``BASELINE_BUDGET_SHARE`` times
-    clumped's) on one cube per point light; a share of clumped's budget holds fewer texels,
-    and the receivers that only the cube holds get wider texels than the baselines give."""
-    coarse: dict[tuple[int, int], list[int]] = {}
-    for k, method in enumerate(methods):
-        side = getattr(method, "cube_side", None)  # only a point light's clumps take a cube
-        if side is None:
-            continue
-        base = (settings.single_resolution if method.light.range is None
-                else lamp_side(method.light, settings, scene_radius))
-        if side * COARSE_CUBE_RATIO <= base:
-            coarse.setdefault((side, base), []).append(k)
-    shared = f" ({len(methods)} lights share it)" if len(methods) > 1 else ""
-    return [f"{'light' if len(ks) == 1 else 'lights'} {', '.join(map(str, ks))}: the clumps "
-            f"around the light share a cube of {side}^2 faces where single and static-dynamic "
-            f"draw a cube of {base}^2 with these settings, texels {base // side} times as wide: "
-            f"the {settings.budget_mib:g} MiB budget{shared} goes to clump maps of {side}^2 "
-            f"(the baselines' budget is {BASELINE_BUDGET_SHARE * settings.budget_mib:g} MiB)"
-            for (side, base), ks in coarse.items()]
 
 
 class LightShadows:
@@ -200,6 +157,7 @@ class LightShadows:
                                    max(1, max_maps // n))
 
         self.methods: list[ShadowMethod] = [create(k, share) for k, share in enumerate(shares)]
+        finer_cubes(self.methods, shares, sides, create, settings, radius)
         self._notes: list[str] = []
         if n > 1:
             self._pass_on_what_is_left(shares, create, radius, settings.budget_mib)

@@ -196,6 +196,17 @@ class SharesBudget(ABC):
     def limit_memory(self, mib: float) -> None:
         """Hold any later re-planning to ``mib`` of the budget (what it takes now, or more)."""
 
+    @property
+    @abstractmethod
+    def cube_side(self) -> int | None:
+        """Texels per side of the cube of maps around a point light, where its casters
+        surround it; None where there is none."""
+
+    @property
+    @abstractmethod
+    def meets_density(self) -> bool:
+        """Whether its maps meet the density target within its share."""
+
 
 class ViewSized(ABC):
     """A method whose maps may be sized by the view: by the pixels the shading pass counts near

@@ -16,8 +16,9 @@ from game.bench.accuracy_summary import TARGET_RATIO, TARGET_SLACK_PX
 from game.scene import load_scene, random_scene
 from game.scene.geometry import pack
 from game.scene.model import Light
+from game.shadows.cube_sides import COARSE_CUBE_RATIO, lamp_side
 from game.shadows.fit import CUBE_FACES
-from game.shadows.lights import COARSE_CUBE_RATIO, LightShadows, lamp_side
+from game.shadows.lights import LightShadows, scene_radius
 from game.shadows.plan import ShadowSettings
 from tests.helpers import MAX_ERROR
 
@@ -109,6 +110,21 @@ def test_a_point_light_whose_cube_is_coarser_than_the_baselines_says_so(tmp_path
     scene = _scene(20, tmp_path / "s20")
     shadows = LightShadows(pack(scene), scene.lights, ShadowSettings(), 2048, 4096)
     assert not [n for n in shadows.notes if "share a cube of" in n], shadows.notes
+
+
+@needs_corpus
+def test_a_point_light_with_room_in_its_share_gets_a_finer_cube(tmp_path):
+    """Seed 122: three point lamps share the budget at 1024^2 maps. Light 0's clumps take a
+    cube around it and meet the density target in part of its share, where the baselines draw
+    4096^2 faces: its maps are planned at 2048^2. Light 1's cube stays at 1024^2: its share
+    of the budget, by its short range, holds no cube of 2048^2 faces."""
+    scene = _scene(122, tmp_path / "s122")
+    geom = pack(scene)
+    shadows = LightShadows(geom, scene.lights, ShadowSettings(), 2048, 4096)
+    assert shadows.methods[0].cube_side == 2048, shadows.notes
+    assert shadows.methods[0].meets_density
+    assert shadows.methods[1].cube_side == 1024
+    assert lamp_side(scene.lights[1], ShadowSettings(), scene_radius(geom)) > 1024
 
 
 def _walker_false_shadows(frame: Path, scene) -> tuple[int, int]:

@@ -135,6 +135,10 @@ class ClumpedShadows(ShadowMethod, SharesBudget, ViewSized):
         return None
 
     @property
+    def meets_density(self) -> bool:
+        return not self.members.short
+
+    @property
     def layer_limit(self) -> int:
         return self.pool.limit
 
