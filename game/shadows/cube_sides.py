@@ -51,8 +51,10 @@ def finer_cubes(methods: list[ShadowMethod], shares: list[float], sides: list[in
                and method.meets_density and sides[k] * 2 <= base):
             sides[k] *= 2
             finer = create(k, shares[k])
-            if not (isinstance(finer, SharesBudget) and finer.cube_side is not None
-                    and finer.meets_density):
+            # The planner may halve the side again itself (more clumps at the target): then
+            # the cube got no finer, and a larger side would not make it so.
+            if not (isinstance(finer, SharesBudget) and finer.meets_density
+                    and (finer.cube_side or 0) > method.cube_side):
                 sides[k] //= 2
                 break
             methods[k] = method = finer
