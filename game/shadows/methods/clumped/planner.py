@@ -80,14 +80,26 @@ class ClumpedShadows(ShadowMethod, SharesBudget, ViewSized):
         side = settings.clump_resolution
         if (self.members.short and settings.clump_count is None
                 and side // 2 >= MIN_SHORT_RESOLUTION):
-            # Short of layers, maps of a quarter of the texels, four times as many, hug the
-            # statics closer and leave less of the budget on empty ground between them.
-            self.notes = []
-            self.settings = dataclasses.replace(settings, clump_resolution=side // 2)
-            self.pool, self.members, self.maps, self.characters, self.view = self._parts()
-            self.note(f"the clumps at {settings.texels_per_metre:g} texels/m do not fit the "
-                      f"{settings.budget_mib:g} MiB budget in maps of {side}^2: the clump "
-                      f"maps are {side // 2}^2, four times as many")
+            self._halve(side)
+
+    def _halve(self, side: int) -> None:
+        """Short of layers, maps of a quarter of the texels, four times as many, hug the statics
+        closer and leave less of the budget on empty ground between them. Not where a cube
+        around the light stays: its six faces hold the receivers round the light whatever the
+        side, and halving would quarter their texels to give the other clumps maps that, four
+        times as many, together hold no more texels."""
+        whole = (self.pool, self.members, self.maps, self.characters, self.view)
+        settings, notes, cube = self.settings, list(self.notes), self.cube_side
+        self.notes = []
+        self.settings = dataclasses.replace(settings, clump_resolution=side // 2)
+        self.pool, self.members, self.maps, self.characters, self.view = self._parts()
+        if cube is not None and self.cube_side is not None:
+            self.settings, self.notes = settings, notes
+            self.pool, self.members, self.maps, self.characters, self.view = whole
+            return
+        self.note(f"the clumps at {settings.texels_per_metre:g} texels/m do not fit the "
+                  f"{settings.budget_mib:g} MiB budget in maps of {side}^2: the clump "
+                  f"maps are {side // 2}^2, four times as many")
 
     def _parts(self) -> tuple[LayerPool, ClumpMembers, ClumpMaps, CharacterMaps, ViewSizedMaps]:
         """The parts planned from the settings: the character maps' layers first, then the
