@@ -19,7 +19,8 @@ from game.shadows.plan import ShadowSettings
 # gets a note. At half the baselines' side the clumps beside the light, in frusta finer than
 # either cube, still keep clumped ahead of them (random scene 20's range-less lamp, the night
 # town's lamps); at a quarter the cube's texels decide the error where it holds the receivers
-# (random scene 59: every pixel its point light misclassifies lies in its cube alone).
+# (random scene 59 with faces of 1024^2: every pixel its point light misclassified lay in its
+# cube alone).
 COARSE_CUBE_RATIO = 4
 
 
