@@ -28,7 +28,7 @@ from game.shadows.fit import (
     holds_in_one_frustum,
     outside_cone,
 )
-from game.shadows.map_grid import octahedral_encode
+from game.shadows.octahedral import octahedral_encode
 
 # A clump around a point light gets one frustum only when it is no wider than a cube face (45
 # degrees either side of its axis): a wider one spreads its texels thinner than the faces do.

@@ -18,13 +18,13 @@ their cells from frame to frame, while only the maps that move are placed again.
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 
 import numpy as np
 
 from game.gpu.blocks import GRID_NONE, GRID_OCTAHEDRAL, GRID_ORTHO, GRID_TILES
 from game.shadows.fit import MapFit
+from game.shadows.octahedral import OCTAHEDRAL_GRID, map_hits
 
 # Beyond this many maps the grid is cheaper than looping over all. With two, a fragment
 # walks both records; one fetch of its cell's list, which names the one map that can
@@ -34,7 +34,6 @@ MAX_GRID = 128
 MAX_TILE_GRID = 512       # a partition's grid: most cells per side (a wider one is not aligned)
 MAX_WIDE_GRID = 2 * MAX_GRID  # most cells per side of a grid grown over walkers outside it
 GRID_CELLS_PER_MAP = 8  # cells per side per sqrt(map count): short lists, small grid
-OCTAHEDRAL_GRID = 32      # even, so that no cell straddles an octant boundary
 
 
 @dataclass
@@ -204,137 +203,12 @@ def build_ortho(fits: list[MapFit], covers: list[np.ndarray | None] | None = Non
     return GridBuilder().build(fits, None, "on", covers, reach)
 
 
-def octahedral_decode(e: np.ndarray) -> np.ndarray:
-    """Unit directions for octahedral coordinates (N, 2) in [-1, 1]^2."""
-    e = np.asarray(e, float)
-    z = 1.0 - np.abs(e[:, 0]) - np.abs(e[:, 1])
-    x, y = e[:, 0].copy(), e[:, 1].copy()
-    lower = z < 0
-    x[lower] = (1.0 - np.abs(e[lower, 1])) * np.where(e[lower, 0] >= 0, 1.0, -1.0)
-    y[lower] = (1.0 - np.abs(e[lower, 0])) * np.where(e[lower, 1] >= 0, 1.0, -1.0)
-    d = np.stack([x, y, z], axis=1)
-    return d / np.linalg.norm(d, axis=1, keepdims=True)
-
-
-def octahedral_encode(d: np.ndarray) -> np.ndarray:
-    """Octahedral coordinates of directions (N, 3); the inverse of :func:`octahedral_decode`."""
-    d = np.asarray(d, float)
-    d = d / np.abs(d).sum(axis=1, keepdims=True)
-    e = d[:, :2].copy()
-    lower = d[:, 2] < 0
-    sx = np.where(d[lower, 0] >= 0, 1.0, -1.0)
-    sy = np.where(d[lower, 1] >= 0, 1.0, -1.0)
-    e[lower, 0] = (1.0 - np.abs(d[lower, 1])) * sx
-    e[lower, 1] = (1.0 - np.abs(d[lower, 0])) * sy
-    return e
-
-
-def _cell_points(size: int) -> np.ndarray:
-    """Per cell, 8 octahedral points whose directions span the cell's cone of directions.
-
-    A cell never straddles an axis (size is even), but the diamond |u| + |v| = 1 between the
-    upper and lower hemispheres may cross it; the crossing points join the 4 corners, so the
-    convex cone of the 8 directions holds the cell's whole cone.
-    """
-    edges = np.linspace(-1.0, 1.0, size + 1)
-    u0, v0 = np.meshgrid(edges[:-1], edges[:-1])
-    u1, v1 = np.meshgrid(edges[1:], edges[1:])
-    u0, v0, u1, v1 = (a.ravel() for a in (u0, v0, u1, v1))
-    su = np.where(u0 + u1 >= 0, 1.0, -1.0)
-    sv = np.where(v0 + v1 >= 0, 1.0, -1.0)
-    corners = [np.stack([u0, v0], 1), np.stack([u1, v0], 1), np.stack([u0, v1], 1),
-               np.stack([u1, v1], 1)]
-    extra = []
-    # The diamond in this quadrant: su * u + sv * v = 1.
-    for u in (u0, u1):
-        v = sv * (1.0 - su * u)
-        ok = (v >= v0) & (v <= v1)
-        extra.append(np.stack([u, np.where(ok, v, v0)], 1))
-    for v in (v0, v1):
-        u = su * (1.0 - sv * v)
-        ok = (u >= u0) & (u <= u1)
-        extra.append(np.stack([np.where(ok, u, u0), v], 1))
-    return np.stack(corners + extra, axis=1)  # (cells, 8, 2)
-
-
-@functools.lru_cache(maxsize=4)
-def _cell_directions(size: int) -> np.ndarray:
-    """The unit directions of :func:`_cell_points`, (cells * 8, 3): the same for every light
-    and frame, so made once."""
-    directions = octahedral_decode(_cell_points(size).reshape(-1, 2))
-    directions.flags.writeable = False
-    return directions
-
-
-@functools.lru_cache(maxsize=4)
-def _cell_cones(size: int) -> tuple[np.ndarray, np.ndarray]:
-    """Per cell a cone holding its cone of directions: the unit axis (cells, 3) through the mean
-    of :func:`_cell_points`' directions and the widest angle (cells,) from it to one of them."""
-    dirs = _cell_directions(size).reshape(-1, 8, 3)
-    axis = dirs.sum(axis=1)
-    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
-    half = np.arccos(np.clip(np.einsum("cj,ckj->ck", axis, dirs), -1.0, 1.0)).max(axis=1)
-    for a in (axis, half):
-        a.flags.writeable = False
-    return axis, half
-
-
-def _sphere_cells(spheres: np.ndarray, eye: np.ndarray, grow: float, cells: np.ndarray
-                  ) -> np.ndarray:
-    """Which of the cells ``cells`` (bool mask) have cones that meet the cone from ``eye``
-    through one of ``spheres`` ((K, 4) centres and radii), its half-angle grown by ``grow``
-    radians; the others stay False."""
-    axis, half = _cell_cones(OCTAHEDRAL_GRID)
-    to = np.asarray(spheres, float)[:, :3] - eye
-    dist = np.linalg.norm(to, axis=1)
-    radius = np.asarray(spheres, float)[:, 3]
-    inside = dist <= radius * (1.0 + 1e-6)   # the light within a sphere: every direction
-    if inside.any():
-        return cells.copy()
-    cone = np.arcsin(np.clip(radius / dist, 0.0, 1.0)) + grow
-    which = np.flatnonzero(cells)
-    axis, half = axis[which], half[which]
-    meet = np.zeros(len(which), bool)
-    # In slices, so that a clump of thousands of pieces stays small in memory.
-    for lo in range(0, len(to), 512):
-        unit = to[lo:lo + 512] / dist[lo:lo + 512, None]
-        apart = np.arccos(np.clip(axis @ unit.T, -1.0, 1.0))
-        # A sliver of slack, as the shader computes the cell in float32.
-        meet |= (apart <= half[:, None] + cone[None, lo:lo + 512] + 1e-4).any(axis=1)
-    out = np.zeros(len(cells), bool)
-    out[which] = meet
-    return out
-
-
 def _octahedral_pairs(fits: list[MapFit], eye: np.ndarray, first: int = 0,
                       spheres: list[np.ndarray | None] | None = None,
                       reach: float = 0.0) -> np.ndarray:
-    """As :func:`_ortho_pairs`, over the directions from a spot or point light at ``eye``: a
-    cell lists a map where its cone meets the map's frustum and, when ``spheres`` gives the
-    map's casters, the cone through one of them grown by ``reach`` texels."""
-    eye = np.asarray(eye, float)
-    dirs = _cell_directions(OCTAHEDRAL_GRID)
-    cells = len(dirs) // 8
-    world = eye + dirs  # one point along each direction
-    hom = np.concatenate([world, np.ones((len(world), 1))], axis=1)
-    hits = np.zeros((cells, len(fits)), bool)
-    for j, fit in enumerate(fits):
-        clip = (hom @ fit.view_proj.T).reshape(cells, 8, 4)
-        w = clip[..., 3]
-        front = w > 1e-12
-        all_front = front.all(axis=1)
-        any_front = front.any(axis=1)
-        ndc = clip[..., :2] / np.where(front, w, 1.0)[..., None]
-        lo = np.where(front[..., None], ndc, np.inf).min(axis=1)
-        hi = np.where(front[..., None], ndc, -np.inf).max(axis=1)
-        overlap = (lo[:, 0] <= 1) & (hi[:, 0] >= -1) & (lo[:, 1] <= 1) & (hi[:, 1] >= -1)
-        hits[:, j] = np.where(all_front, overlap, any_front)
-        own = spheres[j] if spheres is not None else None
-        if own is not None and len(own):
-            # A texel's offset of ``texel`` per metre of depth turns the ray by at most as
-            # many radians.
-            hits[:, j] = _sphere_cells(own, eye, reach * fit.texel, hits[:, j])
-    cell, owner = np.nonzero(hits)
+    """As :func:`_ortho_pairs`, over the directions from a spot or point light at ``eye``
+    (:func:`game.shadows.octahedral.map_hits`)."""
+    cell, owner = map_hits(fits, eye, spheres, reach)
     return np.unique(cell.astype(np.int64) * KEY_MAPS + owner + first)
 
 

@@ -14,7 +14,7 @@ import pytest
 from game.render.renderer import View
 from game.scene import load_scene
 from game.scene.geometry import pack
-from game.shadows import map_grid
+from game.shadows import map_grid, octahedral
 from game.shadows.fit import fit_cube_faces
 from game.shadows.light_kinds import kind_of
 from game.shadows.lights import LightShadows
@@ -92,7 +92,7 @@ def test_spheres_keep_a_cube_face_to_the_directions_of_its_casters():
     to = centres - eye
     dist = np.linalg.norm(to, axis=1)
     apart = np.arccos(np.clip(dirs @ (to / dist[:, None]).T, -1, 1))
-    cells = _cell(map_grid.octahedral_encode(dirs), grid)
+    cells = _cell(octahedral.octahedral_encode(dirs), grid)
     for j, fit in enumerate(fits):
         clip = np.concatenate([eye + dirs, np.ones((len(dirs), 1))], axis=1) @ fit.view_proj.T
         held = (clip[:, 3] > 0) & np.all(np.abs(clip[:, :2]) <= clip[:, 3:4], axis=1)

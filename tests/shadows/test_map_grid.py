@@ -4,7 +4,7 @@ import numpy as np
 
 from game import transforms
 from game.gpu.blocks import GRID_NONE, GRID_OCTAHEDRAL, GRID_ORTHO, GRID_TILES
-from game.shadows import map_grid
+from game.shadows import map_grid, octahedral
 from game.shadows.fit import fit_directional, fit_perspective
 
 
@@ -29,7 +29,7 @@ def test_octahedral_round_trip():
     rng = np.random.default_rng(1)
     d = rng.normal(size=(2000, 3))
     d /= np.linalg.norm(d, axis=1, keepdims=True)
-    assert np.allclose(map_grid.octahedral_decode(map_grid.octahedral_encode(d)), d, atol=1e-12)
+    assert np.allclose(octahedral.octahedral_decode(octahedral.octahedral_encode(d)), d, atol=1e-12)
 
 
 def test_few_maps_use_no_grid_and_many_use_one():
@@ -76,7 +76,7 @@ def test_octahedral_grid_lists_every_map_that_holds_a_point():
     grid = map_grid.build_octahedral(fits, eye)
     assert grid.mode == GRID_OCTAHEDRAL
     points = eye + rng.normal(size=(6000, 3)) * [15, 8, 15]
-    coords = map_grid.octahedral_encode(points - eye)
+    coords = octahedral.octahedral_encode(points - eye)
     cells = cell_of(coords, grid)
     missed = 0
     for p, cell in zip(points, cells, strict=True):
@@ -87,6 +87,33 @@ def test_octahedral_grid_lists_every_map_that_holds_a_point():
     assert missed == 0
     # And the lists are short: the grid is useful, not a list of everything.
     assert grid.mean_list < 0.5 * len(fits)
+
+
+def test_a_cell_a_map_is_not_projected_in_holds_none_of_its_directions():
+    """A map is projected only in the cells whose cones meet the cone round its frustum: in
+    every other cell, directions sampled across the cell miss the frustum. Narrow maps (a
+    walker's far from the light) and wide ones (a cube face, a map up to MAX_TAN) both."""
+    rng = np.random.default_rng(7)
+    eye = np.array([1.0, 5.0, -2.0])
+    size = 16
+    fits = [fit_perspective(c + rng.uniform(-r, r, (12, 3)), eye, 128)
+            for c, r in [(rng.uniform(-20, 20, 3), rng.choice([0.3, 2.0, 8.0]))
+                         for _ in range(24)]]
+    fits = [f for f in fits if f is not None]
+    axis, half = octahedral._cell_cones(size)
+    corners = octahedral._cell_points(size)
+    lo, hi = corners[:, :4].min(axis=1), corners[:, :4].max(axis=1)
+    t = rng.uniform(size=(200, 2))
+    skipped = 0
+    for fit in fits:
+        near = set(octahedral._near_frustum(fit, eye, axis, half, 0.0).tolist())
+        for cell in set(range(size * size)) - near:
+            dirs = octahedral.octahedral_decode(lo[cell] + t * (hi[cell] - lo[cell]))
+            clip = np.c_[eye + dirs, np.ones(len(dirs))] @ fit.view_proj.T
+            inside = (clip[:, 3] > 0) & np.all(np.abs(clip[:, :2]) <= clip[:, 3:], axis=1)
+            assert not inside.any(), (cell, fit.rect)
+            skipped += 1
+    assert skipped > len(fits) * size * size / 2   # the narrow maps skip most cells
 
 
 def test_moving_maps_outside_the_steady_ones_are_found_and_steady_cells_are_kept():
