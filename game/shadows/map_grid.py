@@ -273,6 +273,11 @@ class GridBuilder:
         if key != self._key:
             if lattice is not None:
                 self._keys = _tile_pairs(own, rect, size)
+                if covers is not None:
+                    # A tile's texels are empty outside its casters' covers: a cell there lists
+                    # no static map, and its fragments read none.
+                    self._keys = np.intersect1d(self._keys, _ortho_pairs(
+                        fits[:steady], cover[:steady], reach, rect, size), assume_unique=True)
             elif ortho:
                 self._keys = _ortho_pairs(fits[:steady], cover[:steady], reach, rect, size)
             else:

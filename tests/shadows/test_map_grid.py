@@ -184,3 +184,35 @@ def test_a_partitions_grid_reaches_over_walkers_beyond_its_tiles():
         cell = cell_of(centre, grid)
         found = listed(grid, int(cell))
         assert 4 + j in found and len(found - {-1}) <= 3, (j, found)
+
+
+def test_a_tile_lists_its_map_only_where_its_casters_covers_reach():
+    """A tile's map holds no texel outside its casters' covers, so its cells there list no
+    static map (-1), and every point of a cover grown by the reach still finds its tile's map;
+    a tile without covers keeps its map in all its cells."""
+    rng = np.random.default_rng(9)
+    rot = transforms.light_rotation(np.array([0.0, -1.0, 0.0]))
+    tiles = [np.array([x, y, x + 10.0, y + 10.0]) for x in (0.0, 10.0) for y in (0.0, 10.0)]
+    steady = [fit_directional(np.array([[t[0], 0, -t[1]], [t[2], 1, -t[3]]]), rot, 128)
+              for t in tiles]
+    covers = []
+    for t in tiles[:3]:
+        lo = t[:2] + rng.uniform(0.5, 4.0, (3, 2))
+        covers.append(np.concatenate([lo, lo + rng.uniform(0.5, 3.0, (3, 2))], axis=1))
+    covers.append(None)
+    reach = 2.0
+    grid = map_grid.GridBuilder().build(steady, None, covers=covers, reach=reach,
+                                        tiles=tiles)
+    assert grid.mode == GRID_TILES
+    for k, (fit, cover) in enumerate(zip(steady, covers, strict=True)):
+        if cover is None:
+            points = rng.uniform(tiles[k][:2], tiles[k][2:], (200, 2))
+        else:
+            grown = cover + reach * fit.texel * np.array([-1.0, -1.0, 1.0, 1.0])
+            box = grown[rng.integers(0, len(grown), 400)]
+            points = rng.uniform(box[:, :2], box[:, 2:])
+            points = points[np.all((points >= tiles[k][:2]) & (points < tiles[k][2:]), axis=1)]
+        for p in points:
+            assert k in listed(grid, int(cell_of(p, grid))), (k, p)
+    empty = [c for c in range(grid.size * grid.size) if listed(grid, c) == {-1}]
+    assert len(empty) > grid.size * grid.size / 4   # most of the covered tiles' cells
