@@ -71,9 +71,10 @@ def shading_section(runs, here: Path, header: Callable[[object, Path], list[str]
             where = Path(os.path.relpath(chart, here)).as_posix()
             lines += [f"![camera pass against maps, run {run.name}]({where})", ""]
     lines += density_section(runs, here, header)
-    lines += ["Why the remaining cost is the depth read and not the search: "
-              "[the architecture](design/architecture.md#many-small-maps-or-one-large-one); how "
-              "the cached maps' [depth bounds](design/depth-bounds.md) settle most reads.", ""]
+    lines += ["What the camera pass still pays above one map's, the search through the grid "
+              "and the finer texels: [the architecture]"
+              "(design/architecture.md#many-small-maps-or-one-large-one); how the cached maps' "
+              "[depth bounds](design/depth-bounds.md) settle most reads.", ""]
     return lines
 
 

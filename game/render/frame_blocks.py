@@ -251,7 +251,8 @@ def _screen_rect(light: Light, clip: np.ndarray, w: int, h: int) -> tuple | None
 
 def _joined(grids: list[MapGrid], spans: list[LightSpan]) -> tuple[np.ndarray, list[int]]:
     """Every light's map grid in one buffer, and where each starts. A grid's cell offsets
-    point into its own data and its lists hold its light's map indices: both are shifted."""
+    point into its own data and its lists hold its light's map indices: both are shifted,
+    except a partition's -1 (no static map in the cell), which must stay no map."""
     parts, bases, at = [], [], 0
     for grid, span in zip(grids, spans, strict=True):
         data = grid.data.astype(np.int32)
@@ -259,7 +260,8 @@ def _joined(grids: list[MapGrid], spans: list[LightSpan]) -> tuple[np.ndarray, l
         if at or span.first_map:
             data = data.copy()
             data[:cells] += at
-            data[cells:] += span.first_map
+            lists = data[cells:]
+            lists[lists >= 0] += span.first_map
         parts.append(data)
         bases.append(at)
         at += len(data)

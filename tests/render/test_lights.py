@@ -9,11 +9,13 @@ import pytest
 
 from game.gpu import blocks
 from game.reference.score import score_frame
+from game.render.frame_blocks import _joined
 from game.render.renderer import Renderer, View
 from game.scene import load_scene
 from game.scene.generate import generate_town
 from game.scene.loader import MAX_LIGHTS
-from game.shadows.lights import budget_shares, min_layers, scene_radius
+from game.shadows.lights import LightSpan, budget_shares, min_layers, scene_radius
+from game.shadows.map_grid import MapGrid
 from game.shadows.plan import CLUMP_RESOLUTION, KIND_CHARACTER, ShadowSettings
 from game.shadows.registry import MAP_METHODS
 from tests.helpers import ASSETS, SCENES
@@ -262,3 +264,18 @@ def test_street_lamps_are_drawn_after_the_town_and_leave_it_as_it_was():
     assert [tuple(x.position) for x in again.lamps] == [tuple(x.position) for x in lit.lamps]
     for lamp, post in zip(lit.lamps, lit.statics[-6:], strict=True):
         assert 3.0 < lamp.position[1] < post.bounds[1][1]  # under its post's arm
+
+
+def test_a_later_lights_partition_keeps_its_cells_without_a_static_map():
+    """Every light's grid goes into one buffer, its map indices shifted past the lights before
+    it; a partition's -1 (a cell that no tile's casters reach) stays -1, where shifting it would
+    name the last map of the light before."""
+    first = MapGrid(blocks.GRID_ORTHO, 1, np.array([0.0, 0.0, 1.0, 1.0]),
+                    np.array([2, 4, 0, 1], np.int32))
+    # 2 x 2 cells: the first lists no static map (-1) and character map 1, the second tile 0.
+    tiles = MapGrid(blocks.GRID_TILES, 2, np.array([0.0, 0.0, 1.0, 1.0]),
+                    np.array([5, 7, 8, 8, 8, -1, 1, 0], np.int32))
+    data, bases = _joined([first, tiles], [LightSpan(0, 2, 0), LightSpan(2, 2, 2)])
+    assert bases == [0, 4]
+    assert data[4:9].tolist() == [9, 11, 12, 12, 12]      # offsets moved by the first grid
+    assert data[9:].tolist() == [-1, 3, 2]                 # -1 kept, maps moved by 2
