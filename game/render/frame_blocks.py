@@ -102,7 +102,7 @@ class FrameBlocks:
                             character_maps[k, obj - geom.first_character] = index
             self.character_maps.write(character_maps.tobytes())
         self.maps.write(self._maps(plan, bounded).tobytes())
-        data, bases = _joined(grids, spans)
+        data, bases = join_grids(grids, spans)
         tile_base = len(data)
         tiles_x, tiles = tile_lights(lights, view, tile_base, enabled)
         data = np.concatenate([data, tiles])
@@ -249,7 +249,7 @@ def _screen_rect(light: Light, clip: np.ndarray, w: int, h: int) -> tuple | None
     return x.min(), y.min(), x.max(), y.max()
 
 
-def _joined(grids: list[MapGrid], spans: list[LightSpan]) -> tuple[np.ndarray, list[int]]:
+def join_grids(grids: list[MapGrid], spans: list[LightSpan]) -> tuple[np.ndarray, list[int]]:
     """Every light's map grid in one buffer, and where each starts. A grid's cell offsets
     point into its own data and its lists hold its light's map indices: both are shifted,
     except a partition's -1 (no static map in the cell), which must stay no map."""

@@ -9,7 +9,7 @@ import pytest
 
 from game.gpu import blocks
 from game.reference.score import score_frame
-from game.render.frame_blocks import _joined
+from game.render.frame_blocks import join_grids
 from game.render.renderer import Renderer, View
 from game.scene import load_scene
 from game.scene.generate import generate_town
@@ -275,7 +275,7 @@ def test_a_later_lights_partition_keeps_its_cells_without_a_static_map():
     # 2 x 2 cells: the first lists no static map (-1) and character map 1, the second tile 0.
     tiles = MapGrid(blocks.GRID_TILES, 2, np.array([0.0, 0.0, 1.0, 1.0]),
                     np.array([5, 7, 8, 8, 8, -1, 1, 0], np.int32))
-    data, bases = _joined([first, tiles], [LightSpan(0, 2, 0), LightSpan(2, 2, 2)])
+    data, bases = join_grids([first, tiles], [LightSpan(0, 2, 0), LightSpan(2, 2, 2)])
     assert bases == [0, 4]
     assert data[4:9].tolist() == [9, 11, 12, 12, 12]      # offsets moved by the first grid
     assert data[9:].tolist() == [-1, 3, 2]                 # -1 kept, maps moved by 2
