@@ -262,8 +262,9 @@ float shadow_visibility(LightRecord light, vec3 p, vec3 n, int object, inout int
         k = u_grid[c];
         end = u_grid[c + 1];
     }
-    // With tiles, a cell's list starts with its one static map (-1: none), then its character
-    // maps, often none: the walk runs once where no walker's map reaches the cell.
+    // With tiles, a cell lists its one static map where that tile's casters reach the cell, then
+    // its character maps: a cell on open ground lists none, and its fragments skip the walk.
+    // A negative entry names no map.
     if (k < end) {
         do {
             int i = listed ? u_grid[k] : k;

@@ -21,8 +21,9 @@ import numpy as np
 # -- constants the shaders share ------------------------------------------------------------------
 
 LIGHT_KINDS = {"directional": 0, "spot": 1, "point": 2}
-# GRID_TILES: an orthographic grid aligned to a partition of tiles; each cell's list starts with
-# its tile's map (-1: none), the one static map that can shadow it (shaders/shadow.glsl).
+# GRID_TILES: an orthographic grid aligned to a partition of tiles; a cell's list starts with its
+# tile's map where that tile's casters reach the cell, the one static map that can shadow it
+# (shaders/shadow.glsl).
 GRID_NONE, GRID_ORTHO, GRID_OCTAHEDRAL, GRID_TILES = 0, 1, 2, 3
 DEBUG_VIEWS = {"none": 0, "map": 1, "map-count": 2, "cache": 3, "shadowed-lights": 4}
 TRACE_LIGHT_SEGMENT, TRACE_LIGHT_POINT, TRACE_LIGHT_DIRECTIONAL = 0, 1, 2

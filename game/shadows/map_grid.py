@@ -69,20 +69,11 @@ def _pack(keys: np.ndarray, size: int, mode: int, rect: np.ndarray) -> MapGrid:
 
 def _pack_tiles(tile_keys: np.ndarray, keys: np.ndarray, size: int, rect: np.ndarray
                 ) -> MapGrid:
-    """A partition's grid: each cell's list is its tile's map (-1: none), then the maps of
-    ``keys`` (sorted unique, the cell's character maps)."""
-    cells = size * size
-    tile_of = np.full(cells, -1, np.int64)
-    tile_of[tile_keys // KEY_MAPS] = tile_keys % KEY_MAPS
-    cell = keys // KEY_MAPS
-    counts = 1 + np.bincount(cell, minlength=cells)
-    starts = (cells + 1) + np.concatenate([[0], np.cumsum(counts)])
-    lists = np.empty(int(counts.sum()), np.int64)
-    lists[starts[:-1] - (cells + 1)] = tile_of
-    # Each character map after its cell's tile map, in the order of ``keys``.
-    rank = np.arange(len(keys)) - np.searchsorted(cell, cell)
-    lists[starts[cell] - (cells + 1) + 1 + rank] = keys % KEY_MAPS
-    return MapGrid(GRID_TILES, size, rect, np.concatenate([starts, lists]).astype(np.int32))
+    """A partition's grid: each cell lists its tile's map where that tile's casters reach the
+    cell, then the maps of ``keys`` (the cell's character maps). The tiles are the plan's first
+    maps, so sorting puts a cell's tile map first. A cell that no caster reaches lists nothing:
+    its fragments skip the walk, as they do in an orthographic grid's empty cells."""
+    return _pack(np.union1d(tile_keys, keys), size, GRID_TILES, rect)
 
 
 def _union(rects: np.ndarray) -> np.ndarray:

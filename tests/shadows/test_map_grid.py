@@ -188,8 +188,8 @@ def test_a_partitions_grid_reaches_over_walkers_beyond_its_tiles():
 
 def test_a_tile_lists_its_map_only_where_its_casters_covers_reach():
     """A tile's map holds no texel outside its casters' covers, so its cells there list no
-    static map (-1), and every point of a cover grown by the reach still finds its tile's map;
-    a tile without covers keeps its map in all its cells."""
+    static map (nothing at all, without walkers), and every point of a cover grown by the reach
+    still finds its tile's map; a tile without covers keeps its map in all its cells."""
     rng = np.random.default_rng(9)
     rot = transforms.light_rotation(np.array([0.0, -1.0, 0.0]))
     tiles = [np.array([x, y, x + 10.0, y + 10.0]) for x in (0.0, 10.0) for y in (0.0, 10.0)]
@@ -214,5 +214,5 @@ def test_a_tile_lists_its_map_only_where_its_casters_covers_reach():
             points = points[np.all((points >= tiles[k][:2]) & (points < tiles[k][2:]), axis=1)]
         for p in points:
             assert k in listed(grid, int(cell_of(p, grid))), (k, p)
-    empty = [c for c in range(grid.size * grid.size) if listed(grid, c) == {-1}]
+    empty = [c for c in range(grid.size * grid.size) if not listed(grid, c)]
     assert len(empty) > grid.size * grid.size / 4   # most of the covered tiles' cells
