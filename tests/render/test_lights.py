@@ -266,13 +266,13 @@ def test_street_lamps_are_drawn_after_the_town_and_leave_it_as_it_was():
         assert 3.0 < lamp.position[1] < post.bounds[1][1]  # under its post's arm
 
 
-def test_a_later_lights_partition_keeps_its_cells_without_a_static_map():
-    """Every light's grid goes into one buffer, its map indices shifted past the lights before
-    it; a partition's -1 (a cell that no tile's casters reach) stays -1, where shifting it would
-    name the last map of the light before."""
+def test_joining_the_lights_grids_shifts_their_maps_and_keeps_no_map_as_none():
+    """Every light's grid goes into one buffer, its offsets moved past the grids before it and
+    its map indices past the lights before it; a negative entry (no map) stays negative, where
+    shifting it would name the last map of the light before."""
     first = MapGrid(blocks.GRID_ORTHO, 1, np.array([0.0, 0.0, 1.0, 1.0]),
                     np.array([2, 4, 0, 1], np.int32))
-    # 2 x 2 cells: the first lists no static map (-1) and character map 1, the second tile 0.
+    # 2 x 2 cells: the first lists no map (-1) and character map 1, the second tile 0.
     tiles = MapGrid(blocks.GRID_TILES, 2, np.array([0.0, 0.0, 1.0, 1.0]),
                     np.array([5, 7, 8, 8, 8, -1, 1, 0], np.int32))
     data, bases = join_grids([first, tiles], [LightSpan(0, 2, 0), LightSpan(2, 2, 2)])
