@@ -67,15 +67,6 @@ def _pack(keys: np.ndarray, size: int, mode: int, rect: np.ndarray) -> MapGrid:
     return MapGrid(mode, size, rect, data)
 
 
-def _pack_tiles(tile_keys: np.ndarray, keys: np.ndarray, size: int, rect: np.ndarray
-                ) -> MapGrid:
-    """A partition's grid: each cell lists its tile's map where that tile's casters reach the
-    cell, then the maps of ``keys`` (the cell's character maps). The tiles are the plan's first
-    maps, so sorting puts a cell's tile map first. A cell that no caster reaches lists nothing:
-    its fragments skip the walk, as they do in an orthographic grid's empty cells."""
-    return _pack(np.union1d(tile_keys, keys), size, GRID_TILES, rect)
-
-
 def _union(rects: np.ndarray) -> np.ndarray:
     return np.array([rects[:, 0].min(), rects[:, 1].min(), rects[:, 2].max(), rects[:, 3].max()])
 
@@ -285,8 +276,8 @@ class GridBuilder:
         moving = (_ortho_pairs(fits[steady:], cover[steady:], reach, rect, size, steady)
                   if ortho else _octahedral_pairs(fits[steady:], eye, steady, sphere[steady:],
                                                   reach))
-        if lattice is not None:
-            return _pack_tiles(keys, moving, size, rect)
+        # A partition packs like any other grid: its tiles are the first maps, so a cell's
+        # sorted entries start with its tile's map.
         keys = keys if not len(moving) else np.sort(np.concatenate([keys, moving]))
         return _pack(keys, size, mode, rect)
 
