@@ -8,15 +8,14 @@
 // The arithmetic is the shading pass's (shade.frag, lighting.glsl), so a pixel lit by the same
 // visibility gets the same colour.
 // Where the visibility comes from (VIS_SOURCE): VIS_TEXTURE, a texture of the frame's size (the
-// tracer's, or the window's accumulation); or VIS_RUNS, drawn over runs of blocks
-// (soft_blocks.vert, game/soft/direct.py), by what the run says: the value its blocks agree on
-// (>= 0) or the points' visibility interpolated bilinearly (RUN_POINTS: a smooth stretch); or,
-// with LOOKUP_RUNS, the raster method's own lookup at the pixel (LOOKUP 0: segment-maps,
-// segment_maps.glsl; 1: pcss, pcss.glsl).
+// tracer's, or the window's accumulation), with the full G-buffer; or VIS_RUNS, drawn over runs
+// of blocks (soft_blocks.vert, game/soft/direct.py) with the lean G-buffer, by what the run
+// says: its blocks' value (soft_blocks.glsl); or, with LOOKUP_RUNS, the raster method's own
+// lookup at the pixel (LOOKUP 0: segment-maps, segment_maps.glsl; 1: pcss, pcss.glsl), at the
+// world position the depth gives back.
 // OUT_VISIBILITY writes the visibility instead of the colour (to measure it).
 #define VIS_TEXTURE 0
 #define VIS_RUNS 1
-#define RUN_POINTS -3.0
 #include "blocks/frame.glsl"
 #include "lighting.glsl"
 #if LOOKUP_RUNS && LOOKUP == 0
@@ -25,17 +24,27 @@
 #include "pcss.glsl"
 #endif
 
+uniform sampler2D u_colour;      // the shaded frame: a > 0 where geometry covers the pixel
+#if VIS_SOURCE == VIS_TEXTURE
 uniform sampler2D u_position;    // xyz world position; w object index
 uniform sampler2D u_normal;      // xyz geometric unit normal facing the camera
-uniform sampler2D u_colour;      // the shaded frame: a > 0 where geometry covers the pixel
 uniform sampler2D u_shading;     // xyz shading normal
 uniform sampler2D u_albedo;      // rgb sqrt of the linear base colour
-#if VIS_SOURCE == VIS_TEXTURE
 uniform sampler2D u_visibility;  // the traced visibility of the pixel's surface point
 #else
-flat in float v_vis;             // the run's value, or RUN_POINTS
-uniform sampler2D u_points;      // the points' visibility, one per block, bilinear
-uniform vec2 u_point_at;         // divisor, and the pixel of its block each point lies on
+#include "soft_blocks.glsl"
+flat in float v_vis;             // the run's blocks' value
+uniform sampler2D u_depth;       // the frame's depth
+uniform sampler2D u_packed_normal;  // the geometric normal (pack_normal)
+uniform sampler2D u_light;       // rgb sqrt of the linear light's diffuse factor
+uniform mat4 u_clip_to_world;   // the frame's clip space -> world
+
+// The world position of the surface at pixel px, from its depth.
+vec3 world_at(ivec2 px) {
+    vec2 ndc = (vec2(px) + 0.5) / vec2(textureSize(u_depth, 0)) * 2.0 - 1.0;
+    vec4 w = u_clip_to_world * vec4(ndc, texelFetch(u_depth, px, 0).r * 2.0 - 1.0, 1.0);
+    return w.xyz / w.w;
+}
 #endif
 #if !HARD
 uniform vec3 u_soft_light;       // the segment's midpoint
@@ -61,27 +70,32 @@ void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
     vec4 frame = texelFetch(u_colour, px, 0);
     if (frame.a == 0.0) {
-#if OUT_VISIBILITY
+#if VIS_SOURCE == VIS_RUNS
+        // The sky keeps the copy of the picture (and reads as no geometry when measured):
+        // discarded, llvmpipe skips the rest for a group of pixels all in the sky.
+        discard;
+#elif OUT_VISIBILITY
         out_color = vec4(-1.0);
         return;
-#endif
+#else
         out_color = frame;   // no geometry: the sky, as the shading pass cleared it
         return;
+#endif
     }
+#if VIS_SOURCE == VIS_TEXTURE
     vec3 p = texelFetch(u_position, px, 0).xyz;
     vec3 g = texelFetch(u_normal, px, 0).xyz;
     vec3 n = texelFetch(u_shading, px, 0).xyz;
     vec3 albedo = texelFetch(u_albedo, px, 0).rgb;
-#if VIS_SOURCE == VIS_TEXTURE
     float vis = texelFetch(u_visibility, px, 0).r;
 #elif LOOKUP_RUNS && LOOKUP == 0
-    float vis = segment_visibility(p, normalize(g));
+    float vis = segment_visibility(world_at(px),
+                                   unpack_normal(texelFetch(u_packed_normal, px, 0)));
 #elif LOOKUP_RUNS
-    float vis = pcss_visibility(px, p, normalize(g));
+    float vis = pcss_visibility(px, world_at(px),
+                                unpack_normal(texelFetch(u_packed_normal, px, 0)));
 #else
-    vec2 cell = (vec2(px) - u_point_at.y) / u_point_at.x + 0.5;
-    float smooth_vis = texture(u_points, cell / vec2(textureSize(u_points, 0))).r;
-    float vis = v_vis >= 0.0 ? v_vis : smooth_vis;
+    float vis = max(block_visibility(px, v_vis), 0.0);
 #endif
 #if OUT_VISIBILITY
     out_color = vec4(vis, 0.0, 0.0, 1.0);
@@ -94,11 +108,14 @@ void main() {
     albedo *= albedo;
     vec3 colour = ambient_colour(albedo, n)
         + light_colour(albedo, n, l, direct_light(g, l, vis, reached), light.radiance);
-#else
+#elif VIS_SOURCE == VIS_TEXTURE
     vec3 l = normalize(u_soft_light - p);
     albedo *= albedo;
     vec3 colour = undisplay(frame.rgb)
         + light_colour(albedo, n, l, direct_light(g, l, vis, 1.0), u_soft_radiance);
+#else
+    vec3 factor = texelFetch(u_light, px, 0).rgb;
+    vec3 colour = undisplay(frame.rgb) + factor * factor * vis * u_soft_radiance;
 #endif
     out_color = vec4(display(colour), frame.a);
 }

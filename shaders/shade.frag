@@ -1,10 +1,20 @@
 #version 430
 // Shading pass: each hard light's visibility from its maps, the surface lit by every light
-// with its shading normal, and the G-buffer the dumps and the soft composite read. The dumps' normal and the
-// shadow lookup's bias use the geometric normal, so shading cannot move a shadow.
+// with its shading normal, and the G-buffer the dumps and the soft composite read. The dumps'
+// normal and the shadow lookup's bias use the geometric normal, so shading cannot move a shadow.
+// GBUFFER_LEAN (the window's raster soft shadows, game/soft/direct.py): the linear light is one
+// more light, its visibility given per block (u_soft_blocks); where a block's pixels look it up,
+// the composite adds the light after this pass, from the lean G-buffer. UNLIT: the G-buffer
+// alone (the soft shadows' points).
 #include "world.glsl"
 #include "lighting.glsl"
 #include "shadow.glsl"
+#if GBUFFER == GBUFFER_LEAN
+#include "soft_blocks.glsl"
+uniform sampler2D u_soft_blocks;  // each block's value (soft_blocks.glsl)
+uniform vec3 u_soft_light;        // the segment's midpoint
+uniform vec3 u_soft_radiance;     // the linear light's radiance, linear RGB
+#endif
 
 in vec3 v_world;
 in vec3 v_normal;
@@ -13,11 +23,14 @@ flat in vec3 v_colour;
 
 layout(location = 0) out vec4 out_color;     // rgb shown; a = (1 + maps read) / 255, or with
                                              // COUNT_CANDIDATES (1 + map records considered) / 255
-#if GBUFFER
+#if GBUFFER == GBUFFER_FULL
 layout(location = 1) out vec4 out_position;  // xyz world position; w object index
 layout(location = 2) out vec4 out_normal;    // xyz geometric normal, facing the camera; w vis.
 layout(location = 3) out vec4 out_shading;   // xyz shading normal
 layout(location = 4) out vec4 out_albedo;    // rgb sqrt of the linear base colour
+#elif GBUFFER == GBUFFER_LEAN
+layout(location = 1) out vec4 out_packed_normal;  // the geometric normal (pack_normal)
+layout(location = 2) out vec4 out_light;     // rgb sqrt of the linear light's diffuse factor
 #endif
 
 vec3 heat(float t) {
@@ -73,7 +86,8 @@ void main() {
     o.kept = 0.0;
     o.shown = 1.0;
     o.shadowed = 0;
-#if MANY_LIGHTS
+#if UNLIT
+#elif MANY_LIGHTS
     // Only the lights that can reach the fragment's screen tile (game/render/frame_blocks.py).
     // The count is read, not a #define: a loop of known length would be unrolled into one
     // copy of the lookup per light, a long shader to compile anew for each count. A do-while,
@@ -89,6 +103,15 @@ void main() {
     }
 #else
     add_light(0, g, n, o);
+#endif
+#if GBUFFER == GBUFFER_LEAN
+    // The linear light's diffuse factor: what its visibility and radiance multiply.
+    vec3 soft_l = normalize(u_soft_light - v_world);
+    vec3 soft_factor = light_colour(v_colour, n, soft_l, direct_light(g, soft_l, 1.0, 1.0),
+                                    vec3(1.0));
+    ivec2 px = ivec2(gl_FragCoord.xy);
+    float value = texelFetch(u_soft_blocks, px / int(u_point_at.x), 0).r;
+    o.colour += soft_factor * max(block_visibility(px, value), 0.0) * u_soft_radiance;
 #endif
     vec3 colour = display(o.colour);
     // The debug view, like the shadow lookup's switches, is a #define (DEBUG_VIEW).
@@ -108,10 +131,13 @@ void main() {
 #if COUNT_CANDIDATES
     out_color.a = float(1 + min(g_candidates, 254)) / 255.0;
 #endif
-#if GBUFFER
+#if GBUFFER == GBUFFER_FULL
     out_position = vec4(v_world, float(v_object));
     out_normal = vec4(g, o.kept);
     out_shading = vec4(n, 0.0);
     out_albedo = vec4(sqrt(v_colour), 1.0);
+#elif GBUFFER == GBUFFER_LEAN
+    out_packed_normal = pack_normal(g);
+    out_light = vec4(sqrt(clamp(soft_factor, 0.0, 1.0)), 1.0);
 #endif
 }

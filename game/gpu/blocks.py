@@ -60,6 +60,14 @@ TEXTURE_UNITS = {
     "upsample_accumulated": 10,  # its per-pixel mean while nothing moves (game/soft/upsample.py)
     "soft_maps": 0,          # the raster soft methods' depth array, compared (game/soft/raster.py)
     "soft_maps_depth": 4,    # the same array read as depth (pcss's blocker search)
+    # The window's raster soft shadows (game/soft/direct.py): each block's value and the points'
+    # visibility (shading pass and composite); the lean G-buffer (composite), on the full one's
+    # units, which a program reads one or the other of.
+    "soft_blocks": 12,
+    "soft_points": 13,
+    "lean_depth": 1,
+    "lean_normal": 2,
+    "lean_light": 5,
     "layer_view": 0,         # the overlay's layer viewer reads the depth array
     "present_frame": 0,      # the window's picture of the frame
 }

@@ -30,7 +30,7 @@ from game.render.scene_buffers import SceneBuffers
 from game.render.scene_edits import SceneEdits
 from game.render.shading_pass import SHADOW_UNIT, ShadingPass, Variant
 from game.render.shadow_pass import ShadowMapPass, bounded_maps
-from game.render.target import SKY, FrameTarget
+from game.render.target import SKY, FrameTarget, GBuffer
 from game.render.traced_lighting import TracedLighting
 from game.scene.geometry import PackedGeometry
 from game.scene.model import Scene
@@ -68,6 +68,7 @@ class Renderer(SceneEdits):
         self.lights_on = [True] * len(scene.lights)  # the window switches lights off
         self._gbuffer_asked = gbuffer  # dumps and soft shadows; the traced method needs it too
         self._composited = False  # whether the last frame's picture is the composite's
+        self._soft_bind = None    # binds a direct soft frame's blocks to the shading pass
         self.buffers = self.blocks = self.shadow_pass = self.culler = None
         self.shading = self.traced = self.target = None
         try:  # a part that fails (a refused setting, a driver limit) leaves none behind
@@ -137,7 +138,8 @@ class Renderer(SceneEdits):
     def set_settings(self, settings: ShadowSettings) -> None:
         """Switch method or parameters; every map is planned (and cached) anew."""
         self._set_method(settings)
-        self.target.remake(self.size, self._gbuffer_needed())
+        if self.target.gbuffer != GBuffer.LEAN:   # a lean frame's next is made as it needs
+            self.target.remake(self.size, self._gbuffer_needed())
 
     def set_light(self, light, index: int = 0) -> None:
         """Move hard light ``index``: its maps (only) are re-rendered on the next frame."""
@@ -145,12 +147,14 @@ class Renderer(SceneEdits):
         self.shadows.methods[index].set_light(light)
 
     def set_gbuffer(self, on: bool) -> None:
-        """Keep the G-buffer (the tracer reads it; the traced method always) or drop it."""
+        """Keep the G-buffer (the tracer reads it; the traced method always) or drop it, from
+        the next frame on."""
         self._gbuffer_asked = on
-        self.target.remake(self.size, self._gbuffer_needed())
 
-    def _gbuffer_needed(self) -> bool:
-        return self._gbuffer_asked or self.method.visibility == VISIBILITY_TRACED
+    def _gbuffer_needed(self) -> GBuffer:
+        """The G-buffer a frame keeps unless it is a direct soft frame (lean)."""
+        traced = self.method.visibility == VISIBILITY_TRACED
+        return GBuffer.FULL if self._gbuffer_asked or traced else GBuffer.NONE
 
     def resize(self, size: tuple[int, int]) -> None:
         """Make the frame target anew at ``size`` (the window's framebuffer changed)."""
@@ -176,8 +180,11 @@ class Renderer(SceneEdits):
         models = self.models(t)
         if view.size != self.size:  # the character maps are sized for this frame's pixels
             view = dataclasses.replace(view, size=self.size)
+        traced_hard = self.method.visibility == VISIBILITY_TRACED
+        direct = self.traced.is_direct(soft, traced_hard)
+        self.target.remake(self.size, GBuffer.LEAN if direct else self._gbuffer_needed())
         with timer.measure(passes.TOTAL, wall=True):
-            plan, triangles, culled = self._draw(models, view)
+            plan, triangles, culled = self._draw(models, view, soft if direct else None)
             first = None
             if self.counts.place_again(self.shadows):
                 first = plan
@@ -185,13 +192,15 @@ class Renderer(SceneEdits):
                 triangles += more
         frame = self._frame(plan_counts(plan, triangles, first), culled, read)
         self._composited = self.traced.relight(frame, self.target, self.geom, models,
-                                               self.method.visibility == VISIBILITY_TRACED,
-                                               soft, read)
+                                               traced_hard, soft, read)
         return frame
 
-    def _draw(self, models: np.ndarray, view: View) -> tuple[ShadowPlan, int, bool]:
+    def _draw(self, models: np.ndarray, view: View, soft: TraceSettings | None = None
+              ) -> tuple[ShadowPlan, int, bool]:
         """Plan, draw the maps and shade: the plan, the triangles drawn into maps, and whether
-        the camera pass drew only the culled triangles."""
+        the camera pass drew only the culled triangles. With ``soft``, a direct soft frame's
+        blocks are made before the shading pass, which lights the frame through them (and
+        through the last ones made, on a lean target without ``soft``)."""
         timer = self.timer
         plan, grid_mode, bounded = self._plan(models, view)
         with timer.measure(passes.SHADOW_STATIC):
@@ -202,6 +211,11 @@ class Renderer(SceneEdits):
         if culled:
             with timer.measure(passes.CULL):
                 self.culler.run(self.size)
+        if soft is not None:
+            self._soft_bind = self.traced.before_shade(
+                self.geom, models, soft, view, lambda points: self.shading.draw(
+                    points, self.shadow_pass, Variant.points(), self.culler, culled))
+        bind = self._soft_bind if self.target.gbuffer == GBuffer.LEAN else None
         with timer.measure(passes.SHADE):
             count = self.counts.count_now(self.shadows)
             variant = Variant.of(self.target.gbuffer, self.scene.lights, self.settings.pcf,
@@ -209,7 +223,7 @@ class Renderer(SceneEdits):
                                  any(bounded))
             if count:
                 self.blocks.count_pixels()
-            self.shading.draw(self.target, self.shadow_pass, variant, self.culler, culled)
+            self.shading.draw(self.target, self.shadow_pass, variant, self.culler, culled, bind)
             self.counts.drawn(plan, count)
         return plan, triangles, culled
 
@@ -242,11 +256,13 @@ class Renderer(SceneEdits):
         with self.timer.measure(passes.READBACK, wall=True):
             rgba = self.target.read_colour()
             covered = rgba[..., 3] > 0
-            gbuffer = self.target.read_gbuffer(covered) if self.target.gbuffer else None
+            gbuffer = (self.target.read_gbuffer(covered) if self.target.gbuffer == GBuffer.FULL
+                       else None)
         candidates = (self.shading.candidates(self.target, self.shadow_pass, self.culler)
                       if self.count_candidates else None)
         if gbuffer is not None and len(self.scene.lights) > 1:
-            variant = Variant.of(True, self.scene.lights, self.settings.pcf, blocks.GRID_NONE,
+            variant = Variant.of(GBuffer.FULL, self.scene.lights, self.settings.pcf,
+                                 blocks.GRID_NONE,
                                  blocks.DEBUG_VIEWS[self.debug_view],
                                  depth_bounds=self.shading.last[0].depth_bounds)
             gbuffer["lit_lights"] = self.shading.each_light(

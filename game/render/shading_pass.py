@@ -9,6 +9,7 @@ that branched on uniforms paid for code that no fragment of the frame could reac
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import NamedTuple
 
 import moderngl
@@ -18,7 +19,8 @@ from game.gpu import blocks, glsl, resources
 from game.render.cull import TriangleCuller
 from game.render.scene_buffers import SceneBuffers
 from game.render.shadow_pass import ShadowMapPass
-from game.render.target import FrameTarget
+from game.render.target import FrameTarget, GBuffer
+from game.soft.block_values import BLOCK_DEFINES
 
 SHADOW_UNIT = blocks.TEXTURE_UNITS["shadow_maps"]
 BOUNDS_UNIT = blocks.TEXTURE_UNITS["shadow_bounds"]
@@ -27,7 +29,7 @@ BOUNDS_UNIT = blocks.TEXTURE_UNITS["shadow_bounds"]
 class Variant(NamedTuple):
     """What one shading program is compiled for."""
 
-    gbuffer: bool
+    gbuffer: GBuffer
     light_kind: int     # blocks.LIGHT_KINDS of the one light (0 with several)
     pcf: bool
     grid_mode: int      # blocks.GRID_* of the one light's map grid (0 with several)
@@ -37,9 +39,11 @@ class Variant(NamedTuple):
     # The colour's alpha holds the map records each pixel considered, not the maps it read.
     count_candidates: bool = False
     depth_bounds: bool = False  # some maps have depth bounds (game/gpu/depth_bounds.py)
+    # The G-buffer alone, no light (the window's soft points, game/soft/direct.py).
+    unlit: bool = False
 
     @classmethod
-    def of(cls, gbuffer: bool, lights: list, pcf: bool, grid_mode: int,
+    def of(cls, gbuffer: GBuffer, lights: list, pcf: bool, grid_mode: int,
            debug_view: int, count_pixels: bool = False, depth_bounds: bool = False) -> Variant:
         """The variant for a frame: with several lights, their kinds and grids are read from
         their records, so one program serves them all."""
@@ -47,6 +51,11 @@ class Variant(NamedTuple):
             return cls(gbuffer, 0, pcf, 0, debug_view, True, count_pixels, False, depth_bounds)
         return cls(gbuffer, blocks.LIGHT_KINDS[lights[0].kind], pcf, grid_mode, debug_view,
                    False, count_pixels, False, depth_bounds)
+
+    @classmethod
+    def points(cls) -> Variant:
+        """The full G-buffer of the surface, unlit."""
+        return cls(GBuffer.FULL, 0, False, 0, 0, unlit=True)
 
 
 class ShadingPass:
@@ -63,7 +72,10 @@ class ShadingPass:
     def _program(self, variant: Variant, culler: TriangleCuller | None) -> tuple:
         """(program, vertex array over every triangle, vertex array over the culled ones)."""
         if variant not in self._programs:
-            defines = {**self.defines, "GBUFFER": variant.gbuffer, "LIGHT_KIND": variant.light_kind,
+            defines = {**self.defines, "GBUFFER": int(variant.gbuffer), "UNLIT": variant.unlit,
+                       "GBUFFER_LEAN": int(GBuffer.LEAN), "GBUFFER_FULL": int(GBuffer.FULL),
+                       **BLOCK_DEFINES,
+                       "LIGHT_KIND": variant.light_kind,
                        "PCF": variant.pcf, "GRID": variant.grid_mode,
                        "DEBUG_VIEW": variant.debug_view, "MANY_LIGHTS": variant.many_lights,
                        "COUNT_PIXELS": variant.count_pixels,
@@ -104,16 +116,22 @@ class ShadingPass:
         return out
 
     def draw(self, target: FrameTarget, maps: ShadowMapPass, variant: Variant,
-             culler: TriangleCuller | None, culled_only: bool) -> None:
+             culler: TriangleCuller | None, culled_only: bool,
+             bind: Callable[[object], None] | None = None) -> None:
         """Clear ``target`` and draw every object: with ``culled_only``, the triangles the
         culler's last run kept; otherwise closed volumes with back faces culled, then the open
-        meshes."""
+        meshes. ``bind(program)`` sets what else the variant reads (the lean G-buffer's soft
+        blocks, game/soft/direct.py)."""
         prog, vao, culled = self._program(variant, culler)
-        self.last = (variant, culled_only)
+        if not variant.unlit:
+            self.last = (variant, culled_only)
         target.begin()
+        if bind is not None:
+            bind(prog)
         self.ctx.enable(moderngl.DEPTH_TEST)
-        maps.array.bind(SHADOW_UNIT)
-        prog["u_shadow_maps"].value = SHADOW_UNIT
+        if not variant.unlit:
+            maps.array.bind(SHADOW_UNIT)
+            prog["u_shadow_maps"].value = SHADOW_UNIT
         if variant.depth_bounds:
             maps.bounds.bind(BOUNDS_UNIT)
             prog["u_shadow_bounds"].value = BOUNDS_UNIT

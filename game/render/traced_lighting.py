@@ -6,10 +6,11 @@ method, whose exact visibility replaces the maps' (one ray per point toward the 
 
 Both trace every pixel of the frame, unless a caller asks for less: the window traces soft
 shadows at a reduced resolution and upsamples them (:meth:`TracedLighting.reduce_soft`,
-game/soft/upsample.py), or with a raster soft method looks them up in the composite itself
-(game/soft/direct.py); a long headless run reports its progress (:attr:`TracedLighting.progress`)
-and then traces in bands of rows, each the same pixels with the same pixel indices, so the
-visibility is the same as in one pass.
+game/soft/upsample.py), or with a raster soft method lights them in the shading pass itself,
+from one value per block, and looks them up in the composite only where the shadow changes
+(:meth:`TracedLighting.before_shade`, game/soft/direct.py); a long headless run reports its
+progress (:attr:`TracedLighting.progress`) and then traces in bands of rows, each the same
+pixels with the same pixel indices, so the visibility is the same as in one pass.
 """
 
 from __future__ import annotations
@@ -24,15 +25,15 @@ from game.errors import GameError
 from game.gpu import blocks
 from game.gpu.timing import PassTimer
 from game.render import passes
-from game.render.frame import Frame
+from game.render.direct_frames import DirectFrames
+from game.render.frame import Frame, View
 from game.render.frame_blocks import light_radiance
 from game.render.light_grids import stack_lights
-from game.render.target import FrameTarget
+from game.render.target import FrameTarget, GBuffer
 from game.scene.geometry import PackedGeometry
 from game.scene.model import Scene
 from game.soft.accumulate import walker_boxes
 from game.soft.composite import SoftComposite
-from game.soft.direct import DirectRaster
 from game.soft.methods import EXACT_HARD, TraceSettings, hard_light, is_raster
 from game.soft.raster import RasterSoft
 from game.soft.tracer import SoftTracer, TraceResult
@@ -63,7 +64,7 @@ class TracedLighting:
         self.composite = SoftComposite(ctx, defines)
         # The window's reduced soft trace (made on first use and kept) and what it is asked for.
         self.reduced: ReducedTrace | None = None
-        self.direct: DirectRaster | None = None   # a raster method's points (made on first use)
+        self.direct: DirectFrames | None = None   # a raster method's blocks (made on first use)
         self._direct_frame = False   # whether the last soft frame went through :attr:`direct`
         self._upsampling: Upsampling | None = None
         self._view_key = b""
@@ -91,7 +92,7 @@ class TracedLighting:
         """Where the reduced trace stood after the last soft frame (None: not reduced)."""
         if not self._upsampling:
             return None
-        source = self.direct if self._direct_frame else self.reduced
+        source = self.direct.blocks if self._direct_frame else self.reduced
         return source.state if source is not None else None
 
     def segment(self) -> tuple[int, np.ndarray, np.ndarray]:
@@ -105,7 +106,7 @@ class TracedLighting:
               settings: TraceSettings, light: tuple | None = None) -> TraceResult:
         """Trace ``light`` (a tracer light tuple; default the linear light) from every G-buffer
         pixel of ``target``."""
-        if not target.gbuffer:
+        if target.gbuffer != GBuffer.FULL:
             raise RuntimeError("the soft-shadow pass needs a renderer made with gbuffer=True")
         textures = (target.position, target.normal, target.colour)
         light = light or self.segment()
@@ -194,10 +195,39 @@ class TracedLighting:
         if soft is not None:
             gbuffer_ms = frame.ms.get(passes.TOTAL, 0.0)
             frame.soft = self.light_frame(frame, target, geom, models, soft, read)
-            frame.ms[passes.GBUFFER] = gbuffer_ms
+            frame.ms.setdefault(passes.GBUFFER, gbuffer_ms)
             if frame.gbuffer is not None:
                 frame.gbuffer["soft"] = frame.soft.visibility
         return traced_hard or soft is not None
+
+    def is_direct(self, soft: TraceSettings | None, traced_hard: bool) -> bool:
+        """Whether a frame with ``soft`` goes through :attr:`direct`: the window's raster soft
+        shadows, lit in the shading pass (not with the ``traced`` method, whose composite
+        needs the full G-buffer)."""
+        return (soft is not None and not traced_hard and self._upsampling is not None
+                and is_raster(soft.method))
+
+    def before_shade(self, geom: PackedGeometry, models: np.ndarray, soft: TraceSettings,
+                     view: View, draw_points: Callable[[FrameTarget], None]
+                     ) -> Callable[[object], None]:
+        """A direct frame's soft shadows up to its shading pass (:class:`DirectFrames`): the
+        points drawn by ``draw_points``; returns what binds the blocks to the shading pass's
+        program."""
+        divisor = self._upsampling.divisor
+        if self.direct is not None and self.direct.divisor != divisor:
+            self.direct.release()
+            self.direct = None
+        if self.direct is None:
+            self.direct = DirectFrames(self.ctx, self.timer, divisor)
+        key = (self._view_key + np.asarray(view.size, np.int64).tobytes()
+               if self._view_key else None)
+        self.last_soft = soft
+        return self.direct.before_shade(self._tracer(geom, soft), models, soft, self.segment(),
+                                        self._radiance(), view, key, draw_points)
+
+    def _radiance(self) -> np.ndarray:
+        """The linear light's radiance, linear RGB."""
+        return light_radiance(self.scene.light) * LINEAR_LIGHT_SHARE
 
     def light_frame(self, frame: Frame, target: FrameTarget, geom: PackedGeometry,
                     models: np.ndarray, soft: TraceSettings | None, read: bool) -> TraceResult:
@@ -205,6 +235,10 @@ class TracedLighting:
         with ``soft`` None by the hard light's exact visibility (the ``traced`` method). The
         tracer's passes join the frame's times as ``soft_*`` or ``traced_*``; ``total`` grows
         by them and by the composite."""
+        self._direct_frame = target.gbuffer == GBuffer.LEAN
+        if self._direct_frame:
+            return self.direct.composite(frame, self.composite, self.raster, target,
+                                         self._radiance(), read)
         if soft is None:
             settings, light, soft_light, prefix = EXACT_HARD, hard_light(self.scene.light), None, \
                 "traced"
@@ -213,24 +247,16 @@ class TracedLighting:
             settings, soft_light, prefix = soft, (light[1] + light[2]) / 2, "soft"
             self.last_soft = soft
         before = {k: self.timer.ms.get(k, 0.0) for k in ("composite", "soft_upsample")}
-        direct = soft is not None and self._upsampling is not None and is_raster(soft.method)
-        self._direct_frame = direct
-        if direct:
-            result, visibility = self._direct_trace(target, geom, models, soft, light), None
-        elif soft is not None and self._upsampling is not None:
+        if soft is not None and self._upsampling is not None:
             result, visibility = self._reduced_trace(target, geom, models, soft, light)
         else:
             result = self.trace(target, geom, models, settings, light)
             visibility = result.visibility
         light_kind = blocks.LIGHT_KINDS[self.scene.light.kind]
-        radiance = light_radiance(self.scene.light) * LINEAR_LIGHT_SHARE
         with self.timer.measure("composite"):
-            if direct:
-                self._direct_composite(target, soft.method, soft_light, radiance)
-            else:
-                self.composite.draw(self._textures(target), target.size, visibility, light_kind,
-                                    hard=soft_light is None, soft_light=soft_light,
-                                    soft_radiance=radiance)
+            self.composite.draw(self._textures(target), target.size, visibility, light_kind,
+                                hard=soft_light is None, soft_light=soft_light,
+                                soft_radiance=self._radiance())
         if read:
             frame.image = self.composite.read()
         frame.ms.update({f"{prefix}_{k}": v for k, v in result.ms.items()})
@@ -247,39 +273,11 @@ class TracedLighting:
         """What the composite reads of the frame: G-buffer, picture, shading normal, albedo."""
         return (target.position, target.normal, target.colour, target.shading, target.albedo)
 
-    def _direct_trace(self, target: FrameTarget, geom: PackedGeometry, models: np.ndarray,
-                      settings: TraceSettings, light: tuple) -> TraceResult:
-        """A raster method in the window: its maps and its lookup at one point per block, and
-        the frame's runs (game/soft/direct.py)."""
-        divisor = self._upsampling.divisor
-        if self.direct is None:
-            self.direct = DirectRaster(self.ctx, divisor)
-        textures = (target.position, target.normal, target.colour)
-        with self.timer.measure("soft_upsample"):
-            points = self.direct.points(textures, target.size, divisor)
-        key = (self._view_key + np.asarray(target.size, np.int64).tobytes()
-               if self._view_key else None)
-        result = self._tracer(geom, settings).trace(points, self.direct.cells, models,
-                                                    settings, light, plan_key=key)
-        with self.timer.measure("soft_upsample"):
-            self.direct.classify(result)
-        return result
-
-    def _direct_composite(self, target: FrameTarget, method: str, soft_light: np.ndarray,
-                          radiance: np.ndarray, out_visibility: bool = False) -> None:
-        """The frame's picture copied into the composite's target, then the runs drawn over
-        it (or, ``out_visibility``, the visibility they give, to measure)."""
-        self.direct.composite(self.composite, self.raster, self._textures(target),
-                              self.last_soft, blocks.LIGHT_KINDS[self.scene.light.kind],
-                              soft_light, radiance, out_visibility)
-
     def window_visibility(self, target: FrameTarget) -> np.ndarray:
         """The linear light's visibility the last soft frame of the window lit each pixel by,
         (H, W) float32 with row 0 at the top, NaN where no geometry (to measure)."""
         if self._direct_frame:
-            self._direct_composite(target, self.last_soft.method, np.zeros(3), np.zeros(3),
-                                   out_visibility=True)
-            vis = self.composite.measured()
+            vis = self.direct.visibility(self.composite, self.raster, target)
         else:
             tex = self.reduced.visibility
             w, h = tex.size

@@ -6,11 +6,11 @@ method the hard light's exact shadows replace its maps' instead. The composite i
 full-screen pass over the frame's G-buffer (shaders/composite.frag): the scene is not drawn
 again.
 
-A raster soft method in the window (game/soft/direct.py) draws the composite over runs of blocks
-instead (:meth:`SoftComposite.draw_runs`): the frame's picture is copied, then the runs are lit
-in two draws: those whose blocks agree on a visibility (or interpolate their points), and those
-that look it up at each pixel, from the raster method's maps. Blocks that gain nothing (the
-sky, the umbra) keep the copy.
+A raster soft method in the window (game/soft/direct.py) lights most of the frame in the
+shading pass itself, from one value per block, and the composite draws over runs of blocks
+instead (:meth:`SoftComposite.draw_runs`): the frame's picture is copied, then the runs whose
+pixels each look the visibility up are lit from the raster method's maps, at the world position
+the lean G-buffer's depth gives back.
 """
 
 from __future__ import annotations
@@ -18,21 +18,29 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
+from game import transforms
 from game.gpu import blocks, glsl, resources
 from game.gpu.fullscreen import fullscreen_pass
+from game.soft.block_values import BLOCK_DEFINES
 from game.soft.tracer import TEXTURE_UNITS
 
 # Where the composite's visibility comes from (VIS_SOURCE in shaders/composite.frag).
 VIS_TEXTURE, VIS_RUNS = 0, 1
 LOOKUPS = {"segment-maps": 0, "pcss": 1}   # LOOKUP in shaders/composite.frag
 RUN_FLOATS = 3       # per vertex of a run: x, y (pixels), visibility
+VIS_RUNS_KIND = 0    # the runs light by the linear light alone: no light kind
 
 # The G-buffer on the tracer's units, the surface the frame is lit again with, and the traced
 # visibility.
 UNITS = {**TEXTURE_UNITS, "u_shading": blocks.TEXTURE_UNITS["composite_shading"],
          "u_albedo": blocks.TEXTURE_UNITS["composite_albedo"],
          "u_visibility": blocks.TEXTURE_UNITS["soft_visibility"]}
-POINTS_UNIT = blocks.TEXTURE_UNITS["upsample_agreed"]   # the runs' points (direct.py)
+# What the runs read: the lean G-buffer, and the points (direct.py).
+LEAN_UNITS = {"u_colour": TEXTURE_UNITS["u_colour"],
+              "u_depth": blocks.TEXTURE_UNITS["lean_depth"],
+              "u_packed_normal": blocks.TEXTURE_UNITS["lean_normal"],
+              "u_light": blocks.TEXTURE_UNITS["lean_light"],
+              "u_soft_points": blocks.TEXTURE_UNITS["soft_points"]}
 
 
 class SoftComposite:
@@ -56,7 +64,7 @@ class SoftComposite:
         key = (light_kind, hard, source, out_visibility, lookup[0],
                tuple(sorted(lookup[1].items())))
         if key not in self._programs:
-            defines = {**self.defines, **lookup[1], "LOOKUP": lookup[0],
+            defines = {**self.defines, **lookup[1], **BLOCK_DEFINES, "LOOKUP": lookup[0],
                        "LIGHT_KIND": light_kind, "HARD": hard,
                        "VIS_SOURCE": source, "OUT_VISIBILITY": out_visibility,
                        "LOOKUP_RUNS": lookup_runs}
@@ -131,16 +139,19 @@ class SoftComposite:
         GL.glCopyImageSubData(colour.glo, GL.GL_TEXTURE_2D, 0, 0, 0, 0, self.texture.glo,
                               GL.GL_TEXTURE_2D, 0, 0, 0, 0, w, h, 1)
 
-    def draw_runs(self, textures, runs, light_kind: int, lookup: int, lookup_defines: dict,
-                  bind_lookup, soft_light: np.ndarray, soft_radiance: np.ndarray,
-                  out_visibility: bool = False) -> None:
+    def draw_runs(self, target, runs, clip_to_world: np.ndarray, lookup: tuple[int, dict],
+                  bind_lookup, soft_radiance: np.ndarray, out_visibility: bool = False) -> None:
         """Light the frame over ``runs`` (game/soft/direct.py's :class:`~game.soft.direct.
         Runs`) into :attr:`framebuffer`, which :meth:`prepare` made and :meth:`copy_picture`
-        filled with the frame's picture. The lookup runs use the raster method's lookup ``lookup``
-        (:data:`LOOKUPS`), built with the #defines ``lookup_defines`` and bound by
-        ``bind_lookup(program)``. With ``out_visibility`` the visibility goes into
-        :meth:`measured` instead of the colour (to measure)."""
-        data = np.concatenate([runs.flat, runs.lookup]).astype(np.float32)
+        filled with the frame's picture: the runs that look the visibility up, with the raster
+        method's lookup ``lookup`` (its :data:`LOOKUPS` number and #defines), bound by
+        ``bind_lookup(program)``, at the positions that ``target``'s lean G-buffer and
+        ``clip_to_world`` (the frame's clip space to world) give. With ``out_visibility`` every
+        run's visibility goes into :meth:`measured` instead (to measure)."""
+        parts = [(runs.lookup, True)]
+        if out_visibility:
+            parts.insert(0, (runs.flat, False))
+        data = np.concatenate([vertices for vertices, _ in parts]).astype(np.float32)
         if self._runs is None:
             self._runs = self.ctx.buffer(reserve=max(data.nbytes, 4 * RUN_FLOATS * 6))
         elif data.nbytes > self._runs.size:
@@ -151,22 +162,27 @@ class SoftComposite:
         fb = self._measured_target() if out_visibility else self.framebuffer
         fb.use()
         fb.viewport = (0, 0, *self.size)
+        textures = {"u_colour": target.colour, "u_depth": target.depth,
+                    "u_packed_normal": target.packed_normal, "u_light": target.light,
+                    "u_soft_points": runs.points}
         first = 0
-        for count, looked_up in ((len(runs.flat), False), (len(runs.lookup), True)):
+        for vertices, looked_up in parts:
+            count = len(vertices)
             if count:
-                prog, vao = self._program(light_kind, False, VIS_RUNS, out_visibility,
-                                          (lookup, lookup_defines) if looked_up else None)
-                self._bind(prog, textures, None)
+                prog, vao = self._program(VIS_RUNS_KIND, False, VIS_RUNS, out_visibility,
+                                          lookup if looked_up else None)
+                for name, tex in textures.items():
+                    if name in prog:   # the compiler drops what goes unread
+                        tex.use(LEAN_UNITS[name])
+                        prog[name].value = LEAN_UNITS[name]
                 prog["u_size"].value = tuple(float(x) for x in self.size)
-                if not out_visibility:
-                    prog["u_soft_light"].value = tuple(float(x) for x in soft_light)
-                    prog["u_soft_radiance"].value = tuple(float(x) for x in soft_radiance)
-                if looked_up:
-                    bind_lookup(prog)
-                else:
-                    runs.points.use(POINTS_UNIT)
-                    prog["u_points"].value = POINTS_UNIT
+                if "u_point_at" in prog:
                     prog["u_point_at"].value = runs.point_at
+                if looked_up:
+                    prog["u_clip_to_world"].write(transforms.gl_bytes(clip_to_world))
+                    bind_lookup(prog)
+                if not out_visibility:
+                    prog["u_soft_radiance"].value = tuple(float(x) for x in soft_radiance)
                 vao.render(moderngl.TRIANGLES, vertices=count, first=first)
             first += count
 
@@ -186,10 +202,9 @@ class SoftComposite:
 
     def measured(self) -> np.ndarray:
         """The visibility the last ``out_visibility`` draw wrote, (H, W) float32, row 0 at the
-        top; NaN where a drawn pixel shows no geometry, 0 in the sky of the runs left out."""
+        top; 0 where it drew nothing: the sky, and the blocks of the umbra the runs leave out."""
         w, h = self.size
-        vis = np.frombuffer(self._measured.read(), np.float32).reshape(h, w)[::-1]
-        return np.where(vis < 0.0, np.nan, vis).astype(np.float32)
+        return np.frombuffer(self._measured.read(), np.float32).reshape(h, w)[::-1].copy()
 
     def read(self) -> np.ndarray:
         """The composited image, (H, W, 3) uint8, row 0 at the top."""

@@ -252,6 +252,7 @@ class RasterSoft:
         fb = self._target(size)
         fb.use()
         fb.viewport = (0, 0, *size)
+        fb.clear(-1.0)   # what a pixel with no geometry reads
         self.ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE | moderngl.BLEND)
         vao.render(moderngl.TRIANGLES, vertices=3)
         out = np.frombuffer(fb.read(components=1, dtype="f4"), np.float32)

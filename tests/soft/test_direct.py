@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from game.render.renderer import Renderer, View
-from game.soft.direct import INTERPOLATE, LOOKUP, SKIP, TOLERANCE, block_runs, block_values
+from game.soft.block_values import INTERPOLATE, LOOKUP, SKIP, TOLERANCE, block_runs, block_values
 from game.soft.methods import TraceSettings
 from game.soft.raster import RasterSoft
 from game.soft.upsample import Upsampling
@@ -88,7 +88,7 @@ def test_the_window_composite_matches_the_lookup_at_every_pixel(renderer, method
     shown = renderer.traced.window_visibility(renderer.target)
     covered = np.isfinite(every)
     assert frame.soft.visibility.shape == (-(-SIZE[1] // 4), -(-SIZE[0] // 4))   # the points
-    blocks = renderer.traced.direct.runs.blocks
+    blocks = renderer.traced.direct.blocks.runs.blocks
     assert blocks["lookup"] > 0 and blocks["flat"] > 0
     # Interpolated blocks carry at most the tolerance; most pixels are exact.
     assert rmse(shown[covered], every[covered]) < TOLERANCE / 4

@@ -1,0 +1,105 @@
+"""The window's raster soft shadows through the shading pass (game/soft/direct.py): before the
+pass, the points drawn unlit at one pixel per block, the method's maps and its lookup at them,
+and the blocks' values; after it, the composite over the blocks that look the light up.
+
+The frame's total holds what runs before the shading pass; the composite and the blocks'
+coverage add to it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from game.gpu.timing import PassTimer
+from game.render import passes
+from game.render.frame import Frame, View
+from game.render.target import FrameTarget, GBuffer
+from game.soft.composite import SoftComposite
+from game.soft.direct import DirectRaster
+from game.soft.methods import TraceSettings
+from game.soft.raster import RasterSoft
+from game.soft.tracer import TraceResult
+
+UPSAMPLE = "soft_upsample"   # the points, the blocks' values and their coverage
+COMPOSITE = "composite"
+
+
+class DirectFrames:
+    """Owns the blocks (:class:`~game.soft.direct.DirectRaster`) and the points' G-buffer (a
+    :class:`FrameTarget` of one pixel per block), released by :meth:`release`."""
+
+    def __init__(self, ctx, timer: PassTimer, divisor: int):
+        self.ctx = ctx
+        self.timer = timer
+        self.blocks = DirectRaster(ctx, divisor)
+        self.points: FrameTarget | None = None
+        self.result: TraceResult | None = None    # the last frame's trace at the points
+        self.settings: TraceSettings | None = None
+        self._clip_to_world = np.eye(4)           # and its clip space -> world
+
+    @property
+    def divisor(self) -> int:
+        return self.blocks.divisor
+
+    def before_shade(self, raster: RasterSoft, models: np.ndarray, settings: TraceSettings,
+                     light: tuple, radiance: np.ndarray, view: View, plan_key: bytes | None,
+                     draw_points: Callable[[FrameTarget], None]) -> Callable[[object], None]:
+        """The points drawn (``draw_points`` into the points' target), ``raster``'s maps of
+        the linear ``light`` and its lookup at them, the blocks' values. Returns what binds
+        them to the shading pass's program. ``plan_key`` as :meth:`RasterSoft.trace` takes."""
+        with self.timer.measure(UPSAMPLE):
+            cells = self.blocks.resize(view.size)
+            if self.points is None:
+                self.points = FrameTarget(self.ctx, cells, GBuffer.FULL)
+            self.points.remake(cells, GBuffer.FULL)
+            self.points.covers = self.blocks.covers
+            draw_points(self.points)
+        points = self.points
+        self.result = raster.trace((points.position, points.normal, points.colour), cells,
+                                   models, settings, light, plan_key=plan_key)
+        with self.timer.measure(UPSAMPLE):
+            self.blocks.classify(self.result)
+        self.settings = settings
+        self._clip_to_world = np.linalg.inv(view.proj @ view.view)
+        soft_light = (light[1] + light[2]) / 2
+        return lambda program: self.blocks.bind_shading(program, soft_light, radiance)
+
+    def composite(self, frame: Frame, composite: SoftComposite, raster: RasterSoft,
+                  target: FrameTarget, radiance: np.ndarray, read: bool) -> TraceResult:
+        """The blocks that look the light up, lit over the picture the shading pass drew into
+        ``target``; the frame's times: the trace's as ``soft_*``, the G-buffer's share of the
+        total apart."""
+        result, ms = self.result, frame.ms
+        inside = ms.get(UPSAMPLE, 0.0)
+        ms[passes.GBUFFER] = ms.get(passes.TOTAL, 0.0) - inside - result.ms["total"]
+        with self.timer.measure(UPSAMPLE):
+            self.blocks.finish(target.colour)
+        with self.timer.measure(COMPOSITE):
+            self.blocks.composite(composite, raster, target, self._clip_to_world, self.settings,
+                                  radiance)
+        if read:
+            frame.image = composite.read()
+        ms.update({f"soft_{k}": v for k, v in result.ms.items()})
+        for name in (COMPOSITE, UPSAMPLE):
+            ms[name] = self.timer.ms.get(name, 0.0)
+        ms[passes.TOTAL] = ms.get(passes.TOTAL, 0.0) + ms[COMPOSITE] + ms[UPSAMPLE] - inside
+        return result
+
+    def visibility(self, composite: SoftComposite, raster: RasterSoft,
+                   target: FrameTarget) -> np.ndarray:
+        """The visibility the last frame lit each pixel by, (H, W), row 0 at the top; 0 where
+        no geometry."""
+        self.blocks.composite(composite, raster, target, self._clip_to_world, self.settings,
+                              np.zeros(3), out_visibility=True)
+        return composite.measured()
+
+    def gl_objects(self) -> int:
+        return self.blocks.gl_objects() + (self.points.gl_objects() if self.points else 0)
+
+    def release(self) -> None:
+        self.blocks.release()
+        if self.points is not None:
+            self.points.release()
+            self.points = None

@@ -1,0 +1,123 @@
+"""The window's raster soft shadows, one value per block of the frame: what a block's points agree
+on, whether its pixels interpolate them or look the visibility up each, and the runs of blocks
+the composite draws (game/soft/direct.py puts them to use).
+
+1. **Values** (:func:`block_values`): a block whose 3 x 3 neighbourhood of points agrees on one
+   visibility takes that value; one whose points all show geometry and differ by at most
+   :data:`TOLERANCE` (a smooth stretch of a wide penumbra) interpolates them bilinearly; the
+   others (the penumbrae's edges, depth edges, a point in the sky beside geometry) look it up at
+   each of their pixels. Blocks in the umbra (agreed visibility 0) gain nothing.
+2. **Runs** (:func:`block_runs`): blocks in a row that share a value join into one run, and runs
+   with the same columns and value in consecutive rows into one rectangle of the frame.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+LOOKUP = -1.0        # a block's value where each pixel looks the visibility up
+SKIP = -2.0          # a block the linear light adds nothing to (sky, umbra): not drawn
+INTERPOLATE = -3.0   # a block that interpolates its neighbourhood's points
+NEIGHBOURS = 3       # blocks per side of the neighbourhood whose points must agree
+# The most the points of a neighbourhood may differ by for its block to interpolate them: the
+# error an interpolated pixel can carry where the visibility bends between points.
+TOLERANCE = 0.3
+
+
+@dataclass
+class Runs:
+    """The composite's rectangles: vertices (n, 3) of x, y (pixels from the frame's bottom
+    left) and visibility, six per run; ``flat`` runs carry their blocks' value (or
+    :data:`INTERPOLATE`), ``lookup`` runs :data:`LOOKUP`. ``blocks`` counts the blocks of
+    each class. ``points`` is the points' visibility texture, one texel per block, which the
+    interpolating runs read; ``point_at`` the block's
+    side and the pixel of the block each point lies on."""
+
+    flat: np.ndarray
+    lookup: np.ndarray
+    blocks: dict
+    points: object = None
+    point_at: tuple[float, float] = (1.0, 0.0)
+
+
+def block_values(visibility: np.ndarray, mixed: np.ndarray,
+                 tolerance: float = TOLERANCE) -> np.ndarray:
+    """Each block's value, (h, w) in the same rows as the inputs: the visibility its
+    neighbourhood's points agree on, :data:`INTERPOLATE` where they all show geometry and
+    differ by at most ``tolerance``, :data:`LOOKUP` where they differ more or the block's
+    coverage is ``mixed``, :data:`SKIP` in the sky and where they agree on 0.
+
+    ``visibility`` is the points', NaN where a point shows no geometry."""
+    h, w = visibility.shape
+    r = NEIGHBOURS // 2
+    low = np.pad(np.where(np.isnan(visibility), np.inf, visibility), r, constant_values=np.inf)
+    high = np.pad(np.where(np.isnan(visibility), -np.inf, visibility), r,
+                  constant_values=-np.inf)
+    least = np.full((h, w), np.inf, np.float32)
+    most = np.full((h, w), -np.inf, np.float32)
+    for dy in range(NEIGHBOURS):
+        for dx in range(NEIGHBOURS):
+            least = np.minimum(least, low[dy:dy + h, dx:dx + w])
+            most = np.maximum(most, high[dy:dy + h, dx:dx + w])
+    some_sky = np.zeros((h, w), bool)
+    sky = np.pad(np.isnan(visibility), r, constant_values=False)   # beyond the frame: no say
+    for dy in range(NEIGHBOURS):
+        for dx in range(NEIGHBOURS):
+            some_sky |= sky[dy:dy + h, dx:dx + w]
+    smooth = ~some_sky & (most - least <= tolerance)
+    values = np.where(least == most, least,
+                      np.where(smooth, INTERPOLATE, LOOKUP)).astype(np.float32)
+    values[values == 0.0] = SKIP
+    values[np.isnan(visibility)] = SKIP   # the point in the sky, and none of the block covered
+    values[mixed] = LOOKUP
+    return values
+
+
+def block_runs(values: np.ndarray, divisor: int, size: tuple[int, int]) -> Runs:
+    """Join the blocks of ``values`` (GL rows: row 0 at the bottom) into runs along their rows
+    and make their rectangles' vertices, clipped to the frame of ``size``."""
+    h, w = values.shape
+    starts = np.ones((h, w), bool)
+    starts[:, 1:] = values[:, 1:] != values[:, :-1]
+    rows, cols = np.nonzero(starts)
+    ends = np.empty_like(cols)
+    ends[:-1] = np.where(rows[1:] == rows[:-1], cols[1:], w)
+    if len(ends):
+        ends[-1] = w
+    value = values[rows, cols]
+    drawn = value != SKIP
+    rows, cols, ends, value = rows[drawn], cols[drawn], ends[drawn], value[drawn]
+    first, last, cols, ends, value = _stacked(rows, cols, ends, value)
+    x0 = cols * divisor
+    x1 = np.minimum(ends * divisor, size[0])
+    y0 = first * divisor
+    y1 = np.minimum((last + 1) * divisor, size[1])
+    corners = [(x0, y0), (x1, y0), (x1, y1), (x0, y0), (x1, y1), (x0, y1)]
+    vertices = np.stack([np.stack([x, y, value], axis=1) for x, y in corners], axis=1)
+    vertices = vertices.reshape(-1, 3).astype(np.float32)
+    per_vertex = np.repeat(value, 6)
+    counts = {"flat": int(np.sum(values >= 0.0)),
+              "interpolated": int(np.sum(values == INTERPOLATE)),
+              "lookup": int(np.sum(values == LOOKUP)), "skipped": int(np.sum(values == SKIP))}
+    lookup = per_vertex == LOOKUP
+    return Runs(flat=vertices[~lookup], lookup=vertices[lookup], blocks=counts)
+
+
+def _stacked(rows: np.ndarray, cols: np.ndarray, ends: np.ndarray, value: np.ndarray) -> tuple:
+    """Runs of consecutive rows with the same columns and value joined into one rectangle:
+    llvmpipe sets up and bins every triangle, and a frame's runs are many and thin. Returns
+    each rectangle's first and last row, its columns and its value."""
+    order = np.lexsort((rows, value, ends, cols))
+    rows, cols, ends, value = rows[order], cols[order], ends[order], value[order]
+    starts = np.ones(len(rows), bool)
+    starts[1:] = ((cols[1:] != cols[:-1]) | (ends[1:] != ends[:-1])
+                  | (value[1:] != value[:-1]) | (rows[1:] != rows[:-1] + 1))
+    begin = np.flatnonzero(starts)
+    finish = np.append(begin[1:], len(rows)) - 1
+    return rows[begin], rows[finish], cols[begin], ends[begin], value[begin]
+
+
+# The values' names in the shaders (soft_blocks.glsl).
+BLOCK_DEFINES = {"BLOCK_LOOKUP": LOOKUP, "BLOCK_SKIP": SKIP, "BLOCK_INTERPOLATE": INTERPOLATE}
