@@ -10,6 +10,8 @@
 #include "lighting.glsl"
 #include "shadow.glsl"
 #if GBUFFER == GBUFFER_LEAN
+// The image store (mark_block) would otherwise have every fragment shaded before its depth test.
+layout(early_fragment_tests) in;
 #include "soft_blocks.glsl"
 uniform sampler2D u_soft_blocks;  // each block's value (soft_blocks.glsl)
 uniform vec3 u_soft_light;        // the segment's midpoint
@@ -112,6 +114,9 @@ void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
     float value = texelFetch(u_soft_blocks, px / int(u_point_at.x), 0).r;
     o.colour += soft_factor * max(block_visibility(px, value), 0.0) * u_soft_radiance;
+    if (value == BLOCK_SKY) {
+        mark_block(px);
+    }
 #endif
     vec3 colour = display(o.colour);
     // The debug view, like the shadow lookup's switches, is a #define (DEBUG_VIEW).

@@ -1,11 +1,20 @@
 // The window's raster soft shadows (game/soft/direct.py): the linear light's visibility given
 // per block of the frame, and the lean G-buffer the composite reads where a pixel looks it up.
 // Read by the shading pass (shade.frag, GBUFFER_LEAN) and by the composite (composite.frag,
-// VIS_RUNS). Needs BLOCK_LOOKUP, BLOCK_SKIP and BLOCK_INTERPOLATE: a block's value is the
-// visibility its points agree on (>= 0), or one of them.
+// VIS_RUNS). Needs BLOCK_LOOKUP, BLOCK_SKIP, BLOCK_INTERPOLATE and BLOCK_SKY: a block's value is
+// the visibility its points agree on (>= 0), or one of them.
 
 uniform sampler2D u_soft_points;  // the points' visibility, one texel per block, bilinear
 uniform vec2 u_point_at;          // the block's side, and where its point lies from its corner
+
+// A block whose point lies in the sky, marked where a fragment of it shows geometry (a thin
+// caster against the sky): its pixels look the light up in the composite. The shading pass
+// alone writes it.
+layout(r8) uniform writeonly image2D u_soft_marks;
+
+void mark_block(ivec2 px) {
+    imageStore(u_soft_marks, px / int(u_point_at.x), vec4(1.0));
+}
 
 // The points' visibility interpolated bilinearly at pixel px.
 float interpolated_visibility(ivec2 px) {

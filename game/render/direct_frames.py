@@ -75,7 +75,7 @@ class DirectFrames:
         inside = ms.get(UPSAMPLE, 0.0)
         ms[passes.GBUFFER] = ms.get(passes.TOTAL, 0.0) - inside - result.ms["total"]
         with self.timer.measure(UPSAMPLE):
-            self.blocks.finish(target.colour)
+            self.blocks.finish()
         with self.timer.measure(COMPOSITE):
             self.blocks.composite(composite, raster, target, self._clip_to_world, self.settings,
                                   radiance)

@@ -20,6 +20,7 @@ import numpy as np
 LOOKUP = -1.0        # a block's value where each pixel looks the visibility up
 SKIP = -2.0          # a block the linear light adds nothing to (sky, umbra): not drawn
 INTERPOLATE = -3.0   # a block that interpolates its neighbourhood's points
+SKY = -4.0           # a block whose point is in the sky: the shading pass marks it if covered
 NEIGHBOURS = 3       # blocks per side of the neighbourhood whose points must agree
 # The most the points of a neighbourhood may differ by for its block to interpolate them: the
 # error an interpolated pixel can carry where the visibility bends between points.
@@ -120,4 +121,5 @@ def _stacked(rows: np.ndarray, cols: np.ndarray, ends: np.ndarray, value: np.nda
 
 
 # The values' names in the shaders (soft_blocks.glsl).
-BLOCK_DEFINES = {"BLOCK_LOOKUP": LOOKUP, "BLOCK_SKIP": SKIP, "BLOCK_INTERPOLATE": INTERPOLATE}
+BLOCK_DEFINES = {"BLOCK_LOOKUP": LOOKUP, "BLOCK_SKIP": SKIP, "BLOCK_INTERPOLATE": INTERPOLATE,
+                 "BLOCK_SKY": SKY}

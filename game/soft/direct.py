@@ -14,9 +14,9 @@ so the window neither accumulates nor filters it. Per frame, before the shading 
    neighbourhood of points, interpolated between them, or looked up at each pixel.
 
 Then the shading pass (shaders/shade.frag, the lean G-buffer) lights every pixel by the linear
-light through its block's value, except where the block looks it up. After it, a small pass
-(shaders/soft_coverage.frag) finds the blocks whose point lies in the sky but some pixels do
-not (a thin caster against the sky): they look it up too. The composite
+light through its block's value, except where the block looks it up, and marks the blocks
+whose point lies in the sky but some pixels do not (a thin caster against the sky, an image
+store): they look it up too. The composite
 (game/soft/composite.py, ``draw_runs``) copies the picture and adds the light over runs of the
 blocks that look it up, with the method's lookup at each pixel. So soft shadows cost two
 texture reads a pixel in the shading pass, a lean G-buffer of 8-bit targets, and the lookup
@@ -28,12 +28,10 @@ blocks around agree; the soft shadows of a linear light are wide.
 
 from __future__ import annotations
 
-import moderngl
 import numpy as np
 
-from game.gpu import blocks, resources
-from game.gpu.fullscreen import fullscreen_pass
-from game.soft.block_values import LOOKUP, Runs, block_runs, block_values
+from game.gpu import blocks
+from game.soft.block_values import LOOKUP, SKY, Runs, block_runs, block_values
 from game.soft.composite import LOOKUPS, SoftComposite
 from game.soft.methods import TraceSettings
 from game.soft.tracer import TraceResult
@@ -41,17 +39,17 @@ from game.soft.upsample import ReducedState, trace_size
 
 BLOCKS_UNIT = blocks.TEXTURE_UNITS["soft_blocks"]
 POINTS_UNIT = blocks.TEXTURE_UNITS["soft_points"]
+MARKS_IMAGE = 0   # the image unit the shading pass marks the blocks on
 
 
 class DirectRaster:
-    """Owns the blocks' values, the points' visibility and the blocks' coverage (one texel
-    per block), and the coverage pass's program, released by :meth:`release`; the textures
-    are made again when the frame's size changes."""
+    """Owns the blocks' values, the points' visibility and the blocks the shading pass marks
+    (one texel per block), released by :meth:`release`; made again when the frame's size
+    changes."""
 
     def __init__(self, ctx, divisor: int):
         self.ctx = ctx
         self.divisor = divisor
-        self._program, self._vao = fullscreen_pass(ctx, "soft_coverage.frag")
         self.size = self.cells = None
         self._textures: list = []
         self._values = self._in_sky = None   # this frame's values and its points in the sky
@@ -69,10 +67,8 @@ class DirectRaster:
         self.values = ctx.texture(cells, 1, dtype="f4")
         self.points_visibility = ctx.texture(cells, 1, dtype="f4")
         self.points_visibility.repeat_x = self.points_visibility.repeat_y = False
-        self.coverage = ctx.texture(cells, 4)
-        self.coverage_framebuffer = ctx.framebuffer([self.coverage])
-        self._textures = [self.coverage_framebuffer, self.coverage, self.values,
-                          self.points_visibility]
+        self.marks = ctx.texture(cells, 1)
+        self._textures = [self.values, self.points_visibility, self.marks]
         return cells
 
     @property
@@ -82,30 +78,25 @@ class DirectRaster:
 
     def classify(self, result: TraceResult) -> None:
         """The blocks' values of this frame, from the points' traced ``result``, for the
-        shading pass: a block whose point is in the sky gains nothing there."""
+        shading pass: a block whose point is in the sky gains nothing there, and is marked
+        where its pixels show geometry."""
         vis = np.ascontiguousarray(result.visibility[::-1])   # GL rows
         self._in_sky = np.isnan(vis)
         self._values = block_values(vis, np.zeros_like(self._in_sky))
-        self.values.write(self._values.tobytes())
+        self.values.write(np.where(self._in_sky, SKY, self._values).astype(np.float32).tobytes())
         self.points_visibility.write(np.nan_to_num(vis, nan=0.0).tobytes())
+        self.marks.write(bytes(self.cells[0] * self.cells[1]))
         self.point_at = (float(self.divisor), self.divisor / 2 - 0.5)
         self.state = ReducedState(size=self.cells, divisor=self.divisor, traced=True, round=0,
                                   rounds=1, phase=1, phases=1, full=True)
 
-    def finish(self, colour) -> Runs:
-        """This frame's runs, once the shading pass drew its picture ``colour``: the blocks
-        whose point is in the sky but whose pixels are not all look the light up too."""
-        prog = self._program
-        colour.use(0)
-        prog["u_colour"].value = 0
-        prog["u_divisor"].value = self.divisor
-        fb = self.coverage_framebuffer
-        fb.use()
-        fb.viewport = (0, 0, *self.cells)
-        self.ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE | moderngl.BLEND)
-        self._vao.render(moderngl.TRIANGLES, vertices=3)
+    def finish(self) -> Runs:
+        """This frame's runs, once the shading pass marked the blocks whose point is in the sky
+        but whose pixels are not all (a thin caster against the sky): they look the light up
+        too."""
+        self.ctx.memory_barrier()
         w, h = self.cells
-        covered = np.frombuffer(fb.read(components=1), np.uint8).reshape(h, w) > 0
+        covered = np.frombuffer(self.marks.read(), np.uint8).reshape(h, w) > 0
         values = np.where(self._in_sky & covered, LOOKUP, self._values).astype(np.float32)
         self.runs = block_runs(values, self.divisor, self.size)
         self.runs.points = self.points_visibility
@@ -116,6 +107,8 @@ class DirectRaster:
         """Set the shading pass's lean variant to light the frame through the blocks."""
         self.values.use(BLOCKS_UNIT)
         self.points_visibility.use(POINTS_UNIT)
+        self.marks.bind_to_image(MARKS_IMAGE, read=False, write=True)
+        program["u_soft_marks"].value = MARKS_IMAGE
         program["u_soft_blocks"].value = BLOCKS_UNIT
         program["u_soft_points"].value = POINTS_UNIT
         program["u_point_at"].value = self.point_at
@@ -139,16 +132,13 @@ class DirectRaster:
         raster.unbind_lookup()
 
     def gl_objects(self) -> int:
-        return 2 + resources.attached_shaders([self._program]) + len(self._textures)
+        return len(self._textures)
 
     def _release_textures(self) -> None:
-        resources.release_targets(self.ctx, self._textures)
+        for tex in self._textures:
+            tex.release()
         self._textures = []
         self.size = self.cells = None
 
     def release(self) -> None:
         self._release_textures()
-        for obj in (self._vao, self._program):
-            if obj is not None:
-                obj.release()
-        self._vao = self._program = None
