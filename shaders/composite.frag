@@ -38,6 +38,10 @@ uniform sampler2D u_depth;       // the frame's depth
 uniform sampler2D u_packed_normal;  // the geometric normal (pack_normal)
 uniform sampler2D u_light;       // rgb sqrt of the linear light's diffuse factor
 uniform mat4 u_clip_to_world;   // the frame's clip space -> world
+#if LOOKUP_RUNS && !OUT_VISIBILITY
+// What a still view keeps of each looked-up pixel (game/soft/still_lookups.py).
+layout(r32f) uniform writeonly image2D u_soft_kept;
+#endif
 
 // The world position of the surface at pixel px, from its depth.
 vec3 world_at(ivec2 px) {
@@ -100,6 +104,8 @@ void main() {
 #if OUT_VISIBILITY
     out_color = vec4(vis, 0.0, 0.0, 1.0);
     return;
+#elif LOOKUP_RUNS
+    imageStore(u_soft_kept, px, vec4(vis));
 #endif
 #if HARD
     LightRecord light = u_lights[0];

@@ -1,8 +1,8 @@
 // The window's raster soft shadows (game/soft/direct.py): the linear light's visibility given
 // per block of the frame, and the lean G-buffer the composite reads where a pixel looks it up.
 // Read by the shading pass (shade.frag, GBUFFER_LEAN) and by the composite (composite.frag,
-// VIS_RUNS). Needs BLOCK_LOOKUP, BLOCK_SKIP, BLOCK_INTERPOLATE and BLOCK_SKY: a block's value is
-// the visibility its points agree on (>= 0), or one of them.
+// VIS_RUNS). Needs the BLOCK_* values (game/soft/block_values.py): a block's value is the
+// visibility its points agree on (>= 0), or one of them.
 
 uniform sampler2D u_soft_points;  // the points' visibility, one texel per block, bilinear
 uniform vec2 u_point_at;          // the block's side, and where its point lies from its corner
@@ -22,13 +22,17 @@ float interpolated_visibility(ivec2 px) {
     return texture(u_soft_points, cell / vec2(textureSize(u_soft_points, 0))).r;
 }
 
+uniform sampler2D u_soft_history;  // the visibility a still view kept (BLOCK_CACHED)
+
 // The visibility at pixel px of a block whose value is ``value``: -1 where the pixel looks it up.
 float block_visibility(ivec2 px, float value) {
     if (value == BLOCK_LOOKUP) {
         return -1.0;
     }
     float smooth_vis = interpolated_visibility(px);
-    return value >= 0.0 ? value : (value == BLOCK_INTERPOLATE ? smooth_vis : 0.0);
+    float kept = texelFetch(u_soft_history, px, 0).r;
+    return value >= 0.0 ? value
+        : (value == BLOCK_INTERPOLATE ? smooth_vis : (value == BLOCK_CACHED ? kept : 0.0));
 }
 
 // A unit vector in 4 bytes: its octahedral coordinates at 16 bits each (Cigolle et al., "A

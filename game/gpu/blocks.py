@@ -65,6 +65,7 @@ TEXTURE_UNITS = {
     # units, which a program reads one or the other of.
     "soft_blocks": 12,
     "soft_points": 13,
+    "soft_history": 14,      # the visibility a still view keeps (game/soft/still_lookups.py)
     "lean_depth": 1,
     "lean_normal": 2,
     "lean_light": 5,

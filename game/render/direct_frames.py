@@ -43,12 +43,15 @@ class DirectFrames:
     def divisor(self) -> int:
         return self.blocks.divisor
 
-    def before_shade(self, raster: RasterSoft, models: np.ndarray, settings: TraceSettings,
-                     light: tuple, radiance: np.ndarray, view: View, plan_key: bytes | None,
-                     draw_points: Callable[[FrameTarget], None]) -> Callable[[object], None]:
+    def before_shade(self, raster: RasterSoft, models: np.ndarray, moved: np.ndarray,
+                     settings: TraceSettings, light: tuple, radiance: np.ndarray, view: View,
+                     plan_key: bytes | None, draw_points: Callable[[FrameTarget], None]
+                     ) -> Callable[[object], None]:
         """The points drawn (``draw_points`` into the points' target), ``raster``'s maps of
-        the linear ``light`` and its lookup at them, the blocks' values. Returns what binds
-        them to the shading pass's program. ``plan_key`` as :meth:`RasterSoft.trace` takes."""
+        the linear ``light`` and its lookup at them, the blocks' values, with what a still
+        view kept where no walker moved (``moved``: their boxes, game/soft/accumulate.py's
+        ``walker_boxes``). Returns what binds them to the shading pass's program.
+        ``plan_key`` as :meth:`RasterSoft.trace` takes: it names the view."""
         with self.timer.measure(UPSAMPLE):
             cells = self.blocks.resize(view.size)
             if self.points is None:
@@ -59,10 +62,15 @@ class DirectFrames:
         points = self.points
         self.result = raster.trace((points.position, points.normal, points.colour), cells,
                                    models, settings, light, plan_key=plan_key)
+        view_proj = view.proj @ view.view
         with self.timer.measure(UPSAMPLE):
-            self.blocks.classify(self.result)
+            key = (None if plan_key is None
+                   else plan_key + repr(settings).encode() + np.asarray(light[1:]).tobytes())
+            kept = self.blocks.still.kept(key, view.size, self.divisor, points, moved, light,
+                                          view_proj)
+            self.blocks.classify(self.result, kept)
         self.settings = settings
-        self._clip_to_world = np.linalg.inv(view.proj @ view.view)
+        self._clip_to_world = np.linalg.inv(view_proj)
         soft_light = (light[1] + light[2]) / 2
         return lambda program: self.blocks.bind_shading(program, soft_light, radiance)
 
@@ -94,6 +102,10 @@ class DirectFrames:
         self.blocks.composite(composite, raster, target, self._clip_to_world, self.settings,
                               np.zeros(3), out_visibility=True)
         return composite.measured()
+
+    def forget(self) -> None:
+        """Keep none of the lookups a still view kept (:class:`StillLookups`)."""
+        self.blocks.still.forget()
 
     def gl_objects(self) -> int:
         return self.blocks.gl_objects() + (self.points.gl_objects() if self.points else 0)

@@ -70,7 +70,7 @@ class TracedLighting:
         self._view_key = b""
         self._camera = np.zeros(3)
         self._last_models: np.ndarray | None = None   # the walkers' poses at the last frame
-        self._walker_bounds = np.zeros((0, 2, 3))
+        self._walker_bounds = self._bounds()
         self.last_soft: TraceSettings | None = None   # the last soft frame's settings
         # Called with the share of the frame's trace done, when set (a long headless run).
         self.progress: Callable[[float], None] | None = None
@@ -111,7 +111,8 @@ class TracedLighting:
         textures = (target.position, target.normal, target.colour)
         light = light or self.segment()
         if self.progress is not None:
-            return self._trace_in_bands(target, geom, models, settings, light)
+            return trace_in_bands(self.ctx, self._tracer(geom, settings), target, models,
+                                  settings, light, self.progress)
         return self._tracer(geom, settings).trace(textures, target.size, models, settings, light)
 
     def _tracer(self, geom: PackedGeometry, settings: TraceSettings) -> SoftTracer | RasterSoft:
@@ -127,55 +128,6 @@ class TracedLighting:
                                               settings.cells_per_triangle, self.timer.clock)
         return tracer
 
-    def _trace_in_bands(self, target: FrameTarget, geom: PackedGeometry, models: np.ndarray,
-                        settings: TraceSettings, light: tuple) -> TraceResult:
-        """Trace every pixel in bands of rows, calling :attr:`progress` after each.
-
-        Each band is the whole G-buffer with the coverage of the other rows cleared, so a point
-        keeps its pixel index (which seeds its samples) and gets the visibility one pass would
-        give it; the results are put together row by row. A trace that would be done within
-        :data:`PROGRESS_AFTER_S` at the first band's pace does the rest in one go."""
-        tracer = self._tracer(geom, settings)
-        w, h = target.size
-        alpha = target.read_colour()[..., 3]            # row 0 at the top
-        mask = self.ctx.texture((w, h), 4)
-        rows = -(-h // PROGRESS_BANDS)
-        parts: list[tuple[int, int, TraceResult]] = []
-        try:
-            start, top = time.perf_counter(), 0
-            while top < h:
-                bottom = min(h, top + rows)
-                covered = np.zeros((h, w, 4), np.uint8)
-                covered[top:bottom, :, 3] = alpha[top:bottom]
-                mask.write(np.ascontiguousarray(covered[::-1]).tobytes())
-                parts.append((top, bottom, tracer.trace(
-                    (target.position, target.normal, mask), (w, h), models, settings, light)))
-                top = bottom
-                self.progress(top / h)
-                pace = (time.perf_counter() - start) / top * h
-                if len(parts) == 1 and pace < PROGRESS_AFTER_S:
-                    rows = h - top   # quick: the rest at once
-        finally:
-            mask.release()
-        first = parts[0][2]
-        vis = np.full((h, w), np.nan, np.float32)
-        counters = {name: np.zeros((h, w), v.dtype) for name, v in first.counters.items()}
-        ms: dict[str, float] = {}
-        for top, bottom, part in parts:
-            vis[top:bottom] = part.visibility[top:bottom]
-            for name, values in counters.items():
-                values[top:bottom] = part.counters[name][top:bottom]
-            for key, value in part.ms.items():
-                ms[key] = ms.get(key, 0.0) + value
-        # The bands' dispatches add up; the budget and the samples per dispatch are the
-        # smallest any band needed.
-        return dataclasses.replace(
-            first, visibility=vis, counters=counters, ms=ms,
-            truncated=sum(part.truncated for *_, part in parts),
-            rounds=sum(part.rounds for *_, part in parts),
-            step_budget=min(part.step_budget for *_, part in parts),
-            samples_per_dispatch=min(part.samples_per_dispatch for *_, part in parts))
-
     def relight(self, frame: Frame, target: FrameTarget, geom: PackedGeometry,
                 models: np.ndarray, traced_hard: bool, soft: TraceSettings | None,
                 read: bool) -> bool:
@@ -183,6 +135,8 @@ class TracedLighting:
         (``traced_hard``, the ``traced`` method; with every light's in the dumps), then the
         linear light's through ``soft``. Returns whether the frame's picture is now the
         composite's."""
+        if self.direct is not None and target.gbuffer != GBuffer.LEAN:
+            self.direct.forget()   # the walkers move unseen by it until its next frame
         if traced_hard:
             result = self.light_frame(frame, target, geom, models, None, read)
             if frame.gbuffer is not None:
@@ -222,8 +176,15 @@ class TracedLighting:
         key = (self._view_key + np.asarray(view.size, np.int64).tobytes()
                if self._view_key else None)
         self.last_soft = soft
-        return self.direct.before_shade(self._tracer(geom, soft), models, soft, self.segment(),
+        return self.direct.before_shade(self._tracer(geom, soft), models,
+                                        self._moved_walkers(models), soft, self.segment(),
                                         self._radiance(), view, key, draw_points)
+
+    def _moved_walkers(self, models: np.ndarray) -> np.ndarray:
+        """The boxes the walkers moved through since the last soft frame (walker_boxes)."""
+        boxes = walker_boxes(self._walker_bounds, self._last_models, models)
+        self._last_models = np.array(models, np.float64)
+        return boxes
 
     def _radiance(self) -> np.ndarray:
         """The linear light's radiance, linear RGB."""
@@ -292,16 +253,12 @@ class TracedLighting:
         full-resolution visibility texture."""
         if self.reduced is None:
             self.reduced = ReducedTrace(self.ctx, self._upsampling)
-            self._walker_bounds = np.array([c.mesh.bounds for c in self.scene.characters],
-                                           np.float64).reshape(-1, 2, 3)
         self.reduced.set_upsampling(self._upsampling)
         key = b"".join((self._view_key, np.asarray(target.size, np.int64).tobytes(),
                         repr(settings).encode(),
                         np.asarray(light[1:], np.float64).tobytes()))
-        motion = FrameMotion(key=key, boxes=walker_boxes(self._walker_bounds,
-                                                         self._last_models, models),
-                             camera=self._camera, light=light)
-        self._last_models = np.array(models, np.float64)
+        motion = FrameMotion(key=key, boxes=self._moved_walkers(models), camera=self._camera,
+                             light=light)
         tracer = self._tracer(geom, settings)
 
         def trace(textures, size):
@@ -311,8 +268,17 @@ class TracedLighting:
         result = self.reduced.run(textures, target.size, motion, trace, self.timer)
         return result, self.reduced.visibility
 
+    def _bounds(self) -> np.ndarray:
+        """The walkers' local bounds, (n, 2, 3)."""
+        return np.array([c.mesh.bounds for c in self.scene.characters],
+                        np.float64).reshape(-1, 2, 3)
+
     def invalidate(self) -> None:
         """The geometry changed: the next trace builds its grid anew (and accumulates anew)."""
+        self._walker_bounds = self._bounds()
+        self._last_models = None
+        if self.direct is not None:
+            self.direct.forget()
         if self.tracer is not None:
             self.tracer.release()
             self.tracer = None
@@ -343,3 +309,55 @@ class TracedLighting:
         if self.direct is not None:
             self.direct.release()
             self.direct = None
+
+
+def trace_in_bands(ctx, tracer: SoftTracer | RasterSoft, target: FrameTarget,
+                   models: np.ndarray, settings: TraceSettings, light: tuple,
+                   progress: Callable[[float], None]) -> TraceResult:
+    """Trace every pixel of ``target``'s G-buffer in bands of rows, calling ``progress`` after
+    each with the share done.
+
+    Each band is the whole G-buffer with the coverage of the other rows cleared, so a point
+    keeps its pixel index (which seeds its samples) and gets the visibility one pass would
+    give it; the results are put together row by row. A trace that would be done within
+    :data:`PROGRESS_AFTER_S` at the first band's pace does the rest in one go."""
+    w, h = target.size
+    alpha = target.read_colour()[..., 3]            # row 0 at the top
+    mask = ctx.texture((w, h), 4)
+    rows = -(-h // PROGRESS_BANDS)
+    parts: list[tuple[int, int, TraceResult]] = []
+    try:
+        start, top = time.perf_counter(), 0
+        while top < h:
+            bottom = min(h, top + rows)
+            covered = np.zeros((h, w, 4), np.uint8)
+            covered[top:bottom, :, 3] = alpha[top:bottom]
+            mask.write(np.ascontiguousarray(covered[::-1]).tobytes())
+            parts.append((top, bottom, tracer.trace(
+                (target.position, target.normal, mask), (w, h), models, settings, light)))
+            top = bottom
+            progress(top / h)
+            pace = (time.perf_counter() - start) / top * h
+            if len(parts) == 1 and pace < PROGRESS_AFTER_S:
+                rows = h - top   # quick: the rest at once
+    finally:
+        mask.release()
+    first = parts[0][2]
+    vis = np.full((h, w), np.nan, np.float32)
+    counters = {name: np.zeros((h, w), v.dtype) for name, v in first.counters.items()}
+    ms: dict[str, float] = {}
+    for top, bottom, part in parts:
+        vis[top:bottom] = part.visibility[top:bottom]
+        for name, values in counters.items():
+            values[top:bottom] = part.counters[name][top:bottom]
+        for key, value in part.ms.items():
+            ms[key] = ms.get(key, 0.0) + value
+    # The bands' dispatches add up; the budget and the samples per dispatch are the
+    # smallest any band needed.
+    return dataclasses.replace(
+        first, visibility=vis, counters=counters, ms=ms,
+        truncated=sum(part.truncated for *_, part in parts),
+        rounds=sum(part.rounds for *_, part in parts),
+        step_budget=min(part.step_budget for *_, part in parts),
+        samples_per_dispatch=min(part.samples_per_dispatch for *_, part in parts))
+

@@ -21,6 +21,7 @@ LOOKUP = -1.0        # a block's value where each pixel looks the visibility up
 SKIP = -2.0          # a block the linear light adds nothing to (sky, umbra): not drawn
 INTERPOLATE = -3.0   # a block that interpolates its neighbourhood's points
 SKY = -4.0           # a block whose point is in the sky: the shading pass marks it if covered
+CACHED = -5.0        # a block that looks up, whose pixels' visibility a still view kept
 NEIGHBOURS = 3       # blocks per side of the neighbourhood whose points must agree
 # The most the points of a neighbourhood may differ by for its block to interpolate them: the
 # error an interpolated pixel can carry where the visibility bends between points.
@@ -33,14 +34,15 @@ class Runs:
     left) and visibility, six per run; ``flat`` runs carry their blocks' value (or
     :data:`INTERPOLATE`), ``lookup`` runs :data:`LOOKUP`. ``blocks`` counts the blocks of
     each class. ``points`` is the points' visibility texture, one texel per block, which the
-    interpolating runs read; ``point_at`` the block's
-    side and the pixel of the block each point lies on."""
+    interpolating runs read; ``point_at`` the block's side and the pixel of the block each
+    point lies on."""
 
     flat: np.ndarray
     lookup: np.ndarray
     blocks: dict
     points: object = None
     point_at: tuple[float, float] = (1.0, 0.0)
+    history: object = None   # what a still view kept (:data:`CACHED` runs read it)
 
 
 def block_values(visibility: np.ndarray, mixed: np.ndarray,
@@ -101,7 +103,8 @@ def block_runs(values: np.ndarray, divisor: int, size: tuple[int, int]) -> Runs:
     per_vertex = np.repeat(value, 6)
     counts = {"flat": int(np.sum(values >= 0.0)),
               "interpolated": int(np.sum(values == INTERPOLATE)),
-              "lookup": int(np.sum(values == LOOKUP)), "skipped": int(np.sum(values == SKIP))}
+              "lookup": int(np.sum(values == LOOKUP)), "skipped": int(np.sum(values == SKIP)),
+              "cached": int(np.sum(values == CACHED))}
     lookup = per_vertex == LOOKUP
     return Runs(flat=vertices[~lookup], lookup=vertices[lookup], blocks=counts)
 
@@ -122,4 +125,4 @@ def _stacked(rows: np.ndarray, cols: np.ndarray, ends: np.ndarray, value: np.nda
 
 # The values' names in the shaders (soft_blocks.glsl).
 BLOCK_DEFINES = {"BLOCK_LOOKUP": LOOKUP, "BLOCK_SKIP": SKIP, "BLOCK_INTERPOLATE": INTERPOLATE,
-                 "BLOCK_SKY": SKY}
+                 "BLOCK_SKY": SKY, "BLOCK_CACHED": CACHED}

@@ -35,12 +35,13 @@ VIS_RUNS_KIND = 0    # the runs light by the linear light alone: no light kind
 UNITS = {**TEXTURE_UNITS, "u_shading": blocks.TEXTURE_UNITS["composite_shading"],
          "u_albedo": blocks.TEXTURE_UNITS["composite_albedo"],
          "u_visibility": blocks.TEXTURE_UNITS["soft_visibility"]}
-# What the runs read: the lean G-buffer, and the points (direct.py).
+# What the runs read: the lean G-buffer, the points and what a still view kept (direct.py).
 LEAN_UNITS = {"u_colour": TEXTURE_UNITS["u_colour"],
               "u_depth": blocks.TEXTURE_UNITS["lean_depth"],
               "u_packed_normal": blocks.TEXTURE_UNITS["lean_normal"],
               "u_light": blocks.TEXTURE_UNITS["lean_light"],
-              "u_soft_points": blocks.TEXTURE_UNITS["soft_points"]}
+              "u_soft_points": blocks.TEXTURE_UNITS["soft_points"],
+              "u_soft_history": blocks.TEXTURE_UNITS["soft_history"]}
 
 
 class SoftComposite:
@@ -164,7 +165,7 @@ class SoftComposite:
         fb.viewport = (0, 0, *self.size)
         textures = {"u_colour": target.colour, "u_depth": target.depth,
                     "u_packed_normal": target.packed_normal, "u_light": target.light,
-                    "u_soft_points": runs.points}
+                    "u_soft_points": runs.points, "u_soft_history": runs.history}
         first = 0
         for vertices, looked_up in parts:
             count = len(vertices)

@@ -31,9 +31,10 @@ from __future__ import annotations
 import numpy as np
 
 from game.gpu import blocks
-from game.soft.block_values import LOOKUP, SKY, Runs, block_runs, block_values
+from game.soft.block_values import CACHED, LOOKUP, SKY, Runs, block_runs, block_values
 from game.soft.composite import LOOKUPS, SoftComposite
 from game.soft.methods import TraceSettings
+from game.soft.still_lookups import HISTORY_IMAGE, HISTORY_UNIT, StillLookups
 from game.soft.tracer import TraceResult
 from game.soft.upsample import ReducedState, trace_size
 
@@ -44,12 +45,13 @@ MARKS_IMAGE = 0   # the image unit the shading pass marks the blocks on
 
 class DirectRaster:
     """Owns the blocks' values, the points' visibility and the blocks the shading pass marks
-    (one texel per block), released by :meth:`release`; made again when the frame's size
-    changes."""
+    (one texel per block), made again when the frame's size changes, and what a still view
+    keeps (:attr:`still`); released by :meth:`release`."""
 
     def __init__(self, ctx, divisor: int):
         self.ctx = ctx
         self.divisor = divisor
+        self.still = StillLookups(ctx)
         self.size = self.cells = None
         self._textures: list = []
         self._values = self._in_sky = None   # this frame's values and its points in the sky
@@ -76,13 +78,15 @@ class DirectRaster:
         """The points' pixels the frame's clip space spans: each point at its block's centre."""
         return (self.size[0] / self.divisor, self.size[1] / self.divisor)
 
-    def classify(self, result: TraceResult) -> None:
+    def classify(self, result: TraceResult, kept: np.ndarray) -> None:
         """The blocks' values of this frame, from the points' traced ``result``, for the
         shading pass: a block whose point is in the sky gains nothing there, and is marked
-        where its pixels show geometry."""
+        where its pixels show geometry; one that looks up reads what a still view ``kept``
+        (GL rows, :meth:`StillLookups.kept`) where that holds."""
         vis = np.ascontiguousarray(result.visibility[::-1])   # GL rows
         self._in_sky = np.isnan(vis)
         self._values = block_values(vis, np.zeros_like(self._in_sky))
+        self._values[(self._values == LOOKUP) & kept] = CACHED
         self.values.write(np.where(self._in_sky, SKY, self._values).astype(np.float32).tobytes())
         self.points_visibility.write(np.nan_to_num(vis, nan=0.0).tobytes())
         self.marks.write(bytes(self.cells[0] * self.cells[1]))
@@ -99,8 +103,10 @@ class DirectRaster:
         covered = np.frombuffer(self.marks.read(), np.uint8).reshape(h, w) > 0
         values = np.where(self._in_sky & covered, LOOKUP, self._values).astype(np.float32)
         self.runs = block_runs(values, self.divisor, self.size)
+        self.still.drawn(values == LOOKUP)
         self.runs.points = self.points_visibility
         self.runs.point_at = self.point_at
+        self.runs.history = self.still.history
         return self.runs
 
     def bind_shading(self, program, soft_light: np.ndarray, radiance: np.ndarray) -> None:
@@ -111,6 +117,8 @@ class DirectRaster:
         program["u_soft_marks"].value = MARKS_IMAGE
         program["u_soft_blocks"].value = BLOCKS_UNIT
         program["u_soft_points"].value = POINTS_UNIT
+        self.still.history.use(HISTORY_UNIT)
+        program["u_soft_history"].value = HISTORY_UNIT
         program["u_point_at"].value = self.point_at
         program["u_soft_light"].value = tuple(float(x) for x in soft_light)
         program["u_soft_radiance"].value = tuple(float(x) for x in radiance)
@@ -126,13 +134,20 @@ class DirectRaster:
         if not out_visibility:
             composite.copy_picture(target.colour)
         method = settings.method
+
+        def bind_lookup(prog) -> None:
+            raster.bind_lookup(prog, method)
+            if "u_soft_kept" in prog:
+                self.still.history.bind_to_image(HISTORY_IMAGE, read=False, write=True)
+                prog["u_soft_kept"].value = HISTORY_IMAGE
+
         composite.draw_runs(target, self.runs, clip_to_world, (LOOKUPS[method], raster.defines()),
-                            lambda prog: raster.bind_lookup(prog, method), radiance,
-                            out_visibility)
+                            bind_lookup, radiance, out_visibility)
         raster.unbind_lookup()
+        self.ctx.memory_barrier()   # the next frame's shading pass reads what it kept
 
     def gl_objects(self) -> int:
-        return len(self._textures)
+        return len(self._textures) + self.still.gl_objects()
 
     def _release_textures(self) -> None:
         for tex in self._textures:
@@ -142,3 +157,4 @@ class DirectRaster:
 
     def release(self) -> None:
         self._release_textures()
+        self.still.release()

@@ -7,10 +7,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from game import transforms
 from game.render.renderer import Renderer, View
 from game.soft.block_values import INTERPOLATE, LOOKUP, SKIP, TOLERANCE, block_runs, block_values
 from game.soft.methods import TraceSettings
 from game.soft.raster import RasterSoft
+from game.soft.still_lookups import seen_boxes
 from game.soft.upsample import Upsampling
 from tests.soft.tracer_helpers import rmse
 
@@ -122,3 +124,41 @@ def test_the_walkers_layers_keep_no_trail_of_earlier_poses(ctx, renderer):
     assert np.array_equal(np.isnan(kept), np.isnan(anew.visibility))
     covered = np.isfinite(kept)
     assert np.max(np.abs(kept[covered] - anew.visibility[covered])) < 1e-6
+
+
+def _window_frames(renderer, view, settings, times) -> np.ndarray:
+    """The window's visibility after frames at ``times`` of one view (the walkers walk)."""
+    renderer.traced.reduce_soft(Upsampling(divisor=4), b"view", np.zeros(3))
+    for t in times:
+        renderer.render(float(t), view, soft=settings)
+    return renderer.traced.window_visibility(renderer.target)
+
+
+def test_a_still_view_keeps_its_lookups_and_shows_what_a_fresh_window_would(ctx, tiny,
+                                                                            renderer):
+    settings = TraceSettings(method="segment-maps", maps=8)
+    view = View.from_camera(renderer.scene.camera, SIZE)
+    kept = _window_frames(renderer, view, settings, np.linspace(0.0, 1.5, 16))
+    assert renderer.traced.direct.blocks.runs.blocks["cached"] > 0
+    fresh = Renderer(ctx, tiny, SIZE, gbuffer=True)
+    try:
+        anew = _window_frames(fresh, view, settings, [1.5])
+        assert fresh.traced.direct.blocks.runs.blocks["cached"] == 0
+    finally:
+        fresh.release()
+    assert np.array_equal(np.isnan(kept), np.isnan(anew))
+    assert np.nanmax(np.abs(kept - anew)) < 1e-5
+
+
+def test_a_moved_box_changes_the_blocks_it_covers_seen_from_the_camera():
+    size, divisor = (96, 54), 4
+    cells = (24, 14)
+    view_proj = transforms.perspective(60.0, size[0] / size[1], 0.1, 100.0) @ transforms.look_at(
+        np.array([0.0, 0.0, 5.0]), np.zeros(3))
+    centred = seen_boxes(np.array([[[0.0, 0.0, 0.0], [0.2, 0.2, 0.2]]]), view_proj, size,
+                         divisor, cells)
+    assert centred[cells[1] // 2, cells[0] // 2] and not centred[0, 0]
+    assert 0 < centred.sum() < 30
+    behind = seen_boxes(np.array([[[0.0, 0.0, 6.0], [0.5, 0.5, 0.5]]]), view_proj, size,
+                        divisor, cells)
+    assert behind.all()   # a box that reaches behind the camera may cover any pixel

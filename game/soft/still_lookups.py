@@ -1,0 +1,158 @@
+"""What a still view keeps of the window's per-pixel soft lookups (game/soft/direct.py).
+
+While the view stays, the pixels of a block that looks the linear light up get the same
+visibility frame after frame, unless a walker changed it: by crossing the light triangle of one
+of them (its shadow moved) or by stepping in front of one (the surface changed). The composite
+keeps the visibility it looks up at each pixel (an image store, shaders/composite.frag). A block
+that looked up since the view became still, and that no walker can have changed since, is
+:data:`~game.soft.block_values.CACHED`: the shading pass reads its pixels' kept visibility back
+(shaders/soft_blocks.glsl), and the composite does not draw it.
+
+A block counts as changed in a frame where
+
+- a moved walker's box, seen from the camera, covers it (grown by a block); or
+- the light triangle of a point within :data:`REACH` blocks of it may cross a moved walker's box
+  (shaders/soft_moved.frag): a pixel of the block may lie on another surface than its own
+  point, so its neighbours' points speak for it too.
+
+Everything starts again when the view, the frame's size or the method's settings change.
+"""
+
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+
+from game.gpu import blocks, resources
+from game.gpu.fullscreen import fullscreen_pass
+from game.soft.accumulate import MAX_BOXES
+
+REACH = 2   # blocks around a block whose points' light triangles speak for its pixels
+HISTORY_UNIT = blocks.TEXTURE_UNITS["soft_history"]
+HISTORY_IMAGE = 1   # the composite keeps the looked-up visibility on this image unit
+
+
+def _grown(marked: np.ndarray, reach: int) -> np.ndarray:
+    """``marked`` grown by ``reach`` blocks on every side (a square neighbourhood)."""
+    rows = marked.copy()
+    for shift in range(1, reach + 1):
+        rows[shift:] |= marked[:-shift]
+        rows[:-shift] |= marked[shift:]
+    out = rows.copy()
+    for shift in range(1, reach + 1):
+        out[:, shift:] |= rows[:, :-shift]
+        out[:, :-shift] |= rows[:, shift:]
+    return out
+
+
+def seen_boxes(boxes: np.ndarray, view_proj: np.ndarray, size: tuple[int, int], divisor: int,
+               cells: tuple[int, int]) -> np.ndarray:
+    """The blocks (GL rows) that ``boxes`` (k, 2, 3 of centre and half size) cover seen through
+    ``view_proj`` on a frame of ``size``, grown by a block; every block where a box reaches
+    behind the camera."""
+    w, h = cells
+    out = np.zeros((h, w), bool)
+    signs = np.array([[(i >> k) & 1 for k in range(3)] for i in range(8)]) * 2.0 - 1.0
+    for centre, half in boxes:
+        corners = np.concatenate([centre + signs * half, np.ones((8, 1))], axis=1)
+        clip = corners @ np.asarray(view_proj, np.float64).T
+        if np.any(clip[:, 3] <= 1e-6):
+            out[:] = True
+            return out
+        pixels = (clip[:, :2] / clip[:, 3:] * 0.5 + 0.5) * np.asarray(size)
+        lo = np.floor(pixels.min(axis=0) / divisor).astype(int) - 1
+        hi = np.ceil(pixels.max(axis=0) / divisor).astype(int) + 1
+        out[max(lo[1], 0):max(hi[1], 0), max(lo[0], 0):max(hi[0], 0)] = True
+    return out
+
+
+class StillLookups:
+    """Owns the kept visibility (one texel per pixel), the moved points' target (one per
+    block) and its program, released by :meth:`release`; the targets are made again when the
+    frame's size changes."""
+
+    def __init__(self, ctx):
+        self.ctx = ctx
+        self._program, self._vao = fullscreen_pass(ctx, "soft_moved.frag",
+                                                   {"MAX_BOXES": MAX_BOXES})
+        self.size = self.cells = None
+        self._targets: list = []
+        self._key: bytes | None = None
+        self.valid: np.ndarray | None = None   # blocks whose kept visibility holds
+
+    def _resize(self, size: tuple[int, int], cells: tuple[int, int]) -> None:
+        if (size, cells) == (self.size, self.cells) and self._targets:
+            return
+        self._release_targets()
+        self.size, self.cells = size, cells
+        ctx = self.ctx
+        self.history = ctx.texture(size, 1, dtype="f4")
+        self.moved = ctx.texture(cells, 4)
+        self.moved_framebuffer = ctx.framebuffer([self.moved])
+        self._targets = [self.moved_framebuffer, self.moved, self.history]
+        self._key = None
+
+    def kept(self, key: bytes | None, size: tuple[int, int], divisor: int, points,
+             boxes: np.ndarray, light: tuple, view_proj: np.ndarray) -> np.ndarray:
+        """The blocks (GL rows) whose pixels may read their kept visibility this frame. ``key``
+        names the view and the settings (None: keep nothing); ``points`` is the points'
+        G-buffer target; ``boxes`` the walkers' moved boxes (game/soft/accumulate.py's
+        ``walker_boxes``); ``light`` the segment's (mode, a, b)."""
+        cells = points.size
+        self._resize(size, cells)
+        if key is None or key != self._key or len(boxes) > MAX_BOXES:
+            self._key = key
+            self.valid = np.zeros((cells[1], cells[0]), bool)
+            return self.valid
+        if len(boxes):
+            changed = _grown(self._moved_points(points, boxes, light), REACH)
+            changed |= seen_boxes(boxes, view_proj, size, divisor, cells)
+            self.valid &= ~changed
+        return self.valid
+
+    def _moved_points(self, points, boxes: np.ndarray, light: tuple) -> np.ndarray:
+        """The points (GL rows) whose light triangle a moved box may cross."""
+        prog = self._program
+        for unit, (name, tex) in enumerate((("u_position", points.position),
+                                            ("u_colour", points.colour))):
+            tex.use(unit)
+            prog[name].value = unit
+        prog["u_light_a"].value = tuple(float(x) for x in light[1])
+        prog["u_light_b"].value = tuple(float(x) for x in light[2])
+        prog["u_boxes"].value = len(boxes)
+        for name, part in (("u_box_centre", boxes[:, 0]), ("u_box_half", boxes[:, 1])):
+            data = np.zeros((MAX_BOXES, 3), np.float32)
+            data[:len(boxes)] = part
+            prog[name].write(data.tobytes())
+        fb = self.moved_framebuffer
+        fb.use()
+        fb.viewport = (0, 0, *self.cells)
+        self.ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE | moderngl.BLEND)
+        self._vao.render(moderngl.TRIANGLES, vertices=3)
+        w, h = self.cells
+        return np.frombuffer(fb.read(components=1), np.uint8).reshape(h, w) > 0
+
+    def forget(self) -> None:
+        """Keep nothing: the scene changed, or frames went by without these lookups."""
+        self._key = None
+
+    def drawn(self, looked_up: np.ndarray) -> None:
+        """The composite looked up (and kept) every pixel of the blocks ``looked_up``."""
+        if self.valid is not None:
+            self.valid |= looked_up
+
+    def gl_objects(self) -> int:
+        return 2 + resources.attached_shaders([self._program]) + len(self._targets)
+
+    def _release_targets(self) -> None:
+        resources.release_targets(self.ctx, self._targets)
+        self._targets = []
+        self.size = self.cells = None
+        self.valid = None
+
+    def release(self) -> None:
+        self._release_targets()
+        for obj in (self._vao, self._program):
+            if obj is not None:
+                obj.release()
+        self._vao = self._program = None
