@@ -1,7 +1,8 @@
 """The window with soft shadows, measured and pictured (``bash docs/soft_window.sh``).
 
 ``fps``: the walkaround on GLFW's null platform, the built-in scene at 960x540, its walkers
-walking and the camera still, with or without soft shadows; frames after a warm-up are timed
+walking and the camera still (or turning, ``--turn``), with or without soft shadows; frames
+after a warm-up are timed
 by the CPU time of this process (with ``LP_NUM_THREADS=0`` llvmpipe rasterises in the calling
 thread, so other processes' load does not count) and by wall time (noisy on a shared machine).
 
@@ -44,8 +45,16 @@ def _window(scene_path: str, soft: bool) -> Walkaround:
                                          antialias=False, frames=10**9))
 
 
-def fps(scene_path: str, soft: bool, frames: int) -> dict:
-    """Frames per second of the window, by CPU time and by wall time."""
+def _turn(app: Walkaround, degrees: float) -> None:
+    """Turn the window's camera by ``degrees`` of yaw, as the mouse would."""
+    if degrees:
+        app.controller.camera.yaw += degrees
+        app.controller.moved = True
+
+
+def fps(scene_path: str, soft: bool, frames: int, turn: float = 0.0) -> dict:
+    """Frames per second of the window, by CPU time and by wall time; the camera still, or
+    turning by ``turn`` degrees a frame."""
     app = _window(scene_path, soft)
     try:
         for _ in range(WARMUP_FRAMES):
@@ -54,13 +63,14 @@ def fps(scene_path: str, soft: bool, frames: int) -> dict:
         last = wall
         for _ in range(frames):
             now = time.perf_counter()
+            _turn(app, turn)
             app.step(now - last)
             last = now
         cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
         method = app.soft_settings.method if soft else None
     finally:
         app.close()
-    return {"soft": soft, "soft_method": method, "frames": frames,
+    return {"soft": soft, "soft_method": method, "frames": frames, "turn_degrees": turn,
             "fps_cpu": round(frames / cpu, 3), "fps_wall": round(frames / wall, 3),
             "ms_cpu": round(cpu / frames * 1e3, 2)}
 
@@ -146,10 +156,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--scene", default="")
     parser.add_argument("--soft", action="store_true")
     parser.add_argument("--frames", type=int, default=20)
+    parser.add_argument("--turn", type=float, default=0.0,
+                        help="fps: degrees the camera turns each frame (default: still)")
     parser.add_argument("--out", type=Path, default=Path("docs/images"))
     args = parser.parse_args(argv)
     try:
-        doc = (fps(args.scene, args.soft, args.frames) if args.mode == "fps"
+        doc = (fps(args.scene, args.soft, args.frames, args.turn) if args.mode == "fps"
                else shots(args.scene, args.out))
     except GameError as exc:
         print(f"soft_window: {exc}", file=sys.stderr)

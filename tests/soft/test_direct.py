@@ -1,6 +1,7 @@
 """A raster soft method in the window (game/soft/direct.py): the blocks' classes and runs, the
-composite over them against the method's own lookup at every pixel, and the walkers' layers
-that keep no trail of earlier poses."""
+window's visibility against the method's own lookup at every pixel, the walkers' layers that keep
+no trail of earlier poses, and what a still view keeps of its lookups
+(game/soft/still_lookups.py)."""
 
 from __future__ import annotations
 
