@@ -17,6 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from game.soft.upsample import window_extremes
+
 LOOKUP = -1.0        # a block's value where each pixel looks the visibility up
 SKIP = -2.0          # a block the linear light adds nothing to (sky, umbra): not drawn
 INTERPOLATE = -3.0   # a block that interpolates its neighbourhood's points
@@ -55,15 +57,7 @@ def block_values(visibility: np.ndarray, mixed: np.ndarray,
     ``visibility`` is the points', NaN where a point shows no geometry."""
     h, w = visibility.shape
     r = NEIGHBOURS // 2
-    low = np.pad(np.where(np.isnan(visibility), np.inf, visibility), r, constant_values=np.inf)
-    high = np.pad(np.where(np.isnan(visibility), -np.inf, visibility), r,
-                  constant_values=-np.inf)
-    least = np.full((h, w), np.inf, np.float32)
-    most = np.full((h, w), -np.inf, np.float32)
-    for dy in range(NEIGHBOURS):
-        for dx in range(NEIGHBOURS):
-            least = np.minimum(least, low[dy:dy + h, dx:dx + w])
-            most = np.maximum(most, high[dy:dy + h, dx:dx + w])
+    least, most = window_extremes(visibility, r, r)
     some_sky = np.zeros((h, w), bool)
     sky = np.pad(np.isnan(visibility), r, constant_values=False)   # beyond the frame: no say
     for dy in range(NEIGHBOURS):

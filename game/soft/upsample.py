@@ -78,6 +78,23 @@ def phases(divisor: int) -> list[tuple[int, int]]:
     return [middle, *rest]
 
 
+def window_extremes(values: np.ndarray, before: int, after: int) -> tuple[np.ndarray, np.ndarray]:
+    """The least and the most of ``values`` (h, w; NaN counts as none) over each element's
+    window, from ``before`` rows and columns before it to ``after`` after it (beyond the array:
+    none); inf and -inf where a window holds none."""
+    h, w = values.shape
+    pad = ((before, after),) * 2
+    low = np.pad(np.where(np.isnan(values), np.inf, values), pad, constant_values=np.inf)
+    high = np.pad(np.where(np.isnan(values), -np.inf, values), pad, constant_values=-np.inf)
+    least = np.full((h, w), np.inf, np.float32)
+    most = np.full((h, w), -np.inf, np.float32)
+    for dy in range(before + after + 1):
+        for dx in range(before + after + 1):
+            least = np.minimum(least, low[dy:dy + h, dx:dx + w])
+            most = np.maximum(most, high[dy:dy + h, dx:dx + w])
+    return least, most
+
+
 def agreed_values(visibility: np.ndarray, shift: int) -> np.ndarray:
     """For each texel of the reduced trace, (H, W) float32 in GL rows: the one value that every
     sample the filter weighs has where that texel's block is the first of the filter's
@@ -87,18 +104,8 @@ def agreed_values(visibility: np.ndarray, shift: int) -> np.ndarray:
     ``visibility`` is the trace, row 0 at the top, NaN where no geometry; texel x of a row holds
     block ``(x + shift) mod W`` (shaders/subsample.frag)."""
     by_block = np.roll(visibility[::-1], shift, axis=1)
-    h, w = by_block.shape
     # The window starts at the block itself: GATHER - 1 more after it.
-    pad = ((0, GATHER - 1),) * 2
-    low = np.pad(np.where(np.isnan(by_block), np.inf, by_block), pad, constant_values=np.inf)
-    high = np.pad(np.where(np.isnan(by_block), -np.inf, by_block), pad,
-                  constant_values=-np.inf)
-    least = np.full((h, w), np.inf, np.float32)
-    most = np.full((h, w), -np.inf, np.float32)
-    for dy in range(GATHER):
-        for dx in range(GATHER):
-            least = np.minimum(least, low[dy:dy + h, dx:dx + w])
-            most = np.maximum(most, high[dy:dy + h, dx:dx + w])
+    least, most = window_extremes(by_block, 0, GATHER - 1)
     same = np.where(least == most, least, NO_SAMPLE)
     same = np.where(np.isinf(least), 1.0, same)     # no sample at all
     return np.ascontiguousarray(np.roll(same, -shift, axis=1), np.float32)
