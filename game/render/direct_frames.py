@@ -2,8 +2,8 @@
 pass, the points drawn unlit at one pixel per block, the method's maps and its lookup at them,
 and the blocks' values; after it, the composite over the blocks that look the light up.
 
-The frame's total holds what runs before the shading pass; the composite and the blocks'
-coverage add to it.
+The frame's total holds what runs before the shading pass; reading back the blocks the shading
+pass marked, and the composite, add to it.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from game.soft.methods import TraceSettings
 from game.soft.raster import RasterSoft
 from game.soft.tracer import TraceResult
 
-UPSAMPLE = "soft_upsample"   # the points, the blocks' values and their coverage
+UPSAMPLE = "soft_upsample"   # the points, the blocks' values and the marked ones
 COMPOSITE = "composite"
 
 

@@ -138,7 +138,7 @@ class Renderer(SceneEdits):
     def set_settings(self, settings: ShadowSettings) -> None:
         """Switch method or parameters; every map is planned (and cached) anew."""
         self._set_method(settings)
-        if self.target.gbuffer != GBuffer.LEAN:   # a lean frame's next is made as it needs
+        if self.target.gbuffer != GBuffer.LEAN:   # a lean target: the next frame remakes it
             self.target.remake(self.size, self._gbuffer_needed())
 
     def set_light(self, light, index: int = 0) -> None:

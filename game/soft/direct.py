@@ -16,11 +16,11 @@ so the window neither accumulates nor filters it. Per frame, before the shading 
 Then the shading pass (shaders/shade.frag, the lean G-buffer) lights every pixel by the linear
 light through its block's value, except where the block looks it up, and marks the blocks
 whose point lies in the sky but some pixels do not (a thin caster against the sky, an image
-store): they look it up too. The composite
-(game/soft/composite.py, ``draw_runs``) copies the picture and adds the light over runs of the
-blocks that look it up, with the method's lookup at each pixel. So soft shadows cost two
-texture reads a pixel in the shading pass, a lean G-buffer of 8-bit targets, and the lookup
-only where the shadow changes.
+store): they look it up too. The composite (game/soft/composite.py, ``draw_runs``) copies the
+picture and adds the light over runs of the blocks that look it up, with the method's lookup at
+each pixel. While the view stays, a block keeps what it looked up until a walker may have
+changed it (game/soft/still_lookups.py). So soft shadows cost a few texture reads a pixel in the
+shading pass, a lean G-buffer of 8-bit targets, and the lookup only where the shadow changes.
 
 A shadow narrower than the points' spacing that falls wholly between them is missed where the
 blocks around agree; the soft shadows of a linear light are wide.
