@@ -74,6 +74,11 @@ SHADERS = {"segment-maps": "segment_maps.frag", "pcss": "pcss.frag"}
 # Sets of maps kept between frames: one per raster method, so that switching between them keeps
 # both caches, while a sweep over K does not hold every K's maps at once.
 KEPT_MAP_SETS = 2
+# The window's maps look at the whole scene, not only at what the view shows, where that makes
+# their texels at most this much coarser: a camera that moves then leaves the statics' maps
+# cached. A map's width is bounded (map_frusta.MAX_TAN), so under a light that spans much of
+# the scene the view's own maps are as wide as the whole scene's already.
+WHOLE_COARSER = 1.25
 assert set(SHADERS) == set(RASTER_METHODS)
 UNITS = {**TEXTURE_UNITS, "u_maps_compare": blocks.TEXTURE_UNITS["soft_maps"],
          "u_maps_depth": blocks.TEXTURE_UNITS["soft_maps_depth"]}
@@ -211,7 +216,8 @@ class RasterSoft:
             with timer.measure("plan", wall=True):
                 memo = (plan_key, np.asarray(light[1:]).tobytes(), settings)
                 if plan_key is None or memo != self._plan_memo[0]:
-                    self._plan_memo = (memo, self._plan(textures, size, settings, a, b))
+                    self._plan_memo = (memo, self._plan(textures, size, settings, a, b,
+                                                        view_free=plan_key is not None))
                 frusta = self._plan_memo[1]
             with timer.measure("build_static"):  # the maps' one-off making counts here too
                 maps = self._light_maps(len(frusta), settings.map_resolution)
@@ -230,8 +236,11 @@ class RasterSoft:
                            samples_per_dispatch=len(frusta), rounds=1, maps=counts.stats())
 
     def _plan(self, textures, size: tuple[int, int], settings: TraceSettings, a: np.ndarray,
-              b: np.ndarray) -> list:
-        """The frusta around the receivers of the G-buffer ``textures`` (read back)."""
+              b: np.ndarray, view_free: bool = False) -> list:
+        """The frusta around the receivers of the G-buffer ``textures`` (read back). With
+        ``view_free`` (the window), the frusta around the whole scene instead where they are at
+        most :data:`WHOLE_COARSER` coarser: they stay whatever the view, so the statics' maps
+        stay cached while the camera moves."""
         w, h = size
         positions = np.frombuffer(textures[0].read(), np.float32).reshape(h, w, 4)
         covered = np.frombuffer(textures[2].read(), np.uint8).reshape(h, w, 4)[..., 3] > 0
@@ -240,7 +249,13 @@ class RasterSoft:
         still = covered & (positions[..., 3] < self.geom.first_character)
         corners = np.vstack([receiver_cells(positions, still, self.snap), self.reach])
         points = light_points(settings.method, a, b, settings)
-        return plan(points, corners, self.casters, settings.map_resolution)
+        seen = plan(points, corners, self.casters, settings.map_resolution)
+        if not view_free:
+            return seen
+        whole = plan(points, np.vstack([box_corners(*self.casters), self.reach]), self.casters,
+                     settings.map_resolution)
+        coarser = max(w.texel / s.texel for w, s in zip(whole, seen, strict=True))
+        return whole if coarser <= WHOLE_COARSER else seen
 
     def _lookup(self, settings: TraceSettings, textures, size: tuple[int, int]) -> np.ndarray:
         """Draw the method's lookup into the target and read it back, row 0 at the top."""

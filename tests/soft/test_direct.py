@@ -10,6 +10,7 @@ import pytest
 
 from game import transforms
 from game.render.renderer import Renderer, View
+from game.scene.model import LinearLight
 from game.soft.block_values import INTERPOLATE, LOOKUP, SKIP, TOLERANCE, block_runs, block_values
 from game.soft.methods import TraceSettings
 from game.soft.raster import RasterSoft
@@ -163,3 +164,27 @@ def test_a_moved_box_changes_the_blocks_it_covers_seen_from_the_camera():
     behind = seen_boxes(np.array([[[0.0, 0.0, 6.0], [0.5, 0.5, 0.5]]]), view_proj, size,
                         divisor, cells)
     assert behind.all()   # a box that reaches behind the camera may cover any pixel
+
+
+@pytest.mark.parametrize("bar, kept", [
+    (None, False),   # tiny's short bar high above: the view's maps are finer than the scene's
+    (((-8.0, 2.5, -1.0), (8.0, 2.5, 1.0)), True),   # a long low bar: as wide as a map may look
+])
+def test_a_turning_window_keeps_the_statics_maps_where_the_whole_scenes_are_as_fine(
+        ctx, tiny, bar, kept):
+    if bar is not None:
+        tiny.linear_light = LinearLight(np.array(bar[0]), np.array(bar[1]))
+    renderer = Renderer(ctx, tiny, SIZE, gbuffer=True)
+    try:
+        view = View.from_camera(renderer.scene.camera, SIZE)
+        turn = np.eye(4)
+        turn[:3, :3] = transforms.euler_xyz(np.array([0.0, 8.0, 0.0]))
+        stats = []
+        for key, seen in ((b"view", view), (b"turned", View(turn @ view.view, view.proj, SIZE))):
+            renderer.traced.reduce_soft(Upsampling(divisor=4), key, np.zeros(3))
+            settings = TraceSettings(method="segment-maps", maps=4)
+            stats.append(renderer.render(1.0, seen, soft=settings).soft.maps)
+    finally:
+        renderer.release()
+    assert stats[0]["soft_maps_static_rendered"] == 4
+    assert stats[1]["soft_maps_static_cached"] == (4 if kept else 0)
