@@ -10,7 +10,7 @@ import pytest
 
 from game import transforms
 from game.render.renderer import Renderer, View
-from game.scene.model import LinearLight
+from game.soft import raster
 from game.soft.block_values import INTERPOLATE, LOOKUP, SKIP, TOLERANCE, block_runs, block_values
 from game.soft.methods import TraceSettings
 from game.soft.raster import RasterSoft
@@ -166,14 +166,14 @@ def test_a_moved_box_changes_the_blocks_it_covers_seen_from_the_camera():
     assert behind.all()   # a box that reaches behind the camera may cover any pixel
 
 
-@pytest.mark.parametrize("bar, kept", [
-    (None, False),   # tiny's short bar high above: the view's maps are finer than the scene's
-    (((-8.0, 2.5, -1.0), (8.0, 2.5, 1.0)), True),   # a long low bar: as wide as a map may look
+@pytest.mark.parametrize("coarser, kept", [
+    (1.0, False),   # only as fine as the view's: tiny's whole scene is coarser, drawn again
+    (None, True),   # the default: tiny's whole scene is fine enough, kept
 ])
-def test_a_turning_window_keeps_the_statics_maps_where_the_whole_scenes_are_as_fine(
-        ctx, tiny, bar, kept):
-    if bar is not None:
-        tiny.linear_light = LinearLight(np.array(bar[0]), np.array(bar[1]))
+def test_a_turning_window_keeps_the_statics_maps_where_the_whole_scenes_are_fine_enough(
+        ctx, tiny, monkeypatch, coarser, kept):
+    if coarser is not None:
+        monkeypatch.setattr(raster, "WHOLE_COARSER", coarser)
     renderer = Renderer(ctx, tiny, SIZE, gbuffer=True)
     try:
         view = View.from_camera(renderer.scene.camera, SIZE)
