@@ -74,17 +74,12 @@ void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
     vec4 frame = texelFetch(u_colour, px, 0);
     if (frame.a == 0.0) {
-#if VIS_SOURCE == VIS_RUNS
-        // The sky keeps the copy of the picture (and reads as no geometry when measured):
-        // discarded, llvmpipe skips the rest for a group of pixels all in the sky.
-        discard;
-#elif OUT_VISIBILITY
+#if OUT_VISIBILITY
         out_color = vec4(-1.0);
         return;
-#else
+#endif
         out_color = frame;   // no geometry: the sky, as the shading pass cleared it
         return;
-#endif
     }
 #if VIS_SOURCE == VIS_TEXTURE
     vec3 p = texelFetch(u_position, px, 0).xyz;

@@ -6,14 +6,13 @@ uniform sampler2D u_position;  // xyz world position
 uniform sampler2D u_normal;    // xyz unit normal facing the camera
 uniform sampler2D u_colour;    // a > 0 where geometry covers the pixel
 
-layout(location = 0) out float f_visibility;   // the target is cleared to -1: no geometry
+layout(location = 0) out float f_visibility;   // -1 where no geometry
 
 void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
-    // Discarded, not returned from: llvmpipe skips the rest for a group of pixels all in the
-    // sky, and runs it for every one after a return.
     if (texelFetch(u_colour, px, 0).a <= 0.0) {
-        discard;
+        f_visibility = -1.0;
+        return;
     }
     vec3 p = texelFetch(u_position, px, 0).xyz;
     f_visibility = pcss_visibility(px, p, normalize(texelFetch(u_normal, px, 0).xyz));

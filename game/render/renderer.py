@@ -137,9 +137,7 @@ class Renderer(SceneEdits):
 
     def set_settings(self, settings: ShadowSettings) -> None:
         """Switch method or parameters; every map is planned (and cached) anew."""
-        self._set_method(settings)
-        if self.target.gbuffer != GBuffer.LEAN:   # a lean target: the next frame remakes it
-            self.target.remake(self.size, self._gbuffer_needed())
+        self._set_method(settings)   # the next frame makes the target it needs
 
     def set_light(self, light, index: int = 0) -> None:
         """Move hard light ``index``: its maps (only) are re-rendered on the next frame."""

@@ -65,6 +65,17 @@ def walker_boxes(bounds: np.ndarray, before: np.ndarray | None, now: np.ndarray)
     return np.stack([(high + low) / 2, half], axis=1)
 
 
+def write_boxes(prog, boxes: np.ndarray) -> None:
+    """Set ``prog``'s u_boxes, u_box_centre and u_box_half (at most :data:`MAX_BOXES`) to
+    ``boxes`` as :func:`walker_boxes` gives them."""
+    prog["u_boxes"].value = len(boxes)
+    if len(boxes):
+        for name, part in (("u_box_centre", boxes[:, 0]), ("u_box_half", boxes[:, 1])):
+            data = np.zeros((prog[name].array_length, 3), np.float32)
+            data[:len(boxes)] = part
+            prog[name].write(data.tobytes())
+
+
 class Accumulation:
     """Owns the two history textures and their framebuffers, the accumulate and resolve
     programs and their vertex arrays; :meth:`release` releases them all."""
@@ -124,12 +135,7 @@ class Accumulation:
         prog["u_camera"].value = tuple(float(x) for x in camera)
         prog["u_light_a"].value = tuple(float(x) for x in light[1])
         prog["u_light_b"].value = tuple(float(x) for x in light[2])
-        prog["u_boxes"].value = len(boxes)
-        if len(boxes):
-            for name, part in (("u_box_centre", boxes[:, 0]), ("u_box_half", boxes[:, 1])):
-                data = np.zeros((prog[name].array_length, 3), np.float32)
-                data[:len(boxes)] = part
-                prog[name].write(data.tobytes())
+        write_boxes(prog, boxes)
         self._current = 1 - self._current
         self._draw(self._framebuffers[self._current], self._accumulate_vao)
 

@@ -55,14 +55,10 @@ def block_values(visibility: np.ndarray, mixed: np.ndarray,
     coverage is ``mixed``, :data:`SKIP` in the sky and where they agree on 0.
 
     ``visibility`` is the points', NaN where a point shows no geometry."""
-    h, w = visibility.shape
     r = NEIGHBOURS // 2
     least, most = window_extremes(visibility, r, r)
-    some_sky = np.zeros((h, w), bool)
-    sky = np.pad(np.isnan(visibility), r, constant_values=False)   # beyond the frame: no say
-    for dy in range(NEIGHBOURS):
-        for dx in range(NEIGHBOURS):
-            some_sky |= sky[dy:dy + h, dx:dx + w]
+    # Any point in the sky around the block (beyond the frame there is none).
+    some_sky = window_extremes(np.isnan(visibility).astype(np.float32), r, r)[1] > 0.0
     smooth = ~some_sky & (most - least <= tolerance)
     values = np.where(least == most, least,
                       np.where(smooth, INTERPOLATE, LOOKUP)).astype(np.float32)

@@ -203,9 +203,10 @@ class SoftComposite:
 
     def measured(self) -> np.ndarray:
         """The visibility the last ``out_visibility`` draw wrote, (H, W) float32, row 0 at the
-        top; 0 where it drew nothing: the sky, and the blocks of the umbra the runs leave out."""
+        top; NaN where a drawn pixel shows no geometry, 0 in the sky of the runs left out."""
         w, h = self.size
-        return np.frombuffer(self._measured.read(), np.float32).reshape(h, w)[::-1].copy()
+        vis = np.frombuffer(self._measured.read(), np.float32).reshape(h, w)[::-1]
+        return np.where(vis < 0.0, np.nan, vis).astype(np.float32)
 
     def read(self) -> np.ndarray:
         """The composited image, (H, W, 3) uint8, row 0 at the top."""

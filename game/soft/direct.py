@@ -78,6 +78,11 @@ class DirectRaster:
         """The points' pixels the frame's clip space spans: each point at its block's centre."""
         return (self.size[0] / self.divisor, self.size[1] / self.divisor)
 
+    @property
+    def point_at(self) -> tuple[float, float]:
+        """The block's side, and where its point lies from its corner (pixel centres)."""
+        return (float(self.divisor), self.divisor / 2 - 0.5)
+
     def classify(self, result: TraceResult, kept: np.ndarray) -> None:
         """The blocks' values of this frame, from the points' traced ``result``, for the
         shading pass: a block whose point is in the sky gains nothing there, and is marked
@@ -90,7 +95,6 @@ class DirectRaster:
         self.values.write(np.where(self._in_sky, SKY, self._values).astype(np.float32).tobytes())
         self.points_visibility.write(np.nan_to_num(vis, nan=0.0).tobytes())
         self.marks.write(bytes(self.cells[0] * self.cells[1]))
-        self.point_at = (float(self.divisor), self.divisor / 2 - 0.5)
         self.state = ReducedState(size=self.cells, divisor=self.divisor, traced=True, round=0,
                                   rounds=1, phase=1, phases=1, full=True)
 

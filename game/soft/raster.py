@@ -128,6 +128,7 @@ class RasterSoft:
         # The last trace's maps, frusta and segment, which :meth:`bind_lookup` binds.
         self.last: tuple[LightMaps, list, np.ndarray, np.ndarray] | None = None
         self._plan_memo: tuple = (None, None)   # what the last plan was made for, its frusta
+        self._whole: tuple = (None, None)       # the whole scene's plan and what it was made for
 
     # -- ownership -------------------------------------------------------------------------------
     def gl_objects(self) -> int:
@@ -143,7 +144,7 @@ class RasterSoft:
             maps.release()
         self._maps = {}
         self.last = None
-        self._plan_memo = (None, None)
+        self._plan_memo = self._whole = (None, None)
         for program, vao in self._programs.values():
             vao.release()
             program.release()
@@ -253,10 +254,18 @@ class RasterSoft:
         seen = plan(points, corners, self.casters, settings.map_resolution)
         if not view_free:
             return seen
-        whole = plan(points, np.vstack([box_corners(*self.casters), self.reach]), self.casters,
-                     settings.map_resolution)
+        whole = self._whole_plan(points, settings.map_resolution)
         coarser = max(w.texel / s.texel for w, s in zip(whole, seen, strict=True))
         return whole if coarser <= WHOLE_COARSER else seen
+
+    def _whole_plan(self, points: np.ndarray, resolution: int) -> list:
+        """The frusta from ``points`` around the whole scene: the same whatever the view, so
+        made once for each light and resolution."""
+        key = (np.asarray(points, np.float64).tobytes(), resolution)
+        if self._whole[0] != key:
+            corners = np.vstack([box_corners(*self.casters), self.reach])
+            self._whole = (key, plan(points, corners, self.casters, resolution))
+        return self._whole[1]
 
     def _lookup(self, settings: TraceSettings, textures, size: tuple[int, int]) -> np.ndarray:
         """Draw the method's lookup into the target and read it back, row 0 at the top."""
@@ -268,7 +277,6 @@ class RasterSoft:
         fb = self._target(size)
         fb.use()
         fb.viewport = (0, 0, *size)
-        fb.clear(-1.0)   # what a pixel with no geometry reads
         self.ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE | moderngl.BLEND)
         vao.render(moderngl.TRIANGLES, vertices=3)
         out = np.frombuffer(fb.read(components=1, dtype="f4"), np.float32)

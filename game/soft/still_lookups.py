@@ -25,7 +25,9 @@ import numpy as np
 
 from game.gpu import blocks, resources
 from game.gpu.fullscreen import fullscreen_pass
-from game.soft.accumulate import MAX_BOXES
+from game.soft.accumulate import MAX_BOXES, write_boxes
+from game.soft.map_frusta import box_corners
+from game.soft.upsample import window_extremes
 
 REACH = 2   # blocks around a block whose points' light triangles speak for its pixels
 HISTORY_UNIT = blocks.TEXTURE_UNITS["soft_history"]
@@ -34,15 +36,7 @@ HISTORY_IMAGE = 1   # the composite keeps the looked-up visibility on this image
 
 def _grown(marked: np.ndarray, reach: int) -> np.ndarray:
     """``marked`` grown by ``reach`` blocks on every side (a square neighbourhood)."""
-    rows = marked.copy()
-    for shift in range(1, reach + 1):
-        rows[shift:] |= marked[:-shift]
-        rows[:-shift] |= marked[shift:]
-    out = rows.copy()
-    for shift in range(1, reach + 1):
-        out[:, shift:] |= rows[:, :-shift]
-        out[:, :-shift] |= rows[:, shift:]
-    return out
+    return window_extremes(marked.astype(np.float32), reach, reach)[1] > 0.0
 
 
 def seen_boxes(boxes: np.ndarray, view_proj: np.ndarray, size: tuple[int, int], divisor: int,
@@ -52,9 +46,9 @@ def seen_boxes(boxes: np.ndarray, view_proj: np.ndarray, size: tuple[int, int], 
     behind the camera."""
     w, h = cells
     out = np.zeros((h, w), bool)
-    signs = np.array([[(i >> k) & 1 for k in range(3)] for i in range(8)]) * 2.0 - 1.0
     for centre, half in boxes:
-        corners = np.concatenate([centre + signs * half, np.ones((8, 1))], axis=1)
+        corners = np.concatenate([box_corners(centre - half, centre + half), np.ones((8, 1))],
+                                 axis=1)
         clip = corners @ np.asarray(view_proj, np.float64).T
         if np.any(clip[:, 3] <= 1e-6):
             out[:] = True
@@ -119,11 +113,7 @@ class StillLookups:
             prog[name].value = unit
         prog["u_light_a"].value = tuple(float(x) for x in light[1])
         prog["u_light_b"].value = tuple(float(x) for x in light[2])
-        prog["u_boxes"].value = len(boxes)
-        for name, part in (("u_box_centre", boxes[:, 0]), ("u_box_half", boxes[:, 1])):
-            data = np.zeros((MAX_BOXES, 3), np.float32)
-            data[:len(boxes)] = part
-            prog[name].write(data.tobytes())
+        write_boxes(prog, boxes)
         fb = self.moved_framebuffer
         fb.use()
         fb.viewport = (0, 0, *self.cells)
