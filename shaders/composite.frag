@@ -13,7 +13,9 @@
 // says: its blocks' value (soft_blocks.glsl); or, with LOOKUP_RUNS, the raster method's own
 // lookup at the pixel (LOOKUP 0: segment-maps, segment_maps.glsl; 1: pcss, pcss.glsl), at the
 // world position the depth gives back.
-// OUT_VISIBILITY writes the visibility instead of the colour (to measure it).
+// OUT_VISIBILITY writes the visibility instead of the colour (to measure it). REFINE (lookup runs
+// over the blocks a still view kept, game/soft/still_lookups.py) adds the lookup, made with maps
+// from other points of the segment, to the pixel's kept mean and leaves the picture as it is.
 #define VIS_TEXTURE 0
 #define VIS_RUNS 1
 #include "blocks/frame.glsl"
@@ -39,8 +41,13 @@ uniform sampler2D u_packed_normal;  // the geometric normal (pack_normal)
 uniform sampler2D u_light;       // rgb sqrt of the linear light's diffuse factor
 uniform mat4 u_clip_to_world;   // the frame's clip space -> world
 #if LOOKUP_RUNS && !OUT_VISIBILITY
-// What a still view keeps of each looked-up pixel (game/soft/still_lookups.py).
-layout(r32f) uniform writeonly image2D u_soft_kept;
+// What a still view keeps of each looked-up pixel (game/soft/still_lookups.py): the mean of
+// its lookups, and how many sets of maps it holds.
+#if REFINE
+layout(rg32f) uniform image2D u_soft_kept;
+#else
+layout(rg32f) uniform writeonly image2D u_soft_kept;
+#endif
 #endif
 
 // The world position of the surface at pixel px, from its depth.
@@ -99,8 +106,14 @@ void main() {
 #if OUT_VISIBILITY
     out_color = vec4(vis, 0.0, 0.0, 1.0);
     return;
+#elif REFINE
+    vec2 kept = v_vis == BLOCK_REFINE_START ? vec2(0.0) : imageLoad(u_soft_kept, px).rg;
+    imageStore(u_soft_kept, px,
+               vec4((kept.x * kept.y + vis) / (kept.y + 1.0), kept.y + 1.0, 0.0, 0.0));
+    out_color = frame;
+    return;
 #elif LOOKUP_RUNS
-    imageStore(u_soft_kept, px, vec4(vis));
+    imageStore(u_soft_kept, px, vec4(vis, 1.0, 0.0, 0.0));
 #endif
 #if HARD
     LightRecord light = u_lights[0];

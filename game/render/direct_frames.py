@@ -1,6 +1,7 @@
 """The window's raster soft shadows through the shading pass (game/soft/direct.py): before the
 pass, the points drawn unlit at one pixel per block, the method's maps and its lookup at them,
-and the blocks' values; after it, the composite over the blocks that look the light up.
+and the blocks' values; after it, the composite over the blocks that look the light up, and
+what a still view refines.
 
 The frame's total holds what runs before the shading pass; reading back the blocks the shading
 pass marked, and the composite, add to it.
@@ -20,10 +21,12 @@ from game.soft.composite import SoftComposite
 from game.soft.direct import DirectRaster
 from game.soft.methods import TraceSettings
 from game.soft.raster import RasterSoft
+from game.soft.still_lookups import refine_phase
 from game.soft.tracer import TraceResult
 
 UPSAMPLE = "soft_upsample"   # the points, the blocks' values and the marked ones
 COMPOSITE = "composite"
+REFINE = "soft_refine"       # a still view's maps from other points, and their lookups
 
 
 class DirectFrames:
@@ -38,6 +41,7 @@ class DirectFrames:
         self.result: TraceResult | None = None    # the last frame's trace at the points
         self.settings: TraceSettings | None = None
         self._clip_to_world = np.eye(4)           # and its clip space -> world
+        self._models = np.zeros((0, 4, 4))        # the walkers' poses of the frame
 
     @property
     def divisor(self) -> int:
@@ -70,6 +74,7 @@ class DirectFrames:
                                           view_proj)
             self.blocks.classify(self.result, kept)
         self.settings = settings
+        self._models = models
         self._clip_to_world = np.linalg.inv(view_proj)
         soft_light = (light[1] + light[2]) / 2
         return lambda program: self.blocks.bind_shading(program, soft_light, radiance)
@@ -77,8 +82,8 @@ class DirectFrames:
     def composite(self, frame: Frame, composite: SoftComposite, raster: RasterSoft,
                   target: FrameTarget, radiance: np.ndarray, read: bool) -> TraceResult:
         """The blocks that look the light up, lit over the picture the shading pass drew into
-        ``target``; the frame's times: the trace's as ``soft_*``, the G-buffer's share of the
-        total apart."""
+        ``target``, and a still view's refining round; the frame's times: the trace's as
+        ``soft_*``, the G-buffer's share of the total apart."""
         result, ms = self.result, frame.ms
         inside = ms.get(UPSAMPLE, 0.0)
         ms[passes.GBUFFER] = ms.get(passes.TOTAL, 0.0) - inside - result.ms["total"]
@@ -87,12 +92,20 @@ class DirectFrames:
         with self.timer.measure(COMPOSITE):
             self.blocks.composite(composite, raster, target, self._clip_to_world, self.settings,
                                   radiance)
+        refining = self.blocks.refining(self.settings)
+        if refining is not None:
+            with self.timer.measure(REFINE):
+                maps = raster.refine_maps(self.settings, refine_phase(refining[0]),
+                                          self._models)
+                self.blocks.refine(composite, raster, target, self._clip_to_world,
+                                   self.settings, maps, refining[1])
         if read:
             frame.image = composite.read()
         ms.update({f"soft_{k}": v for k, v in result.ms.items()})
-        for name in (COMPOSITE, UPSAMPLE):
+        for name in (COMPOSITE, UPSAMPLE, REFINE):
             ms[name] = self.timer.ms.get(name, 0.0)
-        ms[passes.TOTAL] = ms.get(passes.TOTAL, 0.0) + ms[COMPOSITE] + ms[UPSAMPLE] - inside
+        ms[passes.TOTAL] = (ms.get(passes.TOTAL, 0.0) + ms[COMPOSITE] + ms[UPSAMPLE] + ms[REFINE]
+                            - inside)
         return result
 
     def visibility(self, composite: SoftComposite, raster: RasterSoft,

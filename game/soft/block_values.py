@@ -24,6 +24,10 @@ SKIP = -2.0          # a block the linear light adds nothing to (sky, umbra): no
 INTERPOLATE = -3.0   # a block that interpolates its neighbourhood's points
 SKY = -4.0           # a block whose point is in the sky: the shading pass marks it if covered
 CACHED = -5.0        # a block that looks up, whose pixels' visibility a still view kept
+# A still view refines what it kept with maps from other points of the segment: a block that
+# adds them to its pixels' kept means, and one that starts its means with them.
+REFINE_ADD = -6.0
+REFINE_START = -7.0
 NEIGHBOURS = 3       # blocks per side of the neighbourhood whose points must agree
 # The most the points of a neighbourhood may differ by for its block to interpolate them: the
 # error an interpolated pixel can carry where the visibility bends between points.
@@ -115,4 +119,5 @@ def _stacked(rows: np.ndarray, cols: np.ndarray, ends: np.ndarray, value: np.nda
 
 # The values' names in the shaders (soft_blocks.glsl).
 BLOCK_DEFINES = {"BLOCK_LOOKUP": LOOKUP, "BLOCK_SKIP": SKIP, "BLOCK_INTERPOLATE": INTERPOLATE,
-                 "BLOCK_SKY": SKY, "BLOCK_CACHED": CACHED}
+                 "BLOCK_SKY": SKY, "BLOCK_CACHED": CACHED, "BLOCK_REFINE_ADD": REFINE_ADD,
+                 "BLOCK_REFINE_START": REFINE_START}

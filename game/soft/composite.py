@@ -59,16 +59,17 @@ class SoftComposite:
         self._measured = self._measured_framebuffer = None   # OUT_VISIBILITY's target
 
     def _program(self, light_kind: int, hard: bool, source: int = VIS_TEXTURE,
-                 out_visibility: bool = False, lookup: tuple[int, dict] | None = None):
+                 out_visibility: bool = False, lookup: tuple[int, dict] | None = None,
+                 refine: bool = False):
         lookup_runs = lookup is not None
         lookup = lookup or (-1, {})
         key = (light_kind, hard, source, out_visibility, lookup[0],
-               tuple(sorted(lookup[1].items())))
+               tuple(sorted(lookup[1].items())), refine)
         if key not in self._programs:
             defines = {**self.defines, **lookup[1], **BLOCK_DEFINES, "LOOKUP": lookup[0],
                        "LIGHT_KIND": light_kind, "HARD": hard,
                        "VIS_SOURCE": source, "OUT_VISIBILITY": out_visibility,
-                       "LOOKUP_RUNS": lookup_runs}
+                       "LOOKUP_RUNS": lookup_runs, "REFINE": refine}
             if source == VIS_TEXTURE:
                 self._programs[key], self._vao[key] = fullscreen_pass(
                     self.ctx, "composite.frag", defines)
@@ -141,15 +142,18 @@ class SoftComposite:
                               GL.GL_TEXTURE_2D, 0, 0, 0, 0, w, h, 1)
 
     def draw_runs(self, target, runs, clip_to_world: np.ndarray, lookup: tuple[int, dict],
-                  bind_lookup, soft_radiance: np.ndarray, out_visibility: bool = False) -> None:
+                  bind_lookup, soft_radiance: np.ndarray, out_visibility: bool = False,
+                  refine: bool = False) -> None:
         """Light the frame over ``runs`` (game/soft/direct.py's :class:`~game.soft.direct.
         Runs`) into :attr:`framebuffer`, which :meth:`prepare` made and :meth:`copy_picture`
         filled with the frame's picture: the runs that look the visibility up, with the raster
         method's lookup ``lookup`` (its :data:`LOOKUPS` number and #defines), bound by
         ``bind_lookup(program)``, at the positions that ``target``'s lean G-buffer and
         ``clip_to_world`` (the frame's clip space to world) give. With ``out_visibility`` every
-        run's visibility goes into :meth:`measured` instead (to measure)."""
-        parts = [(runs.lookup, True)]
+        run's visibility goes into :meth:`measured` instead (to measure). With ``refine`` the
+        runs are a still view's refining ones (their vertices in ``runs.flat``): they add to what
+        the view kept and leave the picture as it is."""
+        parts = [(runs.flat if refine else runs.lookup, True)]
         if out_visibility:
             parts.insert(0, (runs.flat, False))
         data = np.concatenate([vertices for vertices, _ in parts]).astype(np.float32)
@@ -171,7 +175,7 @@ class SoftComposite:
             count = len(vertices)
             if count:
                 prog, vao = self._program(VIS_RUNS_KIND, False, VIS_RUNS, out_visibility,
-                                          lookup if looked_up else None)
+                                          lookup if looked_up else None, refine)
                 for name, tex in textures.items():
                     if name in prog:   # the compiler drops what goes unread
                         tex.use(LEAN_UNITS[name])
@@ -182,7 +186,7 @@ class SoftComposite:
                 if looked_up:
                     prog["u_clip_to_world"].write(transforms.gl_bytes(clip_to_world))
                     bind_lookup(prog)
-                if not out_visibility:
+                if "u_soft_radiance" in prog:
                     prog["u_soft_radiance"].value = tuple(float(x) for x in soft_radiance)
                 vao.render(moderngl.TRIANGLES, vertices=count, first=first)
             first += count

@@ -19,7 +19,8 @@ whose point lies in the sky but some pixels do not (a thin caster against the sk
 store): they look it up too. The composite (game/soft/composite.py, ``draw_runs``) copies the
 picture and adds the light over runs of the blocks that look it up, with the method's lookup at
 each pixel. While the view stays, a block keeps what it looked up until a walker may have
-changed it (game/soft/still_lookups.py). So soft shadows cost a few texture reads a pixel in the
+changed it, and refines what it kept with maps from other points of the segment
+(game/soft/still_lookups.py). So soft shadows cost a few texture reads a pixel in the
 shading pass, a lean G-buffer of 8-bit targets, and the lookup only where the shadow changes.
 
 A shadow narrower than the points' spacing that falls wholly between them is missed where the
@@ -31,7 +32,18 @@ from __future__ import annotations
 import numpy as np
 
 from game.gpu import blocks
-from game.soft.block_values import CACHED, LOOKUP, SKY, Runs, block_runs, block_values
+from game.soft.block_values import (
+    CACHED,
+    INTERPOLATE,
+    LOOKUP,
+    REFINE_ADD,
+    REFINE_START,
+    SKIP,
+    SKY,
+    Runs,
+    block_runs,
+    block_values,
+)
 from game.soft.composite import LOOKUPS, SoftComposite
 from game.soft.methods import TraceSettings
 from game.soft.still_lookups import HISTORY_IMAGE, HISTORY_UNIT, StillLookups
@@ -86,12 +98,12 @@ class DirectRaster:
     def classify(self, result: TraceResult, kept: np.ndarray) -> None:
         """The blocks' values of this frame, from the points' traced ``result``, for the
         shading pass: a block whose point is in the sky gains nothing there, and is marked
-        where its pixels show geometry; one that looks up reads what a still view ``kept``
-        (GL rows, :meth:`StillLookups.kept`) where that holds."""
+        where its pixels show geometry; one that looks up or interpolates reads what a still
+        view ``kept`` (GL rows, :meth:`StillLookups.kept`) where that holds."""
         vis = np.ascontiguousarray(result.visibility[::-1])   # GL rows
         self._in_sky = np.isnan(vis)
         self._values = block_values(vis, np.zeros_like(self._in_sky))
-        self._values[(self._values == LOOKUP) & kept] = CACHED
+        self._values[((self._values == LOOKUP) | (self._values == INTERPOLATE)) & kept] = CACHED
         self.values.write(np.where(self._in_sky, SKY, self._values).astype(np.float32).tobytes())
         self.points_visibility.write(np.nan_to_num(vis, nan=0.0).tobytes())
         self.marks.write(bytes(self.cells[0] * self.cells[1]))
@@ -106,6 +118,7 @@ class DirectRaster:
         w, h = self.cells
         covered = np.frombuffer(self.marks.read(), np.uint8).reshape(h, w) > 0
         values = np.where(self._in_sky & covered, LOOKUP, self._values).astype(np.float32)
+        self._values = values
         self.runs = block_runs(values, self.divisor, self.size)
         self.still.drawn(values == LOOKUP)
         self.runs.points = self.points_visibility
@@ -149,6 +162,38 @@ class DirectRaster:
                             bind_lookup, radiance, out_visibility)
         raster.unbind_lookup()
         self.ctx.memory_barrier()   # the next frame's shading pass reads what it kept
+
+    def refining(self, settings: TraceSettings) -> tuple[int, Runs] | None:
+        """This frame's refining round and its runs (:data:`REFINE_ADD` over the blocks it
+        kept, :data:`REFINE_START` over those that interpolate), None where it refines nothing:
+        segment-maps only, whose K points stay put (pcss has one map)."""
+        round_ = self.still.refine_round(settings.maps)
+        if settings.method != "segment-maps" or not round_:
+            return None
+        values = self._values
+        refine = np.where(values == INTERPOLATE, REFINE_START,
+                          np.where(values == CACHED, REFINE_ADD, SKIP)).astype(np.float32)
+        self.still.drawn(refine == REFINE_START)
+        runs = block_runs(refine, self.divisor, self.size)
+        runs.points, runs.point_at = self.points_visibility, self.point_at
+        runs.history = self.still.history
+        return round_, runs
+
+    def refine(self, composite: SoftComposite, raster, target, clip_to_world: np.ndarray,
+               settings: TraceSettings, maps: tuple, runs: Runs) -> None:
+        """Add the lookups with ``maps`` (:meth:`RasterSoft.refine_maps`) to what the pixels of
+        the refining ``runs`` kept; the picture stays as the composite left it."""
+
+        def bind_lookup(prog) -> None:
+            raster.bind_lookup(prog, settings.method, maps)
+            self.still.history.bind_to_image(HISTORY_IMAGE, read=True, write=True)
+            prog["u_soft_kept"].value = HISTORY_IMAGE
+
+        composite.draw_runs(target, runs, clip_to_world,
+                            (LOOKUPS[settings.method], raster.defines()), bind_lookup,
+                            np.zeros(3), refine=True)
+        raster.unbind_lookup()
+        self.ctx.memory_barrier()
 
     def gl_objects(self) -> int:
         return len(self._textures) + self.still.gl_objects()

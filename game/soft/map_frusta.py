@@ -41,9 +41,10 @@ class MapFrustum:
     texel: float            # metres per texel per metre of depth (the map's wider side)
 
 
-def segment_points(a: np.ndarray, b: np.ndarray, count: int) -> np.ndarray:
-    """``count`` points along the segment, at the centres of equal parts: (count, 3)."""
-    t = (np.arange(count) + 0.5) / count
+def segment_points(a: np.ndarray, b: np.ndarray, count: int, phase: float = 0.5) -> np.ndarray:
+    """``count`` points along the segment, one in each of its equal parts, at ``phase`` of the
+    part (0.5: their centres): (count, 3)."""
+    t = (np.arange(count) + phase) / count
     a = np.asarray(a, np.float64)
     return a + t[:, None] * (np.asarray(b, np.float64) - a)
 

@@ -119,6 +119,7 @@ class RasterSoft:
         self.snap = float(np.linalg.norm(self.casters[1] - self.casters[0])) / SNAP_CELLS
         self.reach = character_reach(geom, scene)
         self._maps: dict[tuple[int, int], LightMaps] = {}
+        self._refine: LightMaps | None = None   # a still window's maps from other points
         self._programs: dict[tuple, tuple] = {}
         self.compare = ctx.sampler(repeat_x=False, repeat_y=False,
                                    filter=(moderngl.LINEAR, moderngl.LINEAR), compare_func="<=")
@@ -127,15 +128,18 @@ class RasterSoft:
         self.target = self.framebuffer = None
         # The last trace's maps, frusta and segment, which :meth:`bind_lookup` binds.
         self.last: tuple[LightMaps, list, np.ndarray, np.ndarray] | None = None
-        self._plan_memo: tuple = (None, None)   # what the last plan was made for, its frusta
-        self._whole: tuple = (None, None)       # the whole scene's plan and what it was made for
+        # What the last plan was made for, its frusta and the receivers' corners they look at.
+        self._plan_memo: tuple = (None, None, None)
+        # What the whole scene's plan was made for, its frusta and their corners.
+        self._whole: tuple = (None, None, None)
 
     # -- ownership -------------------------------------------------------------------------------
     def gl_objects(self) -> int:
         """Maps, programs (with their shaders and vertex arrays), samplers, target."""
         programs = [p for p, _ in self._programs.values()]
         held = (self.target, self.framebuffer, self.compare, self.depth)
-        return (sum(m.gl_objects() for m in self._maps.values()) + 2 * len(programs)
+        maps = [*self._maps.values(), *([self._refine] if self._refine else [])]
+        return (sum(m.gl_objects() for m in maps) + 2 * len(programs)
                 + resources.attached_shaders(programs) + sum(x is not None for x in held)
                 + self.timer.gl_objects())
 
@@ -143,8 +147,11 @@ class RasterSoft:
         for maps in self._maps.values():
             maps.release()
         self._maps = {}
+        if self._refine is not None:
+            self._refine.release()
+            self._refine = None
         self.last = None
-        self._plan_memo = self._whole = (None, None)
+        self._plan_memo = self._whole = (None, None, None)
         for program, vao in self._programs.values():
             vao.release()
             program.release()
@@ -157,7 +164,10 @@ class RasterSoft:
 
     def memory_bytes(self) -> dict[str, int]:
         """GPU memory of the maps, by count and resolution."""
-        return {f"maps_{k}x{r}": m.array.bytes for (k, r), m in self._maps.items()}
+        out = {f"maps_{k}x{r}": m.array.bytes for (k, r), m in self._maps.items()}
+        if self._refine is not None:
+            out["refine_maps"] = self._refine.array.bytes
+        return out
 
     # -- parts -----------------------------------------------------------------------------------
     def _light_maps(self, count: int, resolution: int) -> LightMaps:
@@ -218,8 +228,8 @@ class RasterSoft:
             with timer.measure("plan", wall=True):
                 memo = (plan_key, np.asarray(light[1:]).tobytes(), settings)
                 if plan_key is None or memo != self._plan_memo[0]:
-                    self._plan_memo = (memo, self._plan(textures, size, settings, a, b,
-                                                        view_free=plan_key is not None))
+                    self._plan_memo = (memo, *self._plan(textures, size, settings, a, b,
+                                                         view_free=plan_key is not None))
                 frusta = self._plan_memo[1]
             with timer.measure("build_static"):  # the maps' one-off making counts here too
                 maps = self._light_maps(len(frusta), settings.map_resolution)
@@ -238,11 +248,12 @@ class RasterSoft:
                            samples_per_dispatch=len(frusta), rounds=1, maps=counts.stats())
 
     def _plan(self, textures, size: tuple[int, int], settings: TraceSettings, a: np.ndarray,
-              b: np.ndarray, view_free: bool = False) -> list:
-        """The frusta around the receivers of the G-buffer ``textures`` (read back). With
-        ``view_free`` (the window), the frusta around the whole scene instead where they are at
-        most :data:`WHOLE_COARSER` coarser: they stay whatever the view, so the statics' maps
-        stay cached while the camera moves."""
+              b: np.ndarray, view_free: bool = False) -> tuple[list, np.ndarray]:
+        """The frusta around the receivers of the G-buffer ``textures`` (read back), and the
+        corners of the receivers' hull they look at. With ``view_free`` (the window), the
+        frusta around the whole scene instead where they are at most :data:`WHOLE_COARSER`
+        coarser: they stay whatever the view, so the statics' maps stay cached while the camera
+        moves."""
         w, h = size
         positions = np.frombuffer(textures[0].read(), np.float32).reshape(h, w, 4)
         covered = np.frombuffer(textures[2].read(), np.uint8).reshape(h, w, 4)[..., 3] > 0
@@ -253,10 +264,10 @@ class RasterSoft:
         points = light_points(settings.method, a, b, settings)
         seen = plan(points, corners, self.casters, settings.map_resolution)
         if not view_free:
-            return seen
+            return seen, corners
         whole = self._whole_plan(points, settings.map_resolution)
         coarser = max(w.texel / s.texel for w, s in zip(whole, seen, strict=True))
-        return whole if coarser <= WHOLE_COARSER else seen
+        return (whole, self._whole[2]) if coarser <= WHOLE_COARSER else (seen, corners)
 
     def _whole_plan(self, points: np.ndarray, resolution: int) -> list:
         """The frusta from ``points`` around the whole scene: the same whatever the view, so
@@ -264,8 +275,28 @@ class RasterSoft:
         key = (np.asarray(points, np.float64).tobytes(), resolution)
         if self._whole[0] != key:
             corners = np.vstack([box_corners(*self.casters), self.reach])
-            self._whole = (key, plan(points, corners, self.casters, resolution))
+            self._whole = (key, plan(points, corners, self.casters, resolution), corners)
         return self._whole[1]
+
+    def refine_maps(self, settings: TraceSettings, phase: float, models: np.ndarray) -> tuple:
+        """segment-maps' maps from K other points of the last trace's segment, each at
+        ``phase`` of its part (the trace's are at the parts' centres), planned around the same
+        receivers, the walkers at ``models`` drawn over the statics: what
+        :meth:`bind_lookup` takes as ``maps``. A still window adds their lookups to what it
+        kept (game/soft/still_lookups.py)."""
+        _, frusta, a, b = self.last
+        points = segment_points(a, b, len(frusta), phase)
+        moved = plan(points, self._plan_memo[2], self.casters, settings.map_resolution)
+        maps = self._refine
+        if maps is None or (maps.count, maps.resolution) != (len(frusta),
+                                                            settings.map_resolution):
+            if maps is not None:
+                maps.release()
+            maps = self._refine = LightMaps(self.ctx, self.geom, len(frusta),
+                                            settings.map_resolution)
+        counts = maps.draw_statics(moved, True)
+        maps.draw_walkers(moved, models, counts)
+        return (maps, moved, a, b)
 
     def _lookup(self, settings: TraceSettings, textures, size: tuple[int, int]) -> np.ndarray:
         """Draw the method's lookup into the target and read it back, row 0 at the top."""
@@ -284,10 +315,11 @@ class RasterSoft:
         self.unbind_lookup()
         return out.reshape(size[1], size[0])[::-1]
 
-    def bind_lookup(self, program, method: str) -> None:
-        """Set ``program``'s maps records (soft_maps.glsl) to the last trace's and bind its maps
-        and samplers: the lookup pass's program, or the soft composite's lookup variant."""
-        maps, frusta, a, b = self.last
+    def bind_lookup(self, program, method: str, maps: tuple | None = None) -> None:
+        """Set ``program``'s maps records (soft_maps.glsl) to the last trace's (or to ``maps``,
+        as :meth:`refine_maps` gives them) and bind its maps and samplers: the lookup pass's
+        program, or the soft composite's lookup variant."""
+        maps, frusta, a, b = maps or self.last
         count = len(frusta)
         view_proj = np.zeros((LIMITS["maps"], 4, 4))
         view_proj[:count] = [f.view_proj for f in frusta]

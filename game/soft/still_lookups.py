@@ -16,6 +16,16 @@ A block counts as changed in a frame where
   point, so its neighbours' points speak for it too.
 
 Everything starts again when the view, the frame's size or the method's settings change.
+
+**Refining.** segment-maps' K points sit at the centres of the segment's K parts, the same for
+every pixel, so its penumbrae show K steps however long the view stays. In the frames that follow
+a view's first (:meth:`StillLookups.refine_round`), a still view draws K maps from other points
+of the same parts (at the phase :func:`refine_phase` gives), and every block it kept adds their
+lookup at each of its pixels to the pixel's kept mean; a block that interpolated its points
+starts its own mean with them and is kept from then on. After :data:`REFINE_POINTS` points in
+all, the view stops refining: the mean over that many points stands for the whole segment as
+closely as the maps' texels allow. A block a walker changes later looks the light up again from
+the K points alone, until the view changes.
 """
 
 from __future__ import annotations
@@ -30,8 +40,18 @@ from game.soft.map_frusta import box_corners
 from game.soft.upsample import window_extremes
 
 REACH = 2   # blocks around a block whose points' light triangles speak for its pixels
+# The points of the segment a still view's refined pixels hold in all, the K the frame's own
+# maps hold included.
+REFINE_POINTS = 32
+GOLDEN = (5 ** 0.5 - 1) / 2   # each refining round's phase turns by this share of a part
 HISTORY_UNIT = blocks.TEXTURE_UNITS["soft_history"]
 HISTORY_IMAGE = 1   # the composite keeps the looked-up visibility on this image unit
+
+
+def refine_phase(round_: int) -> float:
+    """Where in each part of the segment round ``round_``'s points lie (round 0, the frame's own
+    maps: the centre); successive rounds spread over the part (the golden ratio's sequence)."""
+    return (0.5 + round_ * GOLDEN) % 1.0
 
 
 def _grown(marked: np.ndarray, reach: int) -> np.ndarray:
@@ -73,6 +93,7 @@ class StillLookups:
         self._targets: list = []
         self._key: bytes | None = None
         self.valid: np.ndarray | None = None   # blocks whose kept visibility holds
+        self.frames = 0   # frames of this view before the present one
 
     def _resize(self, size: tuple[int, int], cells: tuple[int, int]) -> None:
         if (size, cells) == (self.size, self.cells) and self._targets:
@@ -80,7 +101,7 @@ class StillLookups:
         self._release_targets()
         self.size, self.cells = size, cells
         ctx = self.ctx
-        self.history = ctx.texture(size, 1, dtype="f4")
+        self.history = ctx.texture(size, 2, dtype="f4")   # the mean, and its sets of maps
         self.moved = ctx.texture(cells, 4)
         self.moved_framebuffer = ctx.framebuffer([self.moved])
         self._targets = [self.moved_framebuffer, self.moved, self.history]
@@ -97,7 +118,9 @@ class StillLookups:
         if key is None or key != self._key or len(boxes) > MAX_BOXES:
             self._key = key
             self.valid = np.zeros((cells[1], cells[0]), bool)
+            self.frames = 0
             return self.valid
+        self.frames += 1
         if len(boxes):
             changed = _grown(self._moved_points(points, boxes, light), REACH)
             changed |= seen_boxes(boxes, view_proj, size, divisor, cells)
@@ -121,6 +144,13 @@ class StillLookups:
         self._vao.render(moderngl.TRIANGLES, vertices=3)
         w, h = self.cells
         return np.frombuffer(fb.read(components=1), np.uint8).reshape(h, w) > 0
+
+    def refine_round(self, maps: int) -> int:
+        """The refining round of this frame for a method of ``maps`` points (K), 0 where it
+        refines nothing: the view's first frame, and every frame once its kept pixels hold
+        :data:`REFINE_POINTS` points."""
+        rounds = -(-REFINE_POINTS // max(maps, 1))
+        return self.frames if self._key is not None and 0 < self.frames < rounds else 0
 
     def forget(self) -> None:
         """Keep nothing: the scene changed, or frames went by without these lookups."""

@@ -10,11 +10,11 @@ import pytest
 
 from game import transforms
 from game.render.renderer import Renderer, View
-from game.soft import raster
+from game.soft import raster, still_lookups
 from game.soft.block_values import INTERPOLATE, LOOKUP, SKIP, TOLERANCE, block_runs, block_values
 from game.soft.methods import TraceSettings
 from game.soft.raster import RasterSoft
-from game.soft.still_lookups import seen_boxes
+from game.soft.still_lookups import REFINE_POINTS, seen_boxes
 from game.soft.upsample import Upsampling
 from tests.soft.tracer_helpers import rmse
 
@@ -99,13 +99,15 @@ def test_the_window_composite_matches_the_lookup_at_every_pixel(renderer, method
     assert np.mean(np.abs(shown[covered] - every[covered]) < 1e-4) > 0.8
 
 
-def test_a_still_view_makes_no_gl_objects_after_the_first_frame(renderer):
+def test_a_still_view_makes_no_gl_objects_after_its_first_refining_frame(renderer):
     settings = TraceSettings(method="segment-maps", maps=8)
     view = View.from_camera(renderer.scene.camera, SIZE)
     renderer.traced.reduce_soft(Upsampling(divisor=4), b"view", np.zeros(3))
-    renderer.render(0.0, view, soft=settings)
+    for t in (0.0, 0.1):   # the view's first frame, and its first refining one
+        renderer.render(t, view, soft=settings)
     objects = renderer.gl_objects()
-    for t in (0.5, 1.0, 1.5):   # the walkers walk
+    rounds = REFINE_POINTS // settings.maps
+    for t in np.linspace(0.2, 1.5, rounds + 2):   # the walkers walk; refining ends on the way
         renderer.render(t, view, soft=settings)
         assert renderer.gl_objects() == objects
 
@@ -137,8 +139,10 @@ def _window_frames(renderer, view, settings, times) -> np.ndarray:
 
 
 def test_a_still_view_keeps_its_lookups_and_shows_what_a_fresh_window_would(ctx, tiny,
-                                                                            renderer):
+                                                                            renderer,
+                                                                            monkeypatch):
     settings = TraceSettings(method="segment-maps", maps=8)
+    monkeypatch.setattr(still_lookups, "REFINE_POINTS", settings.maps)   # keeping, no refining
     view = View.from_camera(renderer.scene.camera, SIZE)
     kept = _window_frames(renderer, view, settings, np.linspace(0.0, 1.5, 16))
     assert renderer.traced.direct.blocks.runs.blocks["cached"] > 0
@@ -150,6 +154,31 @@ def test_a_still_view_keeps_its_lookups_and_shows_what_a_fresh_window_would(ctx,
         fresh.release()
     assert np.array_equal(np.isnan(kept), np.isnan(anew))
     assert np.nanmax(np.abs(kept - anew)) < 1e-5
+
+
+def test_a_still_view_refines_toward_the_exact_visibility_and_then_stops(renderer):
+    settings = TraceSettings(method="segment-maps", maps=8)
+    view = View.from_camera(renderer.scene.camera, SIZE)
+    renderer.render(1.0, view)
+    exact = renderer.trace(1.0, TraceSettings(method="analytic")).visibility
+    covered = np.isfinite(exact)
+    rounds = REFINE_POINTS // settings.maps
+    shown, refine_ms = [], []
+    for _ in range(rounds + 2):   # the walkers stand still
+        frame = renderer.render(1.0, view, soft=settings) if shown else _first(renderer, view,
+                                                                               settings)
+        refine_ms.append(frame.ms["soft_refine"])
+        shown.append(renderer.traced.window_visibility(renderer.target))
+    errors = [rmse(s[covered], exact[covered]) for s in shown]
+    assert refine_ms[0] == 0.0 and min(refine_ms[1:rounds]) > 0.0 and max(refine_ms[rounds:]) == 0.0
+    # A round's lookups show from the next frame on.
+    assert errors[rounds] < 0.85 * errors[0]
+    assert np.array_equal(shown[rounds + 1], shown[rounds], equal_nan=True)   # it stopped
+
+
+def _first(renderer, view, settings):
+    renderer.traced.reduce_soft(Upsampling(divisor=4), b"view", np.zeros(3))
+    return renderer.render(1.0, view, soft=settings)
 
 
 def test_a_moved_box_changes_the_blocks_it_covers_seen_from_the_camera():
