@@ -8,6 +8,9 @@
 # 2. Pictures: still after 0, 1 and 5 s of the window's time, walking after 1 and 5 s, each also
 #    beside the analytic picture of the same view, with the RMSE between them
 #    (docs/images/soft_window_*.png, the figures in docs/images/soft_window_shots.json).
+# 3. Refining: a still view, characters paused, frame by frame, with its refining ending at 8
+#    (none), 16, 32 (the default) and 64 points along the segment: the visibility's RMSE against
+#    analytic after each frame, and each frame's milliseconds (docs/images/soft_window_refine.jsonl).
 # Run it from anywhere: `bash docs/soft_window.sh [FRAMES]` (default 60 timed frames a run).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -24,3 +27,9 @@ done
 cat "$runs"
 python -m game.bench.soft_window shots --out docs/images > docs/images/soft_window_shots.json
 cat docs/images/soft_window_shots.json
+refine=docs/images/soft_window_refine.jsonl
+: > "$refine"
+for points in 8 16 32 64; do
+    python -m game.bench.soft_window refine --points "$points" --frames 10 >> "$refine"
+done
+cat "$refine"

@@ -12,6 +12,11 @@ thread, so other processes' load does not count) and by wall time (noisy on a sh
 beside the ``analytic`` visibility of the same view and scene time, rendered full size by the
 same renderer, with the RMSE between them: of the soft visibility and of the pictures.
 
+``refine``: the same window still (characters paused), a frame at a time, with a still view's
+refining ending at ``--points`` points along the segment (game/soft/still_lookups.py): the
+visibility's RMSE against ``analytic`` after each frame, and each frame's milliseconds (the
+whole frame, and its refining round).
+
 Each mode runs in its own process (a window's GL context per process) and prints one JSON line.
 """
 
@@ -32,6 +37,7 @@ from game.app import outputs
 from game.app.window.walkaround import PlayOptions, Walkaround
 from game.errors import GameError
 from game.scene import load_scene
+from game.soft import still_lookups
 from game.soft.methods import TraceSettings
 
 DEFAULT_SCENE = Path(__file__).resolve().parents[2] / "assets" / "default.toml"
@@ -155,19 +161,49 @@ def shots(scene_path: str, out: Path) -> dict:
     return {"size": list(SIZE), "shots": rows}
 
 
+def refine(scene_path: str, points: int, frames: int) -> dict:
+    """A still view's visibility against ``analytic`` after each of ``frames`` frames, its
+    refining ending at ``points`` points along the segment (its first frame compiles)."""
+    still_lookups.REFINE_POINTS = points
+    app = _window(scene_path, True)
+    try:
+        app.paused = True
+        app.scene_time = 3.0       # the walkers spread over the square, as in ``shots``
+        shown, ms = [], []
+        for _ in range(frames):
+            app.step(0.0)
+            shown.append(_visibility(app))
+            ms.append(app.last_figures.ms)
+        _, exact = _analytic(app)
+    finally:
+        app.close()
+    covered = np.isfinite(exact)
+    return {"size": list(SIZE), "soft_method": "segment-maps", "refine_points": points,
+            "rmse_visibility": [round(float(np.sqrt(np.mean((v[covered] - exact[covered]) ** 2))),
+                                      5) for v in shown],
+            "total_ms": [round(m.get("total", 0.0), 1) for m in ms],
+            "refine_ms": [round(m.get("soft_refine", 0.0), 1) for m in ms]}
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m game.bench.soft_window")
-    parser.add_argument("mode", choices=("fps", "shots"))
+    parser.add_argument("mode", choices=("fps", "shots", "refine"))
     parser.add_argument("--scene", default="")
     parser.add_argument("--soft", action="store_true")
     parser.add_argument("--frames", type=int, default=20)
     parser.add_argument("--turn", type=float, default=0.0,
                         help="fps: degrees the camera turns each frame (default: still)")
+    parser.add_argument("--points", type=int, default=still_lookups.REFINE_POINTS,
+                        help="refine: the points a still view's refining ends at")
     parser.add_argument("--out", type=Path, default=Path("docs/images"))
     args = parser.parse_args(argv)
     try:
-        doc = (fps(args.scene, args.soft, args.frames, args.turn) if args.mode == "fps"
-               else shots(args.scene, args.out))
+        if args.mode == "fps":
+            doc = fps(args.scene, args.soft, args.frames, args.turn)
+        elif args.mode == "refine":
+            doc = refine(args.scene, args.points, args.frames)
+        else:
+            doc = shots(args.scene, args.out)
     except GameError as exc:
         print(f"soft_window: {exc}", file=sys.stderr)
         return 1

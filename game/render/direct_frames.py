@@ -72,7 +72,7 @@ class DirectFrames:
                    else plan_key + repr(settings).encode() + np.asarray(light[1:]).tobytes())
             kept = self.blocks.still.kept(key, view.size, self.divisor, points, moved, light,
                                           view_proj)
-            self.blocks.classify(self.result, kept)
+            self.blocks.classify(self.result, kept, settings)
         self.settings = settings
         self._models = models
         self._clip_to_world = np.linalg.inv(view_proj)

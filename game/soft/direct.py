@@ -46,7 +46,7 @@ from game.soft.block_values import (
 )
 from game.soft.composite import LOOKUPS, SoftComposite
 from game.soft.methods import TraceSettings
-from game.soft.still_lookups import HISTORY_IMAGE, HISTORY_UNIT, StillLookups
+from game.soft.still_lookups import HISTORY_IMAGE, HISTORY_UNIT, StillLookups, refine_rounds
 from game.soft.tracer import TraceResult
 from game.soft.upsample import ReducedState, trace_size
 
@@ -95,11 +95,12 @@ class DirectRaster:
         """The block's side, and where its point lies from its corner (pixel centres)."""
         return (float(self.divisor), self.divisor / 2 - 0.5)
 
-    def classify(self, result: TraceResult, kept: np.ndarray) -> None:
+    def classify(self, result: TraceResult, kept: np.ndarray, settings: TraceSettings) -> None:
         """The blocks' values of this frame, from the points' traced ``result``, for the
         shading pass: a block whose point is in the sky gains nothing there, and is marked
         where its pixels show geometry; one that looks up or interpolates reads what a still
-        view ``kept`` (GL rows, :meth:`StillLookups.kept`) where that holds."""
+        view ``kept`` (GL rows, :meth:`StillLookups.kept`) where that holds. The state's
+        rounds are the sets of K maps the refined pixels hold (``settings``' method's)."""
         vis = np.ascontiguousarray(result.visibility[::-1])   # GL rows
         self._in_sky = np.isnan(vis)
         self._values = block_values(vis, np.zeros_like(self._in_sky))
@@ -107,8 +108,11 @@ class DirectRaster:
         self.values.write(np.where(self._in_sky, SKY, self._values).astype(np.float32).tobytes())
         self.points_visibility.write(np.nan_to_num(vis, nan=0.0).tobytes())
         self.marks.write(bytes(self.cells[0] * self.cells[1]))
-        self.state = ReducedState(size=self.cells, divisor=self.divisor, traced=True, round=0,
-                                  rounds=1, phase=1, phases=1, full=True)
+        refines = settings.method == "segment-maps"
+        self.state = ReducedState(
+            size=self.cells, divisor=self.divisor, traced=True,
+            round=self.still.sets_held(settings.maps) if refines else 1,
+            rounds=refine_rounds(settings.maps) if refines else 1, phase=1, phases=1, full=True)
 
     def finish(self) -> Runs:
         """This frame's runs, once the shading pass marked the blocks whose point is in the sky

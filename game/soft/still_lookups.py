@@ -54,6 +54,12 @@ def refine_phase(round_: int) -> float:
     return (0.5 + round_ * GOLDEN) % 1.0
 
 
+def refine_rounds(maps: int) -> int:
+    """The sets of ``maps`` points (the frame's own and the refining rounds') that hold
+    :data:`REFINE_POINTS` points."""
+    return -(-REFINE_POINTS // max(maps, 1))
+
+
 def _grown(marked: np.ndarray, reach: int) -> np.ndarray:
     """``marked`` grown by ``reach`` blocks on every side (a square neighbourhood)."""
     return window_extremes(marked.astype(np.float32), reach, reach)[1] > 0.0
@@ -149,8 +155,14 @@ class StillLookups:
         """The refining round of this frame for a method of ``maps`` points (K), 0 where it
         refines nothing: the view's first frame, and every frame once its kept pixels hold
         :data:`REFINE_POINTS` points."""
-        rounds = -(-REFINE_POINTS // max(maps, 1))
+        rounds = refine_rounds(maps)
         return self.frames if self._key is not None and 0 < self.frames < rounds else 0
+
+    def sets_held(self, maps: int) -> int:
+        """The sets of K maps the view's refined pixels hold after this frame (1: the frame's
+        own alone)."""
+        held = self.frames + 1 if self._key is not None else 1
+        return min(held, refine_rounds(maps))
 
     def forget(self) -> None:
         """Keep nothing: the scene changed, or frames went by without these lookups."""

@@ -98,7 +98,8 @@ def test_play_soft_writes_its_trace_size_in_the_stats(tmp_path):
         assert frame["ms"]["soft_upsample"] > 0 and frame["ms"]["composite"] > 0
 
 
-def test_the_overlay_counts_a_raster_methods_maps_and_says_nothing_accumulates():
+def test_the_overlay_counts_a_raster_methods_maps_and_the_points_a_still_view_refined():
+    from dataclasses import replace
     from types import SimpleNamespace
 
     from game.app.window.figures import SoftFigures
@@ -108,9 +109,16 @@ def test_the_overlay_counts_a_raster_methods_maps_and_says_nothing_accumulates()
     frame = SimpleNamespace(soft=object(), ms={"soft_total": 4.0})
     state = ReducedState(size=(80, 45), divisor=4, traced=True, round=0, rounds=4, phase=1,
                          phases=16, full=False)
-    raster = SoftFigures.of(frame, state, TraceSettings(method="segment-maps", maps=8))
+    maps = TraceSettings(method="segment-maps", maps=8)
+    raster = SoftFigures.of(frame, replace(state, round=1), maps)
     assert (raster.samples, raster.unit) == (8, "maps")
-    assert "looked up every frame" in raster.state and "upsampled" not in raster.state
+    assert raster.state.startswith("moving: 8 points") and "upsampled" not in raster.state
+    assert SoftFigures.of(frame, replace(state, round=2), maps).state == (
+        "still: 16 of 32 points along the segment")
+    refined = SoftFigures.of(frame, replace(state, round=4), maps)
+    assert refined.state.endswith("nothing drawn again")
+    pcss = SoftFigures.of(frame, replace(state, round=1, rounds=1), TraceSettings(method="pcss"))
+    assert "looked up every frame" in pcss.state
     traced = SoftFigures.of(frame, state, TraceSettings(method="voxel-cache", samples=6))
     assert (traced.samples, traced.unit) == (6, "samples")
     assert traced.state.startswith("moving: upsampled")

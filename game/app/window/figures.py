@@ -64,10 +64,9 @@ class SoftFigures:
             return None
         count = soft_controls.count_of(settings)
         if is_raster(settings.method):
-            # Maps looked up every frame: the picture is whole at once, nothing accumulates.
             return SoftFigures(size=state.size, divisor=state.divisor, samples=count,
                                ms=frame.ms.get("soft_total", 0.0), unit="maps",
-                               state=f"{settings.method}: looked up every frame, whole at once")
+                               state=_raster_state(settings.method, state, count))
         if state.converged:
             note = f"still: converged, {state.rounds} rounds of every pixel; nothing traced"
         elif state.round or state.phase > 1:
@@ -77,6 +76,17 @@ class SoftFigures:
             note = "moving: upsampled from this frame's trace"
         return SoftFigures(size=state.size, divisor=state.divisor, samples=count,
                            ms=frame.ms.get("soft_total", 0.0), state=note)
+
+
+def _raster_state(method: str, state: ReducedState, maps: int) -> str:
+    """A raster method's picture is whole at once; segment-maps' still view refines it with
+    maps from more points of the segment (``state``'s rounds: sets of ``maps`` points)."""
+    if state.rounds <= 1:
+        return f"{method}: looked up every frame, whole at once"
+    if state.round <= 1:
+        return f"moving: {maps} points along the segment, looked up this frame"
+    held = f"{state.round * maps} of {state.rounds * maps} points along the segment"
+    return f"still: {held}" + ("; refined, nothing drawn again" if state.converged else "")
 
 
 @dataclass
