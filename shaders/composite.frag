@@ -42,11 +42,13 @@ uniform sampler2D u_light;       // rgb sqrt of the linear light's diffuse facto
 uniform mat4 u_clip_to_world;   // the frame's clip space -> world
 #if LOOKUP_RUNS && !OUT_VISIBILITY
 // What a still view keeps of each looked-up pixel (game/soft/still_lookups.py): the mean of
-// its lookups, and how many sets of maps it holds.
+// its lookups, and how many sets of maps it holds (apart: the shading pass reads the mean).
 #if REFINE
-layout(rg32f) uniform image2D u_soft_kept;
+layout(r32f) uniform image2D u_soft_kept;
+layout(r32f) uniform image2D u_soft_sets;
 #else
-layout(rg32f) uniform writeonly image2D u_soft_kept;
+layout(r32f) uniform writeonly image2D u_soft_kept;
+layout(r32f) uniform writeonly image2D u_soft_sets;
 #endif
 #endif
 
@@ -107,13 +109,15 @@ void main() {
     out_color = vec4(vis, 0.0, 0.0, 1.0);
     return;
 #elif REFINE
-    vec2 kept = v_vis == BLOCK_REFINE_START ? vec2(0.0) : imageLoad(u_soft_kept, px).rg;
-    imageStore(u_soft_kept, px,
-               vec4((kept.x * kept.y + vis) / (kept.y + 1.0), kept.y + 1.0, 0.0, 0.0));
+    float sets = v_vis == BLOCK_REFINE_START ? 0.0 : imageLoad(u_soft_sets, px).r;
+    float kept = v_vis == BLOCK_REFINE_START ? 0.0 : imageLoad(u_soft_kept, px).r;
+    imageStore(u_soft_kept, px, vec4((kept * sets + vis) / (sets + 1.0)));
+    imageStore(u_soft_sets, px, vec4(sets + 1.0));
     out_color = frame;
     return;
 #elif LOOKUP_RUNS
-    imageStore(u_soft_kept, px, vec4(vis, 1.0, 0.0, 0.0));
+    imageStore(u_soft_kept, px, vec4(vis));
+    imageStore(u_soft_sets, px, vec4(1.0));
 #endif
 #if HARD
     LightRecord light = u_lights[0];

@@ -191,6 +191,11 @@ class SoftComposite:
                 vao.render(moderngl.TRIANGLES, vertices=count, first=first)
             first += count
 
+    def compile_refining(self, lookup: tuple[int, dict]) -> None:
+        """Build the refining runs' program for ``lookup`` now (``draw_runs`` with ``refine``
+        would at its first use): a still view's first refining frame then costs no compile."""
+        self._program(VIS_RUNS_KIND, False, VIS_RUNS, False, lookup, True)
+
     def _bind(self, prog, textures, visibility) -> None:
         for tex, (name, unit) in zip((*textures, visibility), UNITS.items(), strict=True):
             if tex is not None and name in prog:  # the compiler drops what goes unread

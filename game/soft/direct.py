@@ -46,7 +46,7 @@ from game.soft.block_values import (
 )
 from game.soft.composite import LOOKUPS, SoftComposite
 from game.soft.methods import TraceSettings
-from game.soft.still_lookups import HISTORY_IMAGE, HISTORY_UNIT, StillLookups, refine_rounds
+from game.soft.still_lookups import HISTORY_UNIT, StillLookups, refine_rounds
 from game.soft.tracer import TraceResult
 from game.soft.upsample import ReducedState, trace_size
 
@@ -159,11 +159,13 @@ class DirectRaster:
         def bind_lookup(prog) -> None:
             raster.bind_lookup(prog, method)
             if "u_soft_kept" in prog:
-                self.still.history.bind_to_image(HISTORY_IMAGE, read=False, write=True)
-                prog["u_soft_kept"].value = HISTORY_IMAGE
+                self.still.bind_images(prog, refine=False)
 
-        composite.draw_runs(target, self.runs, clip_to_world, (LOOKUPS[method], raster.defines()),
-                            bind_lookup, radiance, out_visibility)
+        lookup = (LOOKUPS[method], raster.defines())
+        composite.draw_runs(target, self.runs, clip_to_world, lookup, bind_lookup, radiance,
+                            out_visibility)
+        if method == "segment-maps":
+            composite.compile_refining(lookup)   # with the frame's own programs
         raster.unbind_lookup()
         self.ctx.memory_barrier()   # the next frame's shading pass reads what it kept
 
@@ -190,8 +192,7 @@ class DirectRaster:
 
         def bind_lookup(prog) -> None:
             raster.bind_lookup(prog, settings.method, maps)
-            self.still.history.bind_to_image(HISTORY_IMAGE, read=True, write=True)
-            prog["u_soft_kept"].value = HISTORY_IMAGE
+            self.still.bind_images(prog, refine=True)
 
         composite.draw_runs(target, runs, clip_to_world,
                             (LOOKUPS[settings.method], raster.defines()), bind_lookup,

@@ -46,6 +46,7 @@ REFINE_POINTS = 32
 GOLDEN = (5 ** 0.5 - 1) / 2   # each refining round's phase turns by this share of a part
 HISTORY_UNIT = blocks.TEXTURE_UNITS["soft_history"]
 HISTORY_IMAGE = 1   # the composite keeps the looked-up visibility on this image unit
+SETS_IMAGE = 2      # ... and how many sets of maps each kept pixel's mean holds on this one
 
 
 def refine_phase(round_: int) -> float:
@@ -107,10 +108,11 @@ class StillLookups:
         self._release_targets()
         self.size, self.cells = size, cells
         ctx = self.ctx
-        self.history = ctx.texture(size, 2, dtype="f4")   # the mean, and its sets of maps
+        self.history = ctx.texture(size, 1, dtype="f4")   # each pixel's kept mean
+        self.sets = ctx.texture(size, 1, dtype="f4")      # the sets of maps the mean holds
         self.moved = ctx.texture(cells, 4)
         self.moved_framebuffer = ctx.framebuffer([self.moved])
-        self._targets = [self.moved_framebuffer, self.moved, self.history]
+        self._targets = [self.moved_framebuffer, self.moved, self.history, self.sets]
         self._key = None
 
     def kept(self, key: bytes | None, size: tuple[int, int], divisor: int, points,
@@ -172,6 +174,14 @@ class StillLookups:
         """The composite looked up (and kept) every pixel of the blocks ``looked_up``."""
         if self.valid is not None:
             self.valid |= looked_up
+
+    def bind_images(self, program, refine: bool) -> None:
+        """Bind the kept means and their sets as ``program``'s images (read too, to
+        ``refine``)."""
+        for tex, unit, name in ((self.history, HISTORY_IMAGE, "u_soft_kept"),
+                                (self.sets, SETS_IMAGE, "u_soft_sets")):
+            tex.bind_to_image(unit, read=refine, write=True)
+            program[name].value = unit
 
     def gl_objects(self) -> int:
         return 2 + resources.attached_shaders([self._program]) + len(self._targets)
