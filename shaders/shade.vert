@@ -11,6 +11,9 @@ out vec3 v_world;
 out vec3 v_normal;
 flat out int v_object;
 flat out vec3 v_colour;
+// The depth pass (depth_only.frag) runs this shader too: the same depth to the bit, so the
+// shading pass's fragments pass its equal test where they are the nearest.
+invariant gl_Position;
 
 void main() {
     v_world = world_position(in_position, in_object);

@@ -14,6 +14,7 @@ import numpy as np
 
 from game.app import headless, progress
 from game.gpu import context
+from game.render.depth_first import DepthFirst
 from game.render.passes import PASSES_AND_TOTAL
 from game.render.renderer import Frame, Renderer, View
 from game.scene import Scene, floors
@@ -28,6 +29,7 @@ class CaptureOptions(headless.HeadlessRun):
     settings: ShadowSettings = field(default_factory=ShadowSettings)
     soft: TraceSettings | None = None  # light the frames by the linear light, soft shadows
     cull: bool = True           # camera pass: only triangles that can cover a pixel centre
+    depth_first: DepthFirst = DepthFirst.AUTO  # camera pass: its depth before it shades
 
 
 def frame_stats(index: int, t: float, frame: Frame) -> dict:
@@ -39,6 +41,9 @@ def frame_stats(index: int, t: float, frame: Frame) -> dict:
             "maps_total": frame.maps_total, "triangles_to_maps": frame.triangles_to_maps,
             "texels_to_maps": frame.texels_to_maps, "maps_waiting": frame.maps_waiting,
             "camera_triangles": frame.camera_triangles, **characters,
+            "depth_first": frame.depth_first,
+            "fragments_per_pixel": (None if frame.fragments_per_pixel is None
+                                    else round(frame.fragments_per_pixel, 4)),
             "maps_per_fragment": round(frame.maps_per_fragment, 5),
             **({} if frame.map_candidates is None else {
                 "map_candidates_per_fragment": round(frame.map_candidates_per_fragment, 5)}),
@@ -64,7 +69,7 @@ def run(ctx, scene: Scene, opts: CaptureOptions) -> dict:
 
     renderer = Renderer(ctx, scene, opts.size, opts.settings,
                         gbuffer=opts.dump or opts.soft is not None, clock=opts.clock,
-                        cull=opts.cull)
+                        cull=opts.cull, depth_first=opts.depth_first)
     renderer.debug_view = opts.debug_view
     renderer.count_candidates = opts.stats is not None
     hud = _overlay() if opts.overlay else None

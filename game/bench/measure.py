@@ -242,6 +242,8 @@ class Timing:
                 out[name] = float(np.mean([getattr(f, name) for f in timed]))
             last = timed[-1].map_candidates_per_fragment if timed else None
             out["map_candidates_per_fragment"] = float("nan") if last is None else last
+            # The share of the timed frames whose camera pass drew its depth first.
+            out["depth_first"] = float(np.mean([f.depth_first for f in timed]))
             out["shadow_memory_mib"] = renderer.shadow_memory_bytes / 2**20
             out["notes"] = "; ".join(renderer.notes + floors.floor_warnings(self.scene))
         finally:

@@ -51,7 +51,8 @@ def shading_section(runs, here: Path, header: Callable[[object, Path], list[str]
               f"{FRAME_TARGET:g}x of `single`'s in {sum(r <= FRAME_TARGET for r in frames)}. "
               f"Camera-pass ratios range from {min(camera):.2f}x to {max(camera):.2f}x.", ""]
     head = ["scene", "size", "camera ms, clumped / single", "camera ratio", "map passes ms",
-            "frame ratio", "maps read per pixel", "map records per pixel"]
+            "frame ratio", "maps read per pixel", "map records per pixel",
+            "frames depth first"]
     for run, pairs in found:
         if not pairs:
             continue
@@ -62,7 +63,8 @@ def shading_section(runs, here: Path, header: Callable[[object, Path], list[str]
                  f"{_frame_ratio(c, s):.2f}x",
                  f"{_share(c, 'maps_per_fragment')} / {_share(s, 'maps_per_fragment')}",
                  f"{_share(c, 'map_candidates_per_fragment')} / "
-                 f"{_share(s, 'map_candidates_per_fragment')}"] for c, s in pairs]
+                 f"{_share(s, 'map_candidates_per_fragment')}",
+                 f"{_share(c, 'depth_first')} / {_share(s, 'depth_first')}"] for c, s in pairs]
         lines += header(run, here) + ["| " + " | ".join(head) + " |",
                                       "|" + "---|" * len(head)]
         lines += ["| " + " | ".join(row) + " |" for row in body] + [""]

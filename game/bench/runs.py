@@ -50,7 +50,7 @@ COLUMNS = (
     + ["repeats", "total_ms_spread"]
     + ["maps_total", "maps_rendered", "triangles_to_maps", "texels_to_maps",
        "camera_triangles", "shadow_memory_mib", "maps_per_fragment",
-       "map_candidates_per_fragment", "static_maps",
+       "map_candidates_per_fragment", "depth_first", "static_maps",
        "footprint_overlap", "static_texels_per_metre", "lights", "error", "error_worst_light",
        "misclassified", "shadowed",
        "error_frames", "flicker", "flicker_raw", "flicker_reference", "nan_pixels", "notes",

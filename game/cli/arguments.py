@@ -32,6 +32,7 @@ from game.cli.values import (  # the value types, also for the modules that impo
 )
 from game.gpu.blocks import DEBUG_VIEWS
 from game.gpu.timing import CLOCKS
+from game.render.depth_first import DepthFirst
 from game.shadows import clumping, registry
 from game.shadows.plan import ShadowSettings
 from game.soft import methods as trace_methods
@@ -232,6 +233,10 @@ def _add_cull_option(parser) -> None:
                         help="draw every triangle in the camera pass, not only those that can "
                              "cover a pixel centre (same pixels; slower where triangles are "
                              "small on screen; game/render/cull.py)")
+    parser.add_argument("--depth-first", choices=[m.value for m in DepthFirst], default="auto",
+                        help="draw the camera pass's depth before shading it: auto (default) "
+                             "where the last frame shaded more fragments than the picture has "
+                             "pixels, on, or off (same pixels; game/render/depth_first.py)")
 
 
 def _add_frame_options(parser, dump_help: str) -> None:

@@ -19,6 +19,7 @@ from game.cli.checks import say
 from game.cli.sweep_commands import accuracy_suite, cmd_scenes, refuse_accuracy_flags
 from game.cli.values import DEFAULT_OUT, MAX_SCENE_TIME, MAX_SIZE, ArgumentError
 from game.errors import GameError
+from game.render.depth_first import DepthFirst
 from game.shadows import registry
 from game.shadows.method import VISIBILITY_TRACED
 
@@ -41,7 +42,8 @@ def cmd_play(args) -> int:
         panel=args.panel,
         clock=args.clock, platform=args.platform, settings=shadow_settings(args),
         debug_view=args.debug_view, render_scale=args.render_scale, soft=args.soft,
-        cull=not args.no_cull, antialias=args.aa == "fxaa")
+        cull=not args.no_cull, depth_first=DepthFirst(args.depth_first),
+        antialias=args.aa == "fxaa")
     stats = window.play(scene, opts)
     for note in stats["notes"]:
         say(f"note: {note}", err=True)
@@ -262,7 +264,7 @@ def cmd_capture(args) -> int:
             out=out, frames=args.frames, size=args.size, time=args.time, fps=args.fps,
             dump=args.dump, stats=args.stats, debug_view=args.debug_view, clock=args.clock,
             overlay=args.overlay, settings=shadow_settings(args), soft=_soft_settings(args, scene),
-            cull=not args.no_cull)
+            cull=not args.no_cull, depth_first=DepthFirst(args.depth_first))
         stats = capture.run(ctx, scene, opts)
     finally:
         ctx.release()

@@ -21,6 +21,7 @@ from contextlib import contextmanager
 
 from game.errors import GameError
 from game.gpu.context import is_software
+from game.gpu.queries import GLQuery
 
 CLOCKS = ("auto", "cpu-finish", "cpu-thread", "gpu-query")
 THREAD_CLOCK = "cpu-thread"
@@ -41,7 +42,7 @@ class PassTimer:
         self.ctx = ctx
         self.clock = clock
         self.ms: dict[str, float] = {}
-        self._queries: dict[str, object] = {}
+        self._queries: dict[str, GLQuery] = {}
 
     def begin_frame(self) -> None:
         self.ms = {}
@@ -57,10 +58,10 @@ class PassTimer:
         if self.clock == "gpu-query" and not wall:
             query = self._queries.get(name)
             if query is None:
-                query = self._queries[name] = self.ctx.query(time=True)
-            with query:
+                query = self._queries[name] = GLQuery.time_elapsed()
+            with query.measuring():
                 yield
-            self.ms[name] = self.ms.get(name, 0.0) + query.elapsed / 1e6
+            self.ms[name] = self.ms.get(name, 0.0) + query.result / 1e6
             return
         self.ctx.finish()
         start = self._now()

@@ -67,6 +67,10 @@ class Frame:
     soft: TraceResult | None = None  # the linear light's trace, when the frame asked for one
     # (H, W) int: map records each pixel considered, read or not (Renderer.count_candidates).
     map_candidates: np.ndarray | None = None
+    depth_first: bool = False  # the camera pass drew its depth before it shaded
+    # Fragments that passed the depth test in the scene's order, per pixel of the picture, in
+    # the draw before this frame's (None before the first, or with --depth-first on or off).
+    fragments_per_pixel: float | None = None
 
     @property
     def map_candidates_per_fragment(self) -> float | None:

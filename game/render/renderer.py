@@ -22,6 +22,7 @@ from game.gpu.limits import GLLimits
 from game.gpu.timing import PassTimer
 from game.render import passes
 from game.render.cull import TriangleCuller
+from game.render.depth_first import DepthFirst
 from game.render.frame import Frame, View, plan_counts
 from game.render.frame_blocks import FrameBlocks, ambient_share, shader_defines
 from game.render.light_grids import build_grids
@@ -50,7 +51,8 @@ class Renderer(SceneEdits):
 
     def __init__(self, ctx, scene: Scene, size: tuple[int, int],
                  settings: ShadowSettings | None = None, gbuffer: bool = False,
-                 clock: str = "auto", limits: GLLimits | None = None, cull: bool = True):
+                 clock: str = "auto", limits: GLLimits | None = None, cull: bool = True,
+                 depth_first: DepthFirst = DepthFirst.AUTO):
         self.ctx = ctx
         self.scene = scene
         self.timer = PassTimer(ctx, clock)
@@ -78,7 +80,7 @@ class Renderer(SceneEdits):
             self.shadow_pass = ShadowMapPass(ctx, self.buffers, defines)
             if TriangleCuller.fits(len(self.buffers.layout.indices)):
                 self.culler = TriangleCuller(ctx, defines, self.buffers)
-            self.shading = ShadingPass(ctx, self.buffers, defines)
+            self.shading = ShadingPass(ctx, self.buffers, defines, depth_first)
             self.traced = TracedLighting(ctx, defines, scene, self.timer)
             self._set_method(settings or ShadowSettings())
             self.target = FrameTarget(ctx, size, self._gbuffer_needed())
@@ -248,6 +250,8 @@ class Renderer(SceneEdits):
 
     def _frame(self, counts: dict, culled: bool, read: bool) -> Frame:
         """The frame's record, with its ``counts`` (:func:`plan_counts`)."""
+        counts = {**counts, "depth_first": self.shading.depth_first.on,
+                  "fragments_per_pixel": self.shading.depth_first.fragments_per_pixel}
         if not read:
             return Frame(image=None, covered=None, maps_sampled=None, ms=dict(self.timer.ms),
                          **counts)

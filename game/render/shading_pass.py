@@ -14,9 +14,11 @@ from typing import NamedTuple
 
 import moderngl
 import numpy as np
+from OpenGL import GL
 
 from game.gpu import blocks, glsl, resources
 from game.render.cull import TriangleCuller
+from game.render.depth_first import DepthFirst, DepthFirstChoice
 from game.render.scene_buffers import SceneBuffers
 from game.render.shadow_pass import ShadowMapPass
 from game.render.target import FrameTarget, GBuffer
@@ -62,11 +64,14 @@ class ShadingPass:
     """Draws the scene into a :class:`FrameTarget`. Owns its programs and vertex arrays: each
     made on first use and kept, so that switching back and forth makes no new objects."""
 
-    def __init__(self, ctx, buffers: SceneBuffers, defines: dict):
+    def __init__(self, ctx, buffers: SceneBuffers, defines: dict,
+                 depth_first: DepthFirst = DepthFirst.AUTO):
         self.ctx = ctx
         self.buffers = buffers
         self.defines = defines
+        self.depth_first = DepthFirstChoice(depth_first)
         self._programs: dict[Variant, tuple] = {}
+        self._depth: tuple | None = None   # the depth pass's program and vertex arrays
         self.last: tuple[Variant, bool] | None = None  # the last draw's variant, culled_only
 
     def _program(self, variant: Variant, culler: TriangleCuller | None) -> tuple:
@@ -88,6 +93,28 @@ class ShadingPass:
             self._programs[variant] = (prog, self.buffers.vertex_array(prog, surface=True),
                                        culled)
         return self._programs[variant]
+
+    def _depth_program(self, culler: TriangleCuller | None) -> tuple:
+        if self._depth is None:
+            prog = self.ctx.program(vertex_shader=glsl.build("shade.vert", self.defines),
+                                    fragment_shader=glsl.build("depth_only.frag", {}))
+            culled = (None if culler is None
+                      else self.buffers.vertex_array(prog, culler.output, surface=True))
+            self._depth = (prog, self.buffers.vertex_array(prog, surface=True), culled)
+        return self._depth
+
+    def _geometry(self, vao, culled, culler, culled_only: bool) -> None:
+        if culled_only:
+            culler.draw(culled)
+            return
+        layout = self.buffers.layout
+        closed, total = layout.n_closed, len(layout.indices)
+        if closed:
+            self.ctx.enable(moderngl.CULL_FACE)
+            vao.render(moderngl.TRIANGLES, vertices=closed)
+            self.ctx.disable(moderngl.CULL_FACE)
+        if total > closed:
+            vao.render(moderngl.TRIANGLES, vertices=total - closed, first=closed)
 
     def candidates(self, target: FrameTarget, maps: ShadowMapPass,
                    culler: TriangleCuller | None) -> np.ndarray:
@@ -135,27 +162,41 @@ class ShadingPass:
         if variant.depth_bounds:
             maps.bounds.bind(BOUNDS_UNIT)
             prog["u_shadow_bounds"].value = BOUNDS_UNIT
-        if culled_only:
-            culler.draw(culled)
+        if variant.unlit:
+            self._geometry(vao, culled, culler, culled_only)
             return
-        layout = self.buffers.layout
-        closed, total = layout.n_closed, len(layout.indices)
-        if closed:
-            self.ctx.enable(moderngl.CULL_FACE)
-            vao.render(moderngl.TRIANGLES, vertices=closed)
-            self.ctx.disable(moderngl.CULL_FACE)
-        if total > closed:
-            vao.render(moderngl.TRIANGLES, vertices=total - closed, first=closed)
+        pixels = target.size[0] * target.size[1]
+        if not self.depth_first.choose():
+            with self.depth_first.counting(pixels):
+                self._geometry(vao, culled, culler, culled_only)
+            return
+        _, depth_vao, depth_culled = self._depth_program(culler)
+        GL.glColorMask(False, False, False, False)
+        with self.depth_first.counting(pixels):
+            self._geometry(depth_vao, depth_culled, culler, culled_only)
+        GL.glColorMask(True, True, True, True)
+        # The shading pass's vertices are the depth pass's to the bit (``invariant``), so a
+        # fragment passes where it is the nearest, and only there.
+        self.ctx.depth_func = "<="
+        self._geometry(vao, culled, culler, culled_only)
+        self.ctx.depth_func = "<"
+
+    def _entries(self) -> list[tuple]:
+        return [*self._programs.values(), *([self._depth] if self._depth else [])]
 
     def gl_objects(self) -> int:
-        """Programs, their attached shaders and their vertex arrays."""
-        programs = [entry[0] for entry in self._programs.values()]
-        arrays = sum(1 + (entry[2] is not None) for entry in self._programs.values())
-        return len(programs) + resources.attached_shaders(programs) + arrays
+        """Programs, their attached shaders, their vertex arrays and the depth-first query."""
+        entries = self._entries()
+        programs = [entry[0] for entry in entries]
+        arrays = sum(1 + (entry[2] is not None) for entry in entries)
+        return (len(programs) + resources.attached_shaders(programs) + arrays
+                + self.depth_first.gl_objects())
 
     def release(self) -> None:
-        for prog, vao, culled in self._programs.values():
+        for prog, vao, culled in self._entries():
             for obj in (culled, vao, prog):
                 if obj is not None:
                     obj.release()
         self._programs = {}
+        self._depth = None
+        self.depth_first.release()

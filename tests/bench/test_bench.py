@@ -38,6 +38,7 @@ def test_bench_writes_rows_and_charts_then_skips_them(ctx, tmp_path):
         assert int(float(r["nan_pixels"])) == 0
         assert float(r["shadow_memory_mib"]) > 0
         assert float(r["map_candidates_per_fragment"]) > 0  # counted on the last frame
+        assert 0.0 <= float(r["depth_first"]) <= 1.0  # the share of frames drawn depth first
     # single re-renders its whole map every frame; clumped only its character map, at most
     # 512^2 and sized for the view.
     clumped, single = rows

@@ -37,3 +37,28 @@ def test_the_command_line_sets_llvmpipe_to_one_thread_for_the_thread_clock(tmp_p
                  "--clock", "cpu-thread", "--stats", str(out), "--out", str(tmp_path / "cap"))
     assert result.returncode == 0, result.stderr
     assert '"clock": "cpu-thread"' in out.read_text()
+
+
+def test_the_query_clock_times_passes_and_deletes_its_queries(ctx):
+    from game.gpu.resources import live_gl_names
+
+    before = live_gl_names()["Query"]
+    timer = PassTimer(ctx, "gpu-query")
+    fbo = ctx.simple_framebuffer((64, 36))
+    fbo.use()
+    for _ in range(2):
+        with timer.measure("clear"):
+            fbo.clear(0.5, 0.5, 0.5, 1.0)
+    assert timer.gl_objects() == 1 and timer.ms["clear"] >= 0.0
+    assert live_gl_names()["Query"] == before + 1
+    timer.release()
+    fbo.release()
+    assert live_gl_names()["Query"] == before and timer.gl_objects() == 0
+
+
+def test_a_capture_timed_by_queries_ends_cleanly(tmp_path):
+    out = tmp_path / "stats.json"
+    result = run("capture", "tests/scenes/tiny.toml", "--frames", "2", "--size", "64x36",
+                 "--clock", "gpu-query", "--stats", str(out), "--out", str(tmp_path / "cap"))
+    assert result.returncode == 0, result.stderr
+    assert '"clock": "gpu-query"' in out.read_text()

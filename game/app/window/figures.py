@@ -106,6 +106,8 @@ class Figures:
     soft: SoftFigures | None = None   # the window's soft trace, when soft shadows are on
     maps_waiting: int = 0             # view-sized clump maps whose new side waits
     map_candidates_per_fragment: float | None = None  # records considered, read or not
+    depth_first: bool = False         # the camera pass drew its depth before it shaded
+    fragments_per_pixel: float | None = None  # what that was chosen by (Frame)
 
     @staticmethod
     def of(frame: Frame, clock: str, fps: float | None,
@@ -123,7 +125,9 @@ class Figures:
                        texels_to_maps=frame.texels_to_maps, characters=frame.characters,
                        maps_waiting=frame.maps_waiting,
                        map_candidates_per_fragment=(candidates if candidates is not None
-                                                    else map_candidates_per_fragment))
+                                                    else map_candidates_per_fragment),
+                       depth_first=frame.depth_first,
+                       fragments_per_pixel=frame.fragments_per_pixel)
 
 
 class PassHistory:
@@ -182,6 +186,6 @@ def stats_entry(index: int, time: float, frame: Frame, figures: Figures, method:
             "maps_per_fragment": None if mpf is None else round(mpf, 5),
             **({} if frame.map_candidates is None else {
                 "map_candidates_per_fragment": round(frame.map_candidates_per_fragment, 5)}),
-            "method": method, "soft": soft,
+            "depth_first": frame.depth_first, "method": method, "soft": soft,
             **({} if trace is None else {"soft_trace_size": list(trace.size),
                                          "soft_samples": trace.samples})}

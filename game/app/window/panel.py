@@ -26,6 +26,7 @@ from game.app.window.light_editor import LightEditor
 from game.app.window.maps_tab import MapsTab
 from game.app.window.settings_editor import SettingsEditor
 from game.app.window.view_tab import ViewTab
+from game.render.passes import SHADE
 
 if TYPE_CHECKING:
     from game.render.renderer import Renderer
@@ -241,7 +242,8 @@ def draw_figures(f: Figures, names: list[str]) -> None:
         for name in names:
             imgui.table_next_row()
             imgui.table_next_column()
-            imgui.text(name)
+            # The shading pass's time holds a depth-only pass where it drew one.
+            imgui.text(f"{name}, depth first" if name == SHADE and f.depth_first else name)
             imgui.table_next_column()
             value = f.ms.get(name)
             imgui.text(f"{value:7.2f} ms" if value is not None else "      -")

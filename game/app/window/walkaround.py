@@ -59,6 +59,7 @@ from game.app.window.present import Presenter
 from game.app.window.window_input import WindowInput
 from game.errors import GameError
 from game.gpu import context
+from game.render.depth_first import DepthFirst
 from game.render.frame import Frame
 from game.render.passes import DRAWING_PASSES, TOTAL
 from game.render.renderer import Renderer, View
@@ -85,6 +86,7 @@ class PlayOptions:
     render_scale: float = 1.0            # scene pixels per window pixel, per side
     soft: bool = False                   # trace the linear light's soft shadows
     cull: bool = True                    # camera pass: only triangles that can show
+    depth_first: DepthFirst = DepthFirst.AUTO  # camera pass: its depth before it shades
     platform: str = "auto"               # "null": no display (tests)
     antialias: bool = True               # FXAA on the picture shown (never on the dumps)
     # The window filters its shadow edges (PCF) unless told otherwise; captures keep theirs.
@@ -117,8 +119,9 @@ class Walkaround(WindowInput):
             raise
         self.controller = CameraController(scene.camera)
         try:
-            self.renderer = Renderer(self.ctx, scene, self.framebuffer_size() or opts.size,
-                                     opts.settings, clock=opts.clock, cull=opts.cull)
+            size = self.framebuffer_size() or opts.size
+            self.renderer = Renderer(self.ctx, scene, size, opts.settings, clock=opts.clock,
+                                     cull=opts.cull, depth_first=opts.depth_first)
         except BaseException:
             self.ctx.release()
             glfw.destroy_window(self.window)
@@ -145,8 +148,7 @@ class Walkaround(WindowInput):
         self.shots = 0
         self.last_figures: Figures | None = None
         self.frame_stats: list[dict] = []
-        # Per-frame entries only for runs that end by themselves or write them: an open-ended run
-        # must not grow.
+        # Per-frame entries only for runs that end or write them: an open run must not grow.
         self.keep_stats = opts.frames is not None or opts.stats is not None
         self._frame_times: deque[float] = deque(maxlen=FPS_WINDOW_FRAMES)
         self._mpf: float | None = None
