@@ -40,11 +40,12 @@ def test_the_command_line_sets_llvmpipe_to_one_thread_for_the_thread_clock(tmp_p
 
 
 def test_the_query_clock_times_passes_and_deletes_its_queries(ctx):
-    from game.gpu.resources import live_gl_names
+    from game.gpu.resources import live_gl_names, release_targets
 
     before = live_gl_names()["Query"]
     timer = PassTimer(ctx, "gpu-query")
-    fbo = ctx.simple_framebuffer((64, 36))
+    colour = ctx.texture((64, 36), 4)
+    fbo = ctx.framebuffer([colour])
     fbo.use()
     for _ in range(2):
         with timer.measure("clear"):
@@ -52,7 +53,7 @@ def test_the_query_clock_times_passes_and_deletes_its_queries(ctx):
     assert timer.gl_objects() == 1 and timer.ms["clear"] >= 0.0
     assert live_gl_names()["Query"] == before + 1
     timer.release()
-    fbo.release()
+    release_targets(ctx, [fbo, colour])
     assert live_gl_names()["Query"] == before and timer.gl_objects() == 0
 
 
