@@ -11,8 +11,9 @@ out vec3 v_world;
 out vec3 v_normal;
 flat out int v_object;
 flat out vec3 v_colour;
-// The depth pass (depth_only.frag) runs this shader too: the same depth to the bit, so the
-// shading pass's fragments pass its equal test where they are the nearest.
+// The depth pass (depth_only.frag) runs this shader too, and must find the same depths to the
+// bit: it stores each a step farther, and the shading pass's nearest fragments pass against
+// that step alone (game/render/shading_pass.py, _depth_pass).
 invariant gl_Position;
 
 void main() {

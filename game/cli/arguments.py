@@ -219,7 +219,7 @@ def _add_play_parser(sub) -> None:
     play.add_argument("--aa", choices=("fxaa", "none"), default="fxaa",
                       help="anti-aliasing of the picture shown (FXAA); the scene's own frame "
                            "and its G-buffer are never filtered")
-    _add_cull_option(play)
+    _add_camera_pass_options(play)
     play.add_argument("--soft", action="store_true",
                       help="start with soft shadows of the scene's [linear_light], traced at a "
                            "quarter of the window's size per side (overlay checkbox)")
@@ -228,7 +228,7 @@ def _add_play_parser(sub) -> None:
     _add_shadow_options(play)
 
 
-def _add_cull_option(parser) -> None:
+def _add_camera_pass_options(parser) -> None:
     parser.add_argument("--no-cull", action="store_true",
                         help="draw every triangle in the camera pass, not only those that can "
                              "cover a pixel centre (same pixels; slower where triangles are "
@@ -315,7 +315,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_method_option(cap)
     _add_frame_options(cap, dump_help="write npz + glb beside each frame")
     cap.add_argument("--overlay", action="store_true", help="draw the timing overlay")
-    _add_cull_option(cap)
+    _add_camera_pass_options(cap)
     cap.add_argument("--soft", action="store_true",
                      help="light the frames by the linear light, with traced soft shadows "
                           "(voxel-cache, 32 samples; see python -m game trace)")

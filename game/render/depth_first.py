@@ -7,8 +7,10 @@ pixel once, at the price of running the vertices twice. It pays where the scene'
 more fragments than the picture has pixels, and costs where it does not, so the choice is made
 from the frame itself: a samples-passed query counts the fragments that pass the depth test in
 the first pass that tests depth (the depth pass when there is one, else the shading pass; both
-run in the scene's order, so they count the same), and the next frame goes depth first where
-that count exceeds the target's pixels. The query is read a frame late, so nothing waits on it.
+run in the scene's order, so they count the same), and the next draw goes depth first where
+that count exceeds the target's pixels. The window's frame reads the count of the frame before,
+which is done by then; a draw made again within a frame (the counts of map records, each
+light's visibility) waits for the one before it, outside the frame's timings.
 """
 
 from __future__ import annotations
@@ -67,5 +69,5 @@ class DepthFirstChoice:
     def release(self) -> None:
         if self._query is not None:
             self._query.release()
-            self._query: GLQuery | None = None
+            self._query = None
         self._pending = False

@@ -170,16 +170,24 @@ class ShadingPass:
             with self.depth_first.counting(pixels):
                 self._geometry(vao, culled, culler, culled_only)
             return
+        self._depth_pass(culler, culled_only, pixels)
+        self._geometry(vao, culled, culler, culled_only)
+
+    def _depth_pass(self, culler: TriangleCuller | None, culled_only: bool, pixels: int) -> None:
+        """The scene's depth alone, each a step farther than it is. The shading pass then tests
+        as it always does (nearer than what is there): at each pixel the fragments at the
+        nearest depth pass, the first one drawn writes it, and a later one at the same depth no
+        longer passes, so the first drawn of the nearest wins, as in a single pass. The step
+        needs the same depths in both passes, to the bit: shade.vert's ``invariant``."""
         _, depth_vao, depth_culled = self._depth_program(culler)
         GL.glColorMask(False, False, False, False)
-        with self.depth_first.counting(pixels):
-            self._geometry(depth_vao, depth_culled, culler, culled_only)
-        GL.glColorMask(True, True, True, True)
-        # The shading pass's vertices are the depth pass's to the bit (``invariant``), so a
-        # fragment passes where it is the nearest, and only there.
-        self.ctx.depth_func = "<="
-        self._geometry(vao, culled, culler, culled_only)
-        self.ctx.depth_func = "<"
+        self.ctx.polygon_offset = (0.0, 1.0)
+        try:
+            with self.depth_first.counting(pixels):
+                self._geometry(depth_vao, depth_culled, culler, culled_only)
+        finally:
+            self.ctx.polygon_offset = (0.0, 0.0)
+            GL.glColorMask(True, True, True, True)
 
     def _entries(self) -> list[tuple]:
         return [*self._programs.values(), *([self._depth] if self._depth else [])]

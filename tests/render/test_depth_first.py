@@ -9,7 +9,7 @@ import trimesh
 from game.gpu.resources import live_gl_names
 from game.render.depth_first import DepthFirst
 from game.render.renderer import Renderer, View
-from game.scene import load_scene
+from game.scene import load_scene, parse_scene
 from tests.helpers import SMALL_SIZE
 
 HEAD = """
@@ -61,8 +61,7 @@ def test_hidden_fragments_send_the_camera_pass_depth_first_with_the_same_picture
     assert not off.depth_first and off.fragments_per_pixel is None
     for frame in auto[1:]:
         assert np.array_equal(frame.covered, off.covered)
-        differ = np.abs(frame.image.astype(int) - off.image).max(axis=-1) > 2
-        assert differ.sum() <= 2, differ.sum()
+        assert np.array_equal(frame.image, off.image)
 
 
 def test_a_scene_with_few_hidden_fragments_shades_in_its_own_order(ctx, tiny):
@@ -70,8 +69,33 @@ def test_a_scene_with_few_hidden_fragments_shades_in_its_own_order(ctx, tiny):
     assert all(not f.depth_first and 0.0 < f.fragments_per_pixel <= 1.0 for f in auto[1:])
     on = frames(ctx, tiny, DepthFirst.ON, 1)[0]
     assert on.depth_first
-    differ = np.abs(on.image.astype(int) - auto[-1].image).max(axis=-1) > 2
-    assert differ.sum() <= 2, differ.sum()
+    assert np.array_equal(on.image, auto[-1].image)
+
+
+TWINS = HEAD + """
+[[static]]
+shape = "box"
+size = [6.0, 4.0, 1.0]
+position = [0.0, 2.0, 0.0]
+color = [0.9, 0.1, 0.1]
+[[static]]
+shape = "box"
+size = [6.0, 4.0, 1.0]
+position = [0.0, 2.0, 0.0]
+color = [0.1, 0.1, 0.9]
+"""
+
+
+def test_surfaces_at_the_same_depth_show_the_first_drawn_either_way(ctx):
+    # Two boxes in the same place: every face of one lies on a face of the other, at the same
+    # depth to the bit. A single pass keeps the first drawn; so must the depth-first one.
+    scene = parse_scene(TWINS)
+    on = frames(ctx, scene, DepthFirst.ON, 1)[0]
+    off = frames(ctx, scene, DepthFirst.OFF, 1)[0]
+    assert on.depth_first and not off.depth_first
+    assert np.array_equal(on.image, off.image)
+    front = off.image[off.covered].astype(int)
+    assert ((front[:, 0] > front[:, 2] + 20) | (front[:, 2] > front[:, 0] + 20)).sum() > 500
 
 
 def test_the_count_is_one_query_released_with_the_renderer(ctx, tiny):

@@ -107,7 +107,6 @@ class Figures:
     maps_waiting: int = 0             # view-sized clump maps whose new side waits
     map_candidates_per_fragment: float | None = None  # records considered, read or not
     depth_first: bool = False         # the camera pass drew its depth before it shaded
-    fragments_per_pixel: float | None = None  # what that was chosen by (Frame)
 
     @staticmethod
     def of(frame: Frame, clock: str, fps: float | None,
@@ -126,8 +125,7 @@ class Figures:
                        maps_waiting=frame.maps_waiting,
                        map_candidates_per_fragment=(candidates if candidates is not None
                                                     else map_candidates_per_fragment),
-                       depth_first=frame.depth_first,
-                       fragments_per_pixel=frame.fragments_per_pixel)
+                       depth_first=frame.depth_first)
 
 
 class PassHistory:
