@@ -86,22 +86,22 @@ class ShadingPass:
                        "COUNT_PIXELS": variant.count_pixels,
                        "COUNT_CANDIDATES": variant.count_candidates,
                        "DEPTH_BOUNDS": variant.depth_bounds}
-            prog = self.ctx.program(vertex_shader=glsl.build("shade.vert", self.defines),
-                                    fragment_shader=glsl.build("shade.frag", defines))
-            culled = (None if culler is None
-                      else self.buffers.vertex_array(prog, culler.output, surface=True))
-            self._programs[variant] = (prog, self.buffers.vertex_array(prog, surface=True),
-                                       culled)
+            self._programs[variant] = self._made("shade.frag", defines, culler)
         return self._programs[variant]
 
     def _depth_program(self, culler: TriangleCuller | None) -> tuple:
         if self._depth is None:
-            prog = self.ctx.program(vertex_shader=glsl.build("shade.vert", self.defines),
-                                    fragment_shader=glsl.build("depth_only.frag", {}))
-            culled = (None if culler is None
-                      else self.buffers.vertex_array(prog, culler.output, surface=True))
-            self._depth = (prog, self.buffers.vertex_array(prog, surface=True), culled)
+            self._depth = self._made("depth_only.frag", {}, culler)
         return self._depth
+
+    def _made(self, fragment: str, defines: dict, culler: TriangleCuller | None) -> tuple:
+        """shade.vert with ``fragment``: (program, vertex array over every triangle, vertex
+        array over the culled ones, or None without a culler)."""
+        prog = self.ctx.program(vertex_shader=glsl.build("shade.vert", self.defines),
+                                fragment_shader=glsl.build(fragment, defines))
+        culled = (None if culler is None
+                  else self.buffers.vertex_array(prog, culler.output, surface=True))
+        return prog, self.buffers.vertex_array(prog, surface=True), culled
 
     def _geometry(self, vao, culled, culler, culled_only: bool) -> None:
         if culled_only:

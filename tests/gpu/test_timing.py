@@ -31,12 +31,18 @@ def test_the_thread_clock_counts_this_threads_work_not_its_sleep(ctx, monkeypatc
     assert timer.ms["sleep"] < 20.0 <= timer.ms["work"]
 
 
-def test_the_command_line_sets_llvmpipe_to_one_thread_for_the_thread_clock(tmp_path):
+def captured_with(tmp_path, clock: str, frames: int) -> tuple:
+    """A capture of the tiny scene timed by ``clock``: the command's result and its stats."""
     out = tmp_path / "stats.json"
-    result = run("capture", "tests/scenes/tiny.toml", "--frames", "1", "--size", "64x36",
-                 "--clock", "cpu-thread", "--stats", str(out), "--out", str(tmp_path / "cap"))
+    result = run("capture", "tests/scenes/tiny.toml", "--frames", str(frames), "--size", "64x36",
+                 "--clock", clock, "--stats", str(out), "--out", str(tmp_path / "cap"))
+    return result, out.read_text() if out.is_file() else ""
+
+
+def test_the_command_line_sets_llvmpipe_to_one_thread_for_the_thread_clock(tmp_path):
+    result, stats = captured_with(tmp_path, "cpu-thread", 1)
     assert result.returncode == 0, result.stderr
-    assert '"clock": "cpu-thread"' in out.read_text()
+    assert '"clock": "cpu-thread"' in stats
 
 
 def test_the_query_clock_times_passes_and_deletes_its_queries(ctx):
@@ -58,8 +64,6 @@ def test_the_query_clock_times_passes_and_deletes_its_queries(ctx):
 
 
 def test_a_capture_timed_by_queries_ends_cleanly(tmp_path):
-    out = tmp_path / "stats.json"
-    result = run("capture", "tests/scenes/tiny.toml", "--frames", "2", "--size", "64x36",
-                 "--clock", "gpu-query", "--stats", str(out), "--out", str(tmp_path / "cap"))
+    result, stats = captured_with(tmp_path, "gpu-query", 2)
     assert result.returncode == 0, result.stderr
-    assert '"clock": "gpu-query"' in out.read_text()
+    assert '"clock": "gpu-query"' in stats
