@@ -101,15 +101,26 @@ float lookup(int i, vec2 uv, float depth) {
 #if !PCF
     float v = texture(u_shadow_maps, vec4(uv, layer, depth));
 #else
-    // Taps stay inside the map's own texels: half a texel in from its square's edges.
-    vec2 step = 1.0 / vec2(textureSize(u_shadow_maps, 0).xy);
-    vec2 lo = offset + 0.5 * step, hi = offset + vec2(u_maps[i].uv_scale) - 0.5 * step;
-    float sum = 0.0;
-    for (int y = -1; y <= 1; ++y) {
-        for (int x = -1; x <= 1; ++x) {
-            sum += texture(u_shadow_maps, vec4(clamp(uv + vec2(x, y) * step, lo, hi), layer, depth));
-        }
-    }
+    // The 3 x 3 texels around uv's, each index held inside the map's own square (first to
+    // last), read as one tap and three 2 x 2 gathers: the nine taps' texels and mean, in four
+    // sampler calls, each of which llvmpipe pays for per lane. A gather at the corner after
+    // texel a reads a and a + 1 on each axis; its x, y, z, w are (column, row) (a, a+1),
+    // (a+1, a+1), (a+1, a), (a, a). Where an index is held at the square's edge, the texel
+    // before it is read again.
+    vec2 size = vec2(textureSize(u_shadow_maps, 0).xy);
+    vec2 first = floor(offset * size + 0.5);
+    vec2 last = first + floor(vec2(u_maps[i].uv_scale) * size + 0.5) - 1.0;
+    vec2 t = clamp(floor(uv * size), first, last);
+    vec2 a0 = max(t - 1.0, first), a2 = min(t + 1.0, last);
+    bvec2 next = greaterThan(a2, t);   // the third index is t + 1, not t again
+    float corner = texture(u_shadow_maps, vec4((a0 + 0.5) / size, layer, depth));
+    vec4 g10 = textureGather(u_shadow_maps, vec3((vec2(t.x, a0.y) + 1.0) / size, layer), depth);
+    vec4 g01 = textureGather(u_shadow_maps, vec3((vec2(a0.x, t.y) + 1.0) / size, layer), depth);
+    vec4 g11 = textureGather(u_shadow_maps, vec3((t + 1.0) / size, layer), depth);
+    float sum = corner + g10.w + (next.x ? g10.z : g10.w)
+        + g01.w + g11.w + (next.x ? g11.z : g11.w)
+        + (next.y ? g01.x : g01.w) + (next.y ? g11.x : g11.w)
+        + (next.x ? (next.y ? g11.y : g11.z) : (next.y ? g11.x : g11.w));
     float v = sum / 9.0;
 #endif
     return known >= 0.0 ? known : v;
