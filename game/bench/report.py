@@ -25,6 +25,7 @@ from game.bench.report_accuracy import (
 )
 from game.bench.report_cache import cache_section, is_cache_run, load_cache_run
 from game.bench.report_shading import shading_section
+from game.bench.report_window import is_window_run, load_window_run, window_section
 from game.bench.rows import camera_ms, maps_ms, read_rows, row_number
 from game.bench.runs import COMPARED_GROUPS, PARAM_KEYS, RERENDER
 from game.bench.suite_records import SuiteRun
@@ -60,11 +61,13 @@ def write_report(root: Path) -> list[Path]:
               if f.is_dir() and is_cache_run(f)]
     sweeps = [load_accuracy_run(f) for f in sorted((root / "docs" / "runs").iterdir())
               if f.is_dir() and is_accuracy_run(f)]
+    windows = [load_window_run(f) for f in sorted((root / "docs" / "runs").iterdir())
+               if f.is_dir() and is_window_run(f)]
     results = root / "docs" / "results.md"
     readme = root / "README.md"
     if not readme.is_file():
         raise GameError(f"{readme}: not found (give the checkout's root: bench --report ROOT)")
-    page = results_page(runs, results.parent, caches, sweeps)
+    page = results_page(runs, results.parent, caches, sweeps, windows)
     text = replace_block(readme.read_text(encoding="utf-8"), readme_block(runs, readme.parent),
                          readme)
     outputs.write_bytes(results, page.encode())
@@ -78,7 +81,8 @@ def load_runs(folder: Path) -> list[RecordedRun]:
         raise GameError(f"{folder}: no recorded runs (record one with python -m game bench "
                         f"--out {folder}/NAME)")
     runs = [load_run(f) for f in sorted(folder.iterdir())
-            if f.is_dir() and not is_cache_run(f) and not is_accuracy_run(f)]
+            if f.is_dir() and not any(is_suite(f) for is_suite in
+                                      (is_cache_run, is_accuracy_run, is_window_run))]
     if not runs:
         raise GameError(f"{folder}: no recorded runs (record one with python -m game bench "
                         f"--out {folder}/NAME)")
@@ -269,12 +273,14 @@ the charts this page shows need to be kept.
 
 
 def results_page(runs: list[RecordedRun], here: Path, caches: list[SuiteRun] = (),
-                 sweeps: list[SuiteRun] = ()) -> str:
-    """The whole of ``docs/results.md``: the two questions first, the soft-shadow cache
-    question, the random scenes, then every run."""
+                 sweeps: list[SuiteRun] = (), windows: list[SuiteRun] = ()) -> str:
+    """The whole of ``docs/results.md``: the two questions first, the window's frame rate,
+    the soft-shadow cache question, the random scenes, then every run."""
     lines = ["# Results", "", INTRO]
     lines += question_one(runs, here) + question_two(runs, here)
     lines += shading_section(runs, here, header)
+    for window in windows:
+        lines += window_section(window, here)
     for cache in caches:
         lines += cache_section(cache, here)
     for sweep in sweeps:

@@ -1,11 +1,13 @@
-"""The window with soft shadows, measured and pictured (``bash docs/soft_window.sh``).
+"""The window with soft shadows, measured and pictured (``bash docs/soft_window.sh``, and the
+window suite, game/bench/window_suite.py, for its frame rates).
 
 ``fps``: the walkaround on GLFW's null platform, the built-in scene at 960x540, its walkers
-walking and the camera still (or turning, ``--turn``), with or without soft shadows; frames
-after a warm-up (the camera turning, so that a still camera's timed frames start with its
-view's first) are timed
-by the CPU time of this process (with ``LP_NUM_THREADS=0`` llvmpipe rasterises in the calling
-thread, so other processes' load does not count) and by wall time (noisy on a shared machine).
+walking and the camera still (or turning, ``--turn``), with or without soft shadows, any hard
+method (``--method``), as the renderer draws it or as ``play`` shows it (``--as-shown``: the
+overlay and FXAA); frames after a warm-up (the camera turning, so that a still camera's timed
+frames start with its view's first) are timed by the CPU time of this process (with
+``LP_NUM_THREADS=0`` llvmpipe rasterises in the calling thread, so other processes' load does
+not count) and by wall time (noisy on a shared machine).
 
 ``shots``: the same window, no overlay and no FXAA (the picture is the renderer's), still
 (characters paused) after 0, 1 and 5 seconds of wall time, then walking after 1 and 5; each
@@ -23,6 +25,7 @@ Each mode runs in its own process (a window's GL context per process) and prints
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 import time
@@ -36,7 +39,9 @@ import numpy as np
 from game.app import outputs
 from game.app.window.walkaround import PlayOptions, Walkaround
 from game.errors import GameError
+from game.gpu import context
 from game.scene import load_scene
+from game.shadows import registry
 from game.soft import still_lookups
 from game.soft.methods import TraceSettings
 
@@ -47,10 +52,17 @@ WARMUP_TURN = 1.0   # degrees a warm-up frame turns the camera by
 ANALYTIC = TraceSettings(method="analytic")
 
 
-def _window(scene_path: str, soft: bool) -> Walkaround:
+def _window(scene_path: str, soft: bool, method: str | None = None,
+            as_shown: bool = False) -> Walkaround:
+    """The window on the null platform; ``as_shown``: with the overlay and FXAA, as ``play``
+    opens it (else the renderer's own picture); ``method`` the hard-shadow method (default:
+    the window's)."""
     scene = load_scene(Path(scene_path) if scene_path else DEFAULT_SCENE)
-    return Walkaround(scene, PlayOptions(size=SIZE, platform="null", soft=soft, overlay=False,
-                                         antialias=False, frames=10**9))
+    opts = PlayOptions(size=SIZE, platform="null", soft=soft, overlay=as_shown,
+                       antialias=as_shown, frames=10**9)
+    if method is not None:
+        opts.settings = dataclasses.replace(opts.settings, method=method)
+    return Walkaround(scene, opts)
 
 
 def _turn(app: Walkaround, degrees: float) -> None:
@@ -60,10 +72,12 @@ def _turn(app: Walkaround, degrees: float) -> None:
         app.controller.moved = True
 
 
-def fps(scene_path: str, soft: bool, frames: int, turn: float = 0.0) -> dict:
-    """Frames per second of the window, by CPU time and by wall time; the camera still, or
-    turning by ``turn`` degrees a frame."""
-    app = _window(scene_path, soft)
+def fps(scene_path: str, soft: bool, frames: int, turn: float = 0.0, method: str | None = None,
+        as_shown: bool = False) -> dict:
+    """Frames per second of the window, by CPU time and by wall time, and its shading pass's
+    median milliseconds; the camera still, or turning by ``turn`` degrees a frame
+    (``method`` and ``as_shown`` as :func:`_window` takes them)."""
+    app = _window(scene_path, soft, method, as_shown)
     try:
         # The warm-up turns the camera, so the first timed frame is a still view's first: a
         # still view's timed frames hold its refining rounds (game/soft/still_lookups.py).
@@ -71,19 +85,24 @@ def fps(scene_path: str, soft: bool, frames: int, turn: float = 0.0) -> dict:
             _turn(app, WARMUP_TURN)
             app.step(1 / 30)
         cpu, wall = time.process_time(), time.perf_counter()
-        last = wall
+        last, shade = wall, []
         for _ in range(frames):
             now = time.perf_counter()
             _turn(app, turn)
             app.step(now - last)
+            shade.append(app.last_figures.ms.get("shade", float("nan")))
             last = now
         cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
-        method = app.soft_settings.method if soft else None
+        soft_method = app.soft_settings.method if soft else None
+        settings = app.renderer.settings
+        gl = context.describe(app.ctx)
     finally:
         app.close()
-    return {"soft": soft, "soft_method": method, "frames": frames, "turn_degrees": turn,
+    return {"soft": soft, "soft_method": soft_method, "method": settings.method,
+            "pcf": settings.pcf, "as_shown": as_shown, "frames": frames, "turn_degrees": turn,
             "fps_cpu": round(frames / cpu, 3), "fps_wall": round(frames / wall, 3),
-            "ms_cpu": round(cpu / frames * 1e3, 2)}
+            "ms_cpu": round(cpu / frames * 1e3, 2),
+            "shade_ms": round(float(np.median(shade)), 2), **gl}
 
 
 def _visibility(app: Walkaround) -> np.ndarray:
@@ -193,13 +212,17 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--frames", type=int, default=20)
     parser.add_argument("--turn", type=float, default=0.0,
                         help="fps: degrees the camera turns each frame (default: still)")
+    parser.add_argument("--method", default=None, choices=registry.MAP_METHODS,
+                        help="fps: the hard-shadow method (default: the window's)")
+    parser.add_argument("--as-shown", action="store_true",
+                        help="fps: with the overlay and FXAA, as play opens the window")
     parser.add_argument("--points", type=int, default=still_lookups.REFINE_POINTS,
                         help="refine: the points a still view's refining ends at")
     parser.add_argument("--out", type=Path, default=Path("docs/images"))
     args = parser.parse_args(argv)
     try:
         if args.mode == "fps":
-            doc = fps(args.scene, args.soft, args.frames, args.turn)
+            doc = fps(args.scene, args.soft, args.frames, args.turn, args.method, args.as_shown)
         elif args.mode == "refine":
             doc = refine(args.scene, args.points, args.frames)
         else:

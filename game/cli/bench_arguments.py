@@ -9,7 +9,7 @@ from pathlib import Path
 from game.cli.values import positive_int, size_value, whole
 from game.gpu.timing import CLOCKS
 
-SUITES = ("gpu", "cache", "accuracy")
+SUITES = ("gpu", "cache", "accuracy", "window")
 MAX_SEED = 2**63 - 1
 MAX_SEEDS = 100_000   # seeds in one sweep: a range past it is a typo, not a plan
 MAX_WORKERS = 256
@@ -53,13 +53,16 @@ def add_bench_parser(sub) -> None:
                             "pip install -e '.[cache]'). accuracy: every map method at its "
                             "defaults on the random scenes of --seeds, scored against Embree "
                             "(OUT/accuracy.csv, accuracy.png, summary.md; see "
-                            "docs/reference.md)")
+                            "docs/reference.md). window: the walkaround's frame rate as play "
+                            "opens it, clumped beside single, with soft shadows and without, "
+                            "two alternating rounds (OUT/window.csv)")
     bench.add_argument("--quick", action="store_true",
                        help="the short sweep (default scene, a small town, stability scenes), "
                             "or the GPU suite made small")
     bench.add_argument("--out", type=Path, default=None, metavar="DIR",
                        help="output folder (default: bench, or bench_gpu, bench_cache, "
-                            "bench_accuracy for --suite gpu, cache, accuracy)")
+                            "bench_accuracy, bench_window for --suite gpu, cache, accuracy, "
+                            "window)")
     bench.add_argument("--size", type=size_value, default=None, metavar="WxH",
                        help="frame size of every run (default: 320x180; --suite accuracy: the "
                             "size each random scene is drawn for)")

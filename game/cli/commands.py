@@ -96,6 +96,8 @@ def cmd_bench(args) -> int:
         return _gpu_suite(args)
     if args.suite == "cache":
         return _cache_suite(args)
+    if args.suite == "window":
+        return _window_suite(args)
     args.out = args.out or Path("bench")
     _check_out(args.out)
     quick = args.quick
@@ -210,6 +212,19 @@ def _cache_suite(args) -> int:
     summary = cache_suite.run(suite, command=_command_line())
     say(f"bench --suite cache: {summary['rows']} rows in {summary['csv']} in "
         f"{summary['wall_s']} s" + "".join(f"; {n}" for n in summary["notes"]))
+    return 0
+
+
+def _window_suite(args) -> int:
+    from game.bench import window_suite as ws
+
+    _refuse_sweep_flags(args, "--suite window measures a fixed set")
+    out = args.out or Path("bench_window")
+    _check_out(out)
+    suite = ws.WindowSuite(out=out, frames=ws.QUICK_FRAMES if args.quick else ws.FRAMES,
+                           rounds=ws.QUICK_ROUNDS if args.quick else ws.ROUNDS)
+    path = ws.run_suite(suite, _command_line(), say=lambda line: say(line, err=True))
+    say(f"bench --suite window: wrote {path} and {out / 'run.json'}")
     return 0
 
 

@@ -1,0 +1,85 @@
+"""``bench --suite window``: the window's frame rate as ``play`` opens it, each run in its own
+process (game/bench/window_suite.py), and its section of the results page
+(game/bench/report_window.py), whose ratios come from the CSV."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import pytest
+
+from game.bench.report import write_report
+from game.bench.rows import write_rows, write_table
+from game.bench.window_suite import COLUMNS, RUNS
+from tests.bench.test_report import README, RECORD, ROWS
+from tests.cli.cli_helpers import assert_one_line_error, run
+
+
+def test_the_quick_suite_runs_each_window_in_turn_as_play_opens_it(tmp_path):
+    out = tmp_path / "window"
+    result = run("bench", "--suite", "window", "--quick", "--out", str(out))
+    assert result.returncode == 0, result.stderr
+    with (out / "window.csv").open(newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == len(RUNS)
+    assert [r["method"] for r in rows[:2]] == ["clumped", "single"]
+    assert all(r["as_shown"] == "True" and r["pcf"] == "True" for r in rows)
+    assert all(float(r["fps_cpu"]) > 0 and float(r["shade_ms"]) > 0 for r in rows)
+    soft = [r for r in rows if r["soft"] == "True"]
+    assert len(soft) == 2 and all(r["soft_method"] for r in soft)
+    record = json.loads((out / "run.json").read_text())
+    assert "--suite window" in record["command"] and record["renderer"] == rows[0]["renderer"]
+
+
+def test_a_sweep_flag_is_refused_in_one_line(tmp_path):
+    result = run("bench", "--suite", "window", "--methods", "single", "--out", str(tmp_path))
+    assert_one_line_error(result, "--methods")
+
+
+def _fps(method: str, soft: bool, turn: float, round_: int, fps: float) -> dict:
+    return {"round": round_, "order": 0, "method": method, "soft": soft,
+            "soft_method": "segment-maps" if soft else "", "turn_degrees": turn, "pcf": True,
+            "as_shown": True, "frames": 300, "fps_cpu": fps, "fps_wall": fps, "ms_cpu": 1e3 / fps,
+            "shade_ms": 20.0, "renderer": RECORD["renderer"], "version": RECORD["version"]}
+
+
+@pytest.fixture
+def root(tmp_path):
+    """A checkout with one bench run and one window run of two rounds."""
+    bench = tmp_path / "docs" / "runs" / "fake"
+    bench.mkdir(parents=True)
+    write_rows(bench / "bench.csv", ROWS)
+    (bench / "run.json").write_text(json.dumps(RECORD))
+    window = tmp_path / "docs" / "runs" / "window"
+    window.mkdir()
+    rows = []
+    for round_, scale in ((1, 1.0), (2, 0.8)):
+        rows += [_fps("clumped", False, 0.0, round_, 20 * scale),
+                 _fps("single", False, 0.0, round_, 16 * scale),
+                 _fps("clumped", False, 1.0, round_, 24 * scale),
+                 _fps("clumped", True, 0.0, round_, 12 * scale),
+                 _fps("clumped", True, 1.0, round_, 10 * scale)]
+    write_table(window / "window.csv", rows, COLUMNS)
+    (window / "run.json").write_text(json.dumps({**RECORD, "command": "python -m game bench "
+                                                 "--suite window --out docs/runs/window"}))
+    (tmp_path / "README.md").write_text(README)
+    return tmp_path
+
+
+def test_the_window_section_gives_each_rounds_frame_rates_and_ratios(root):
+    write_report(root)
+    page = (root / "docs" / "results.md").read_text()
+    section = page[page.index("## The window's frame rate"):]
+    section = section[:section.index("\n## ", 1)]
+    assert "--suite window --out docs/runs/window" in section
+    assert "| clumped, camera still | 20.00 | 16.00 | 20.0 |" in section
+    assert "single's, camera still: 1.25 and 1.25" in section
+    assert "camera still 0.60 and 0.60, turning 0.42 and 0.42" in section
+
+
+def test_a_window_run_without_its_columns_is_refused_in_one_line(root):
+    path = root / "docs" / "runs" / "window" / "window.csv"
+    path.write_text("round,method\n1,clumped\n")
+    result = run("bench", "--report", str(root))
+    assert_one_line_error(result, "window suite's columns")
