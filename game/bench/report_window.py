@@ -62,7 +62,8 @@ def window_section(run: SuiteRun, here: Path) -> list[str]:
              f"at 960x540 on GLFW's null platform, its walkers walking; {frames} timed frames a "
              "run, each run in its own process with llvmpipe rasterising in it "
              "(`LP_NUM_THREADS=0`), the runs taking turns in the opposite order in each round "
-             "(game/bench/window_suite.py).", ""]
+             "(game/bench/window_suite.py). A turning camera turns a degree a frame, back and "
+             "forth within 30 degrees of its first view.", ""]
     keys = list(dict.fromkeys(_key(r) for r in rows))
     rounds = sorted({int(r["round"]) for r in rows})
     head = ["run"] + [f"fps, round {n}" for n in rounds] + ["shading pass ms (median)"]

@@ -2,7 +2,8 @@
 window suite, game/bench/window_suite.py, for its frame rates).
 
 ``fps``: the walkaround on GLFW's null platform, the built-in scene at 960x540, its walkers
-walking and the camera still (or turning, ``--turn``), with or without soft shadows, any hard
+walking and the camera still (or turning ``--turn`` degrees a frame, back and forth within
+:data:`SWEEP` degrees of its first view), with or without soft shadows, any hard
 method (``--method``), as the renderer draws it or as ``play`` shows it (``--as-shown``: the
 overlay and FXAA); frames after a warm-up (the camera turning, so that a still camera's timed
 frames start with its view's first) are timed by the CPU time of this process (with
@@ -49,6 +50,7 @@ DEFAULT_SCENE = Path(__file__).resolve().parents[2] / "assets" / "default.toml"
 SIZE = (960, 540)
 WARMUP_FRAMES = 3
 WARMUP_TURN = 1.0   # degrees a warm-up frame turns the camera by
+SWEEP = 30.0        # a turning camera's reach either side of its first timed view, degrees
 ANALYTIC = TraceSettings(method="analytic")
 
 
@@ -72,6 +74,14 @@ def _turn(app: Walkaround, degrees: float) -> None:
         app.controller.moved = True
 
 
+def _sweep(frame: int, turn: float) -> int:
+    """Which way timed frame ``frame`` turns (1 or -1): back and forth within :data:`SWEEP`
+    degrees either side of the first view, so that every turning run looks at the same part of
+    the scene however many frames it times."""
+    half = max(1, round(SWEEP / abs(turn))) if turn else 1
+    return 1 if ((frame + half) // (2 * half)) % 2 == 0 else -1
+
+
 def fps(scene_path: str, soft: bool, frames: int, turn: float = 0.0, method: str | None = None,
         as_shown: bool = False) -> dict:
     """Frames per second of the window, by CPU time and by wall time, and its shading pass's
@@ -86,9 +96,9 @@ def fps(scene_path: str, soft: bool, frames: int, turn: float = 0.0, method: str
             app.step(1 / 30)
         cpu, wall = time.process_time(), time.perf_counter()
         last, shade = wall, []
-        for _ in range(frames):
+        for k in range(frames):
             now = time.perf_counter()
-            _turn(app, turn)
+            _turn(app, turn * _sweep(k, turn))
             app.step(now - last)
             shade.append(app.last_figures.ms.get("shade", float("nan")))
             last = now

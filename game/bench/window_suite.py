@@ -6,7 +6,7 @@ window's defaults), its walkers walking:
 - ``clumped`` and ``single`` with the camera still: what the multi-map method is worth in the
   window;
 - the window's method with soft shadows and without, the camera still and turning by a degree a
-  frame: what the linear light costs.
+  frame, back and forth within 30 degrees of its first view: what the linear light costs.
 
 Each run is one process (one window, one GL context; game/bench/soft_window.py ``fps``), timed
 by that process's CPU time after a warm-up. With ``LP_NUM_THREADS=0`` (set here for every run)

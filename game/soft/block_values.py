@@ -107,6 +107,8 @@ def _stacked(rows: np.ndarray, cols: np.ndarray, ends: np.ndarray, value: np.nda
     """Runs of consecutive rows with the same columns and value joined into one rectangle:
     llvmpipe sets up and bins every triangle, and a frame's runs are many and thin. Returns
     each rectangle's first and last row, its columns and its value."""
+    if not len(rows):   # nothing drawn: a view of the sky, or all in the umbra
+        return rows, rows, cols, ends, value
     order = np.lexsort((rows, value, ends, cols))
     rows, cols, ends, value = rows[order], cols[order], ends[order], value[order]
     starts = np.ones(len(rows), bool)

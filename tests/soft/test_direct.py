@@ -74,6 +74,12 @@ def test_runs_of_the_same_columns_and_value_in_consecutive_rows_are_one_rectangl
     assert len(runs.flat) // 6 == 3
 
 
+def test_a_frame_with_no_block_to_draw_has_no_runs():
+    runs = block_runs(np.full((4, 5), SKIP, np.float32), 4, (20, 16))
+    assert len(runs.flat) == 0 and len(runs.lookup) == 0
+    assert runs.blocks["skipped"] == 20
+
+
 @pytest.fixture
 def renderer(ctx, tiny):
     made = Renderer(ctx, tiny, SIZE, gbuffer=True)
@@ -97,6 +103,18 @@ def test_the_window_composite_matches_the_lookup_at_every_pixel(renderer, method
     # Interpolated blocks carry at most the tolerance; most pixels are exact.
     assert rmse(shown[covered], every[covered]) < TOLERANCE / 4
     assert np.mean(np.abs(shown[covered] - every[covered]) < 1e-4) > 0.8
+
+
+def test_a_view_of_the_sky_alone_is_lit_by_nothing_and_drawn(renderer):
+    """A window turned to the sky: every block is skipped, and the frame is still drawn."""
+    camera = renderer.scene.camera
+    up = transforms.look_at(camera.position, camera.position + np.array([0.0, 1.0, 0.01]))
+    view = View(up, View.from_camera(camera, SIZE).proj, SIZE)
+    renderer.traced.reduce_soft(Upsampling(divisor=4), b"sky", np.zeros(3))
+    renderer.render(1.0, view, soft=TraceSettings(method="segment-maps", maps=8))
+    runs = renderer.traced.direct.blocks.runs
+    assert len(runs.flat) == 0 and len(runs.lookup) == 0
+    assert np.all(np.isnan(renderer.traced.window_visibility(renderer.target)))
 
 
 def test_a_still_view_makes_no_gl_objects_after_its_first_refining_frame(renderer):
