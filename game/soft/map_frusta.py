@@ -59,8 +59,12 @@ def receiver_bounds(positions: np.ndarray, covered: np.ndarray) -> tuple[np.ndar
 
 
 def _covered_points(positions: np.ndarray, covered: np.ndarray) -> np.ndarray:
-    points = positions[covered][:, :3]
-    return points[np.isfinite(points).all(axis=1)]
+    """The finite xyz of the covered points, in raster order. Each coordinate is tested apart:
+    numpy's ``all`` along a short last axis costs more than the three tests."""
+    ok = covered.copy()
+    for axis in range(3):
+        ok &= np.isfinite(positions[..., axis])
+    return positions[ok][:, :3]
 
 
 def receiver_cells(positions: np.ndarray, covered: np.ndarray, cell: float) -> np.ndarray:
@@ -76,8 +80,10 @@ def receiver_cells(positions: np.ndarray, covered: np.ndarray, cell: float) -> n
     lo = cells.min(axis=0)
     span = cells.max(axis=0) - lo + 2  # room for the far corners too
     # One integer per cell: np.unique on integers is a sort, where on rows it is many times
-    # slower.
-    keys = np.unique(((cells - lo) * np.array([span[1] * span[2], span[2], 1])).sum(axis=1))
+    # slower; neighbouring pixels mostly share a cell, so repeats in a row go before the sort.
+    d = cells - lo
+    keys = (d[:, 0] * span[1] + d[:, 1]) * span[2] + d[:, 2]
+    keys = np.unique(keys[np.r_[True, keys[1:] != keys[:-1]]])
     offsets = box_corners(np.zeros(3), np.ones(3)).astype(np.int64)
     keys = np.unique((keys[:, None] + (offsets * np.array([span[1] * span[2], span[2], 1])
                                        ).sum(axis=1)[None]).ravel())
