@@ -117,6 +117,26 @@ def test_a_view_of_the_sky_alone_is_lit_by_nothing_and_drawn(renderer):
     assert np.all(np.isnan(renderer.traced.window_visibility(renderer.target)))
 
 
+def test_counting_a_soft_frames_map_records_keeps_its_picture(ctx, tiny):
+    """The panel's record count draws the shading pass again: the lean G-buffer's variant,
+    with the soft blocks bound as the frame bound them."""
+    settings = TraceSettings(method="segment-maps", maps=8)
+    view = View.from_camera(tiny.camera, SIZE)
+    frames = []
+    for count in (False, True):
+        made = Renderer(ctx, tiny, SIZE, gbuffer=True)
+        try:
+            made.count_candidates = count
+            made.traced.reduce_soft(Upsampling(divisor=4), b"view", np.zeros(3))
+            frames.append([made.render(1.0, view, soft=settings) for _ in range(2)])
+        finally:
+            made.release()
+    plain, counted = frames
+    assert all(f.map_candidates_per_fragment is not None for f in counted)
+    for a, b in zip(plain, counted, strict=True):
+        assert np.array_equal(a.image, b.image)
+
+
 def test_a_still_view_makes_no_gl_objects_after_its_first_refining_frame(renderer):
     settings = TraceSettings(method="segment-maps", maps=8)
     view = View.from_camera(renderer.scene.camera, SIZE)
