@@ -102,11 +102,11 @@ float lookup(int i, vec2 uv, float depth) {
     float v = texture(u_shadow_maps, vec4(uv, layer, depth));
 #else
     // The 3 x 3 texels around uv's, each index held inside the map's own square (first to
-    // last), read as one tap and three 2 x 2 gathers: the nine taps' texels and mean, in four
+    // last), read as one tap and three 2 x 2 gathers: nine taps' texels and mean in four
     // sampler calls, each of which llvmpipe pays for per lane. A gather at the corner after
     // texel a reads a and a + 1 on each axis; its x, y, z, w are (column, row) (a, a+1),
-    // (a+1, a+1), (a+1, a), (a, a). Where an index is held at the square's edge, the texel
-    // before it is read again.
+    // (a+1, a+1), (a+1, a), (a, a). Where the third index is held at the square's edge, it is
+    // the middle one again, and the gather's a is read in place of its a + 1.
     vec2 size = vec2(textureSize(u_shadow_maps, 0).xy);
     vec2 first = floor(offset * size + 0.5);
     vec2 last = first + floor(vec2(u_maps[i].uv_scale) * size + 0.5) - 1.0;

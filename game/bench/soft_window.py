@@ -110,6 +110,7 @@ def fps(scene_path: str, soft: bool, frames: int, turn: float = 0.0, method: str
         app.close()
     return {"soft": soft, "soft_method": soft_method, "method": settings.method,
             "pcf": settings.pcf, "as_shown": as_shown, "frames": frames, "turn_degrees": turn,
+            "width": SIZE[0], "height": SIZE[1], "sweep_degrees": SWEEP if turn else 0.0,
             "fps_cpu": round(frames / cpu, 3), "fps_wall": round(frames / wall, 3),
             "ms_cpu": round(cpu / frames * 1e3, 2),
             "shade_ms": round(float(np.median(shade)), 2), **gl}

@@ -33,8 +33,9 @@ RUNS = (("clumped", False, 0.0), ("single", False, 0.0), (None, False, 1.0),
         (None, True, 0.0), (None, True, 1.0))
 ROUNDS, QUICK_ROUNDS = 2, 1
 FRAMES, QUICK_FRAMES = 300, 3
-COLUMNS = ["round", "order", "method", "soft", "soft_method", "turn_degrees", "pcf", "as_shown",
-           "frames", "fps_cpu", "fps_wall", "ms_cpu", "shade_ms", "renderer", "version"]
+COLUMNS = ["round", "order", "method", "soft", "soft_method", "turn_degrees", "sweep_degrees",
+           "pcf", "as_shown", "width", "height", "frames", "fps_cpu", "fps_wall", "ms_cpu",
+           "shade_ms", "renderer", "version"]
 RUN_TIMEOUT_S = 900
 
 

@@ -16,7 +16,12 @@ from game.cli.checks import check_file as _check_file
 from game.cli.checks import check_out as _check_out
 from game.cli.checks import command_line as _command_line
 from game.cli.checks import say
-from game.cli.sweep_commands import accuracy_suite, cmd_scenes, refuse_accuracy_flags
+from game.cli.sweep_commands import (
+    accuracy_suite,
+    cmd_scenes,
+    given_flags,
+    refuse_accuracy_flags,
+)
 from game.cli.values import DEFAULT_OUT, MAX_SCENE_TIME, MAX_SIZE, ArgumentError
 from game.errors import GameError
 from game.render.depth_first import DepthFirst
@@ -89,6 +94,8 @@ def cmd_bench(args) -> int:
         return accuracy_suite(args)
     refuse_accuracy_flags(args, f"--suite {args.suite}" if args.suite else
                           "--report" if args.report is not None else "the sweep")
+    if args.suite == "window":
+        return _window_suite(args)
     args.size = args.size or DEFAULT_BENCH_SIZE
     if args.report is not None:
         return _report(args)
@@ -96,8 +103,6 @@ def cmd_bench(args) -> int:
         return _gpu_suite(args)
     if args.suite == "cache":
         return _cache_suite(args)
-    if args.suite == "window":
-        return _window_suite(args)
     args.out = args.out or Path("bench")
     _check_out(args.out)
     quick = args.quick
@@ -216,11 +221,20 @@ def _cache_suite(args) -> int:
 
 
 def _window_suite(args) -> int:
+    from game.app import outputs
     from game.bench import window_suite as ws
 
     _refuse_sweep_flags(args, "--suite window measures a fixed set")
+    given = given_flags(args, ("--warmup", "--error-frames", "--flicker-frames"))
+    given += [flag for flag, value in (("--size", args.size), ("--clock", args.clock != "auto"))
+              if value]
+    if given:
+        raise ArgumentError(f"--suite window measures the window as play opens it; "
+                            f"{', '.join(given)} belong{'s' if len(given) == 1 else ''} to the "
+                            "sweep")
     out = args.out or Path("bench_window")
     _check_out(out)
+    outputs.check_paths(files=[out / "window.csv", out / "run.json"])
     suite = ws.WindowSuite(out=out, frames=ws.QUICK_FRAMES if args.quick else ws.FRAMES,
                            rounds=ws.QUICK_ROUNDS if args.quick else ws.ROUNDS)
     path = ws.run_suite(suite, _command_line(), say=lambda line: say(line, err=True))

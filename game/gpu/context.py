@@ -75,8 +75,13 @@ def describe(ctx) -> dict:
 
 def is_software(ctx) -> bool:
     """True on Mesa's CPU rasterisers, whose GPU timer queries read wrong values."""
-    renderer = ctx.info["GL_RENDERER"].lower()
-    return any(name in renderer for name in ("llvmpipe", "softpipe", "swrast", "lavapipe"))
+    return software_renderer(ctx.info["GL_RENDERER"])
+
+
+def software_renderer(renderer: str) -> bool:
+    """Whether a GL_RENDERER string names one of Mesa's CPU rasterisers."""
+    return any(name in renderer.lower() for name in ("llvmpipe", "softpipe", "swrast",
+                                                     "lavapipe"))
 
 
 def unbind_program() -> None:

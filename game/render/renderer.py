@@ -260,7 +260,9 @@ class Renderer(SceneEdits):
             covered = rgba[..., 3] > 0
             gbuffer = (self.target.read_gbuffer(covered) if self.target.gbuffer == GBuffer.FULL
                        else None)
-        candidates = (self.shading.candidates(self.target, self.shadow_pass, self.culler)
+        # The lean G-buffer's variant reads the soft blocks: bound again as the frame bound them.
+        bind = self._soft_bind if self.target.gbuffer == GBuffer.LEAN else None
+        candidates = (self.shading.candidates(self.target, self.shadow_pass, self.culler, bind)
                       if self.count_candidates else None)
         if gbuffer is not None and len(self.scene.lights) > 1:
             variant = Variant.of(GBuffer.FULL, self.scene.lights, self.settings.pcf,

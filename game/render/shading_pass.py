@@ -73,7 +73,6 @@ class ShadingPass:
         self._programs: dict[Variant, tuple] = {}
         self._depth: tuple | None = None   # the depth pass's program and vertex arrays
         self.last: tuple[Variant, bool] | None = None  # the last draw's variant, culled_only
-        self._last_bind: Callable[[object], None] | None = None   # and what it bound besides
 
     def _program(self, variant: Variant, culler: TriangleCuller | None) -> tuple:
         """(program, vertex array over every triangle, vertex array over the culled ones)."""
@@ -118,14 +117,14 @@ class ShadingPass:
             vao.render(moderngl.TRIANGLES, vertices=total - closed, first=closed)
 
     def candidates(self, target: FrameTarget, maps: ShadowMapPass,
-                   culler: TriangleCuller | None) -> np.ndarray:
+                   culler: TriangleCuller | None,
+                   bind: Callable[[object], None] | None = None) -> np.ndarray:
         """(H, W) map records each pixel considered in the last draw: it is drawn again
         (outside the frame's timings) with the records counted in the colour's alpha, which
-        alone differs."""
+        alone differs. ``bind`` as :meth:`draw` takes it: what the last draw bound besides."""
         variant, culled_only = self.last
-        # The lean G-buffer's variant reads the soft blocks: bound again as the frame bound them.
         self.draw(target, maps, variant._replace(count_pixels=False, count_candidates=True),
-                  culler, culled_only, self._last_bind)
+                  culler, culled_only, bind)
         return np.maximum(target.read_colour()[..., 3].astype(np.int32) - 1, 0)
 
     def each_light(self, target: FrameTarget, maps: ShadowMapPass, frame_blocks,
@@ -154,7 +153,6 @@ class ShadingPass:
         prog, vao, culled = self._program(variant, culler)
         if not variant.unlit:
             self.last = (variant, culled_only)
-            self._last_bind = bind
         target.begin()
         if bind is not None:
             bind(prog)

@@ -12,7 +12,7 @@ import pytest
 from game.bench.report import write_report
 from game.bench.rows import write_rows, write_table
 from game.bench.window_suite import COLUMNS, RUNS
-from tests.bench.test_report import README, RECORD, ROWS
+from tests.bench.report_data import README, RECORD, ROWS
 from tests.cli.cli_helpers import assert_one_line_error, run
 
 
@@ -39,9 +39,11 @@ def test_a_sweep_flag_is_refused_in_one_line(tmp_path):
 
 def _fps(method: str, soft: bool, turn: float, round_: int, fps: float) -> dict:
     return {"round": round_, "order": 0, "method": method, "soft": soft,
-            "soft_method": "segment-maps" if soft else "", "turn_degrees": turn, "pcf": True,
-            "as_shown": True, "frames": 300, "fps_cpu": fps, "fps_wall": fps, "ms_cpu": 1e3 / fps,
-            "shade_ms": 20.0, "renderer": RECORD["renderer"], "version": RECORD["version"]}
+            "soft_method": "segment-maps" if soft else "", "turn_degrees": turn,
+            "sweep_degrees": 30.0 if turn else 0.0, "pcf": True, "as_shown": True, "width": 960,
+            "height": 540, "frames": 300, "fps_cpu": fps, "fps_wall": 2 * fps,
+            "ms_cpu": 1e3 / fps, "shade_ms": 20.0, "renderer": RECORD["renderer"],
+            "version": RECORD["version"]}
 
 
 @pytest.fixture
@@ -74,12 +76,34 @@ def test_the_window_section_gives_each_rounds_frame_rates_and_ratios(root):
     section = section[:section.index("\n## ", 1)]
     assert "--suite window --out docs/runs/window" in section
     assert "| clumped, camera still | 20.00 | 16.00 | 20.0 |" in section
+    assert "| clumped, soft shadows, camera turning 1 degree a frame | 10.00 | 8.00" in section
+    assert "within 30 degrees" in section and "at 960x540" in section
     assert "single's, camera still: 1.25 and 1.25" in section
     assert "camera still 0.60 and 0.60, turning 0.42 and 0.42" in section
 
 
-def test_a_window_run_without_its_columns_is_refused_in_one_line(root):
+def test_rounds_are_paired_by_their_number_and_a_missing_one_shows_as_a_dash(root):
     path = root / "docs" / "runs" / "window" / "window.csv"
-    path.write_text("round,method\n1,clumped\n")
+    with path.open(newline="") as f:
+        rows = [r for r in csv.DictReader(f) if not (r["method"] == "single" and r["round"] == "1")]
+    write_table(path, rows, COLUMNS)
+    write_report(root)
+    page = (root / "docs" / "results.md").read_text()
+    assert "| single, camera still | - | 12.80 | 20.0 |" in page
+    assert "single's, camera still: 1.25 (round by round)" in page
+
+
+@pytest.mark.parametrize("column, value, fragment", [
+    (None, None, "window suite's columns"), ("round", "x", "round"), ("fps_cpu", "0", "fps_cpu"),
+    ("soft", "maybe", "soft")])
+def test_a_garbled_window_run_is_refused_in_one_line(root, column, value, fragment):
+    path = root / "docs" / "runs" / "window" / "window.csv"
+    if column is None:
+        path.write_text("round,method\n1,clumped\n")
+    else:
+        with path.open(newline="") as f:
+            rows = list(csv.DictReader(f))
+        rows[1][column] = value
+        write_table(path, rows, COLUMNS)
     result = run("bench", "--report", str(root))
-    assert_one_line_error(result, "window suite's columns")
+    assert_one_line_error(result, fragment)

@@ -64,10 +64,12 @@ def probe(ctx):
     defines = {**shader_defines(ctx), "PCF": 1, "COUNT_PIXELS": 0, "COUNT_CANDIDATES": 0,
                "DEPTH_BOUNDS": 0, "LIGHT_KIND": blocks.LIGHT_KINDS["directional"],
                "GRID": blocks.GRID_NONE}
-    program = ctx.compute_shader(glsl.preprocess(PROBE_SHADER, defines, name="pcf probe"))
-    records = ctx.buffer(maps.tobytes())
-    held = [program, records]
+    held = []
     try:
+        program = ctx.compute_shader(glsl.preprocess(PROBE_SHADER, defines, name="pcf probe"))
+        held.append(program)
+        records = ctx.buffer(maps.tobytes())
+        held.append(records)
         GL.glBindTexture(GL.GL_TEXTURE_2D_ARRAY, array.texture)
         GL.glTexSubImage3D(GL.GL_TEXTURE_2D_ARRAY, 0, 0, 0, 0, SIDE, SIDE, 2,
                            GL.GL_DEPTH_COMPONENT, GL.GL_FLOAT, depths.tobytes())
@@ -104,6 +106,9 @@ def test_pcf_is_the_mean_of_the_nine_compares_held_inside_the_square(probe, inde
     inside = rng.uniform(0.0, 1.0, (PROBES, 2))
     inside[:64] = rng.uniform(0.0, 1.0 / (scale * SIDE), (64, 2))
     inside[64:128] = 1.0 - rng.uniform(1e-4, 1.0 / (scale * SIDE), (64, 2))
+    # Exactly on texel edges (k / n, exact in float32 here) and on the far edge, 1.0.
+    edges = np.arange(int(scale * SIDE) + 1) / (scale * SIDE)
+    inside[128:128 + len(edges) ** 2] = np.stack(np.meshgrid(edges, edges), -1).reshape(-1, 2)
     depth = rng.random(PROBES)
     points = np.column_stack([np.full(PROBES, index), inside, depth])
     got = run(points)
