@@ -98,6 +98,22 @@ def test_play_soft_writes_its_trace_size_in_the_stats(tmp_path):
         assert frame["ms"]["soft_upsample"] > 0 and frame["ms"]["composite"] > 0
 
 
+@pytest.mark.parametrize("extra", [["--panel"], ["--debug-view", "map"]])
+def test_soft_shadows_with_the_panel_or_a_debug_view_play_to_the_end(tmp_path, extra):
+    """The panel counts the map records every 30th frame, the first included; a debug view
+    shows the hard maps while soft shadows wait."""
+    stats = tmp_path / "stats.json"
+    result = run_game("play", TINY, "--platform", "null", "--frames", "2", "--soft",
+                      "--size", "64x36", "--stats", stats, *extra)
+    if result.returncode == 1 and "window" in result.stderr:
+        pytest.skip(f"no null-platform EGL window here: {result.stderr.strip()}")
+    assert result.returncode == 0, result.stderr
+    frames = json.loads(stats.read_text())["frames"]
+    assert len(frames) == 2
+    waiting = extra[0] == "--debug-view"
+    assert all(("composite" in f["ms"]) != waiting for f in frames)
+
+
 def test_the_overlay_counts_a_raster_methods_maps_and_the_points_a_still_view_refined():
     from dataclasses import replace
     from types import SimpleNamespace

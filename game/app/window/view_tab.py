@@ -45,6 +45,8 @@ class ViewTab:
         changed, index = imgui.combo("debug view", views.index(renderer.debug_view), views)
         if changed:
             changes.debug_view = views[index]
+        if soft and renderer.debug_view != "none":
+            imgui.text_disabled("soft shadows wait while a debug view shows the hard maps")
         if soft is not None and renderer.scene.linear_light is None:
             imgui.text_disabled("soft shadows: the scene has no [linear_light]")
         elif soft is not None:

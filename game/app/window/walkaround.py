@@ -171,9 +171,9 @@ class Walkaround(WindowInput):
         self.soft_settings = soft_controls.choose(self.soft_settings, method, samples)
 
     def _soft_settings(self):
-        """The soft trace's settings while soft shadows are on: the linear light adds to the
-        scene's lights, which keep the hard method's shadows."""
-        return self.soft_settings if self.soft else None
+        """The soft trace's settings while soft shadows are on and no debug view shows the hard
+        maps instead (the view tab says so): the linear light adds to the scene's lights."""
+        return self.soft_settings if self.soft and self.renderer.debug_view == "none" else None
 
     def gl_objects(self) -> int:
         """Live GL objects of the renderer, its tracer included (toggling must not grow them)."""
