@@ -47,21 +47,49 @@ class WindowSuite:
 
 
 def run_suite(suite: WindowSuite, command: str, say=print) -> Path:
-    """Every run of every round, in turns; returns the CSV written."""
-    suite.out.mkdir(parents=True, exist_ok=True)
-    rows = []
-    for round_ in range(1, suite.rounds + 1):
-        order = RUNS if round_ % 2 else tuple(reversed(RUNS))
-        for k, (method, soft, turn) in enumerate(order):
-            row = _one(method, soft, turn, suite.frames)
-            rows.append({"round": round_, "order": k, **row})
-            say(f"round {round_}: {row['method']}{' soft' if soft else ''}"
-                f"{f' turning {turn:g} deg/frame' if turn else ''}: {row['fps_cpu']:.2f} fps")
-    path = suite.out / "window.csv"
-    write_table(path, rows, COLUMNS)
-    write_run_record(suite.out, command, {"renderer": rows[0]["renderer"],
-                                          "version": rows[0]["version"]}, clock="cpu-process")
+    """Every run of every round, in turns; returns the CSV written. The output folder is made
+    first, so that a path that cannot be made fails before the runs, and what was made for it
+    is removed again if the suite fails."""
+    made = _make_folder(suite.out)
+    try:
+        rows = []
+        for round_ in range(1, suite.rounds + 1):
+            order = RUNS if round_ % 2 else tuple(reversed(RUNS))
+            for k, (method, soft, turn) in enumerate(order):
+                row = _one(method, soft, turn, suite.frames)
+                rows.append({"round": round_, "order": k, **row})
+                say(f"round {round_}: {row['method']}{' soft' if soft else ''}"
+                    f"{f' turning {turn:g} deg/frame' if turn else ''}: "
+                    f"{row['fps_cpu']:.2f} fps")
+        path = suite.out / "window.csv"
+        write_table(path, rows, COLUMNS)
+        write_run_record(suite.out, command, {"renderer": rows[0]["renderer"],
+                                              "version": rows[0]["version"]}, clock="cpu-process")
+    except BaseException:
+        _remove_empty(made)
+        raise
     return path
+
+
+def _make_folder(folder: Path) -> list[Path]:
+    """Make ``folder`` and its missing parents; returns those made, deepest first. A folder
+    that cannot be made leaves none of them behind."""
+    missing = [p for p in (folder, *folder.parents) if not p.exists()]
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError:
+        _remove_empty(missing)
+        raise
+    return missing
+
+
+def _remove_empty(folders: list[Path]) -> None:
+    """Remove each of ``folders`` (deepest first) that exists and is empty."""
+    for folder in folders:
+        try:
+            folder.rmdir()
+        except OSError:
+            pass
 
 
 def _one(method: str | None, soft: bool, turn: float, frames: int) -> dict:

@@ -189,7 +189,8 @@ def _refuse_sweep_flags(args, what: str) -> None:
                                       ("--frames", args.frames), ("--repeat", args.repeat > 1))
              if value]
     if given:
-        raise ArgumentError(f"{what}; {', '.join(given)} belong to the sweep")
+        raise ArgumentError(f"{what}; {', '.join(given)} belong{'s' if len(given) == 1 else ''} "
+                            "to the sweep")
 
 
 def _gpu_suite(args) -> int:
@@ -228,6 +229,9 @@ def _window_suite(args) -> int:
     given = given_flags(args, ("--warmup", "--error-frames", "--flicker-frames"))
     given += [flag for flag, value in (("--size", args.size), ("--clock", args.clock != "auto"))
               if value]
+    if args.report is not None:
+        raise ArgumentError("--suite window measures; --report writes the page from recorded "
+                            "runs: give one or the other")
     if given:
         raise ArgumentError(f"--suite window measures the window as play opens it; "
                             f"{', '.join(given)} belong{'s' if len(given) == 1 else ''} to the "

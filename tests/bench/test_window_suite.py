@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import csv
 import json
+import subprocess
+import sys
 
 import pytest
 
@@ -32,9 +34,28 @@ def test_the_quick_suite_runs_each_window_in_turn_as_play_opens_it(tmp_path):
     assert "--suite window" in record["command"] and record["renderer"] == rows[0]["renderer"]
 
 
-def test_a_sweep_flag_is_refused_in_one_line(tmp_path):
-    result = run("bench", "--suite", "window", "--methods", "single", "--out", str(tmp_path))
-    assert_one_line_error(result, "--methods")
+@pytest.mark.parametrize("flags, fragment", [
+    (["--methods", "single"], "--methods belongs"), (["--size", "320x180"], "--size"),
+    (["--clock", "cpu-thread"], "--clock"), (["--report"], "--report")])
+def test_a_flag_the_suite_takes_no_notice_of_is_refused_in_one_line(tmp_path, flags, fragment):
+    result = run("bench", "--suite", "window", *flags, "--out", str(tmp_path / "out"))
+    assert_one_line_error(result, fragment)
+    assert not (tmp_path / "out").exists()
+
+
+def test_an_out_that_cannot_be_made_leaves_no_folder(tmp_path):
+    out = tmp_path / "deep" / ("x" * 300) / "x"
+    result = run("bench", "--suite", "window", "--quick", "--out", str(out))
+    assert_one_line_error(result, "File name too long")
+    assert not (tmp_path / "deep").exists()
+
+
+@pytest.mark.parametrize("flags", [["--frames", "0"], ["--turn", "nan"], ["--turn", "181"]])
+def test_the_window_runs_bad_numbers_are_one_line(flags):
+    result = subprocess.run([sys.executable, "-m", "game.bench.soft_window", "fps", *flags],
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    assert result.stderr.strip().splitlines()[-1].startswith("python -m game.bench.soft_window")
 
 
 def _fps(method: str, soft: bool, turn: float, round_: int, fps: float) -> dict:
