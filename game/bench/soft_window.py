@@ -215,45 +215,27 @@ def refine(scene_path: str, points: int, frames: int) -> dict:
             "refine_ms": [round(m.get("soft_refine", 0.0), 1) for m in ms]}
 
 
-def _counted(text: str) -> int:
-    """A whole number of at least 1 (argparse type)."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
-    return value
-
-
-def _degrees(text: str) -> float:
-    """A turn of -180 to 180 degrees (argparse type)."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not -180.0 <= value <= 180.0:   # NaN fails this too
-        raise argparse.ArgumentTypeError(f"must be within -180 to 180 degrees, got {text!r}")
-    return value
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m game.bench.soft_window")
     parser.add_argument("mode", choices=("fps", "shots", "refine"))
     parser.add_argument("--scene", default="")
     parser.add_argument("--soft", action="store_true")
-    parser.add_argument("--frames", type=_counted, default=20)
-    parser.add_argument("--turn", type=_degrees, default=0.0,
+    parser.add_argument("--frames", type=int, default=20)
+    parser.add_argument("--turn", type=float, default=0.0,
                         help="fps: degrees the camera turns each frame, -180 to 180 "
                              "(default: still)")
     parser.add_argument("--method", default=None, choices=registry.MAP_METHODS,
                         help="fps: the hard-shadow method (default: the window's)")
     parser.add_argument("--as-shown", action="store_true",
                         help="fps: with the overlay and FXAA, as play opens the window")
-    parser.add_argument("--points", type=_counted, default=still_lookups.REFINE_POINTS,
+    parser.add_argument("--points", type=int, default=still_lookups.REFINE_POINTS,
                         help="refine: the points a still view's refining ends at")
     parser.add_argument("--out", type=Path, default=Path("docs/images"))
     args = parser.parse_args(argv)
+    if min(args.frames, args.points) < 1:
+        parser.error("--frames and --points must be at least 1")
+    if not -180.0 <= args.turn <= 180.0:   # NaN fails this too
+        parser.error(f"--turn must be within -180 to 180 degrees, got {args.turn}")
     try:
         if args.mode == "fps":
             doc = fps(args.scene, args.soft, args.frames, args.turn, args.method, args.as_shown)

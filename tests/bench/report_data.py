@@ -3,7 +3,11 @@ with the figure block."""
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+
 from game.bench.report import BEGIN, END
+from game.bench.rows import write_rows
 
 RECORD = {"command": "python -m game bench --scenes courtyard --repeat 3 --out docs/runs/fake",
           "renderer": "llvmpipe (LLVM 15.0.6, 256 bits)", "version": "4.5 (Core Profile)",
@@ -32,3 +36,14 @@ ROWS = [
     row("single", "single_resolution=1024", 8.0, 0.02, single_resolution=1024, repeats=3,
         total_ms_spread=0.05),
 ]
+
+
+def fake_checkout(root: Path) -> Path:
+    """``root`` made a checkout with one recorded run, ``docs/runs/fake``, and a README with a
+    figure block; returns it."""
+    folder = root / "docs" / "runs" / "fake"
+    folder.mkdir(parents=True)
+    write_rows(folder / "bench.csv", ROWS)
+    (folder / "run.json").write_text(json.dumps(RECORD))
+    (root / "README.md").write_text(README)
+    return root

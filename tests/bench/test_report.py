@@ -9,21 +9,15 @@ import json
 import pytest
 
 from game.bench.report import BEGIN, END, write_report
-from game.bench.rows import write_rows
 from game.errors import GameError
-from tests.bench.report_data import README, RECORD, ROWS
+from tests.bench.report_data import README, fake_checkout
 from tests.cli.cli_helpers import assert_one_line_error, run
 
 
 @pytest.fixture
 def root(tmp_path):
     """A checkout with one recorded run, ``docs/runs/fake``, and a README with a figure block."""
-    folder = tmp_path / "docs" / "runs" / "fake"
-    folder.mkdir(parents=True)
-    write_rows(folder / "bench.csv", ROWS)
-    (folder / "run.json").write_text(json.dumps(RECORD))
-    (tmp_path / "README.md").write_text(README)
-    return tmp_path
+    return fake_checkout(tmp_path)
 
 
 def test_each_table_is_headed_by_its_run(root):

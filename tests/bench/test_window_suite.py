@@ -12,9 +12,9 @@ import sys
 import pytest
 
 from game.bench.report import write_report
-from game.bench.rows import write_rows, write_table
+from game.bench.rows import write_table
 from game.bench.window_suite import COLUMNS, RUNS
-from tests.bench.report_data import README, RECORD, ROWS
+from tests.bench.report_data import RECORD, fake_checkout
 from tests.cli.cli_helpers import assert_one_line_error, run
 
 
@@ -70,10 +70,7 @@ def _fps(method: str, soft: bool, turn: float, round_: int, fps: float) -> dict:
 @pytest.fixture
 def root(tmp_path):
     """A checkout with one bench run and one window run of two rounds."""
-    bench = tmp_path / "docs" / "runs" / "fake"
-    bench.mkdir(parents=True)
-    write_rows(bench / "bench.csv", ROWS)
-    (bench / "run.json").write_text(json.dumps(RECORD))
+    fake_checkout(tmp_path)
     window = tmp_path / "docs" / "runs" / "window"
     window.mkdir()
     rows = []
@@ -86,7 +83,6 @@ def root(tmp_path):
     write_table(window / "window.csv", rows, COLUMNS)
     (window / "run.json").write_text(json.dumps({**RECORD, "command": "python -m game bench "
                                                  "--suite window --out docs/runs/window"}))
-    (tmp_path / "README.md").write_text(README)
     return tmp_path
 
 
