@@ -287,6 +287,8 @@ def make_clumps(
     strategy: str,
     max_extent: float,
     count: int | None = None,
+    limit: int | None = None,
+    summaries: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> list[Clump]:
     """Group static objects into clumps that each get one shadow map.
 
@@ -308,6 +310,13 @@ def make_clumps(
     count : int, optional
         Split largest-first until exactly this many clumps exist (or one per object, if there are
         fewer objects), regardless of ``max_extent``.
+    limit : int, optional
+        With ``max_extent``: stop splitting once this many clumps exist, so that a caller who
+        can afford far fewer maps learns that the target is out of reach without paying for
+        every split it would take (the clumps returned then need not fit ``max_extent``).
+    summaries : (rects, centres), optional
+        :func:`object_summaries` of ``points``, for a caller that clumps the same objects
+        several times.
 
     Returns
     -------
@@ -318,12 +327,14 @@ def make_clumps(
         raise ValueError(f"unknown clumping strategy {strategy!r}; valid: {', '.join(STRATEGIES)}")
     if count is not None and count < 1:
         raise ValueError(f"count must be at least 1, got {count}")
+    if limit is not None and limit < 1:
+        raise ValueError(f"limit must be at least 1, got {limit}")
     if count is None and (np.isnan(max_extent) or max_extent <= 0):
         raise ValueError(f"max_extent must be positive, got {max_extent}")
     n = len(points)
     if n == 0:
         return []
-    rects, centres = object_summaries(points, footprint)
+    rects, centres = summaries if summaries is not None else object_summaries(points, footprint)
 
     def split(idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if strategy == "world":
@@ -348,7 +359,8 @@ def make_clumps(
             seq += 1
 
     push(np.arange(n))
-    while heap and (target is None or len(heap) + len(done) < target):
+    cap = target if target is not None else limit
+    while heap and (cap is None or len(heap) + len(done) < cap):
         _, _, idx, _ = heapq.heappop(heap)
         left, right = split(idx)
         push(left)

@@ -102,6 +102,21 @@ def test_density_extremes(strategy):
     assert len(make_clumps(pts, OVERHEAD, strategy, max_extent=0.5)) == 10
 
 
+@pytest.mark.parametrize("strategy", STRATEGIES)
+def test_a_limit_stops_the_splits_early_and_changes_nothing_it_does_not_reach(strategy):
+    pts = random_town(300, seed=4)
+    full = make_clumps(pts, OVERHEAD, strategy, max_extent=12.0)
+    assert len(full) > 40
+    stopped = make_clumps(pts, OVERHEAD, strategy, max_extent=12.0, limit=40)
+    assert len(stopped) == 40
+    assert_partition(stopped, len(pts))
+    assert max(c.extent for c in stopped) > 12.0  # out of reach, and it shows
+    same = make_clumps(pts, OVERHEAD, strategy, max_extent=12.0, limit=len(full))
+    assert [c.members for c in same] == [c.members for c in full]
+    with pytest.raises(ValueError):
+        make_clumps(pts, OVERHEAD, strategy, max_extent=12.0, limit=0)
+
+
 def test_max_extent_for_density():
     assert max_extent_for_density(1024, 48.0) == pytest.approx(1024 / 48)
     with pytest.raises(ValueError):

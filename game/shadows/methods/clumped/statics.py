@@ -19,6 +19,8 @@ from game.shadows.methods.clumped.context import LightContext
 from game.shadows.methods.clumped.layers import LayerPool
 from game.shadows.methods.clumped.units import StaticUnits, UnitKey, make_units, max_extent
 
+LAMP_SEARCH = 4  # clumps at the target counted past a lamp's layers, in multiples of them
+
 
 class ClumpMembers:
     """The clumps of one light: each clump's unit keys and layers, and which must be drawn."""
@@ -56,14 +58,21 @@ class ClumpMembers:
         if count is not None and count > max_clumps:
             ctx.notes.append(f"{count} clumps asked, {max_clumps} fit the layer budget")
             count = max_clumps
-        clumps, core, long_clumps, footprint = self._clumps_at_target(count)
+        # Around a lamp the clumps short of the budget are made anew by count
+        # (:meth:`_fewer_clumps`), so the clumps at the target are only counted, and only as
+        # far as shows that they cannot fit: a lamp whose cone spans a whole level could ask for
+        # tens of thousands, minutes of splitting for a number in a note.
+        search = (None if count is not None or ctx.kind.orthographic
+                  else LAMP_SEARCH * max(1, max_clumps))
+        clumps, core, long_clumps, footprint = self._clumps_at_target(count, search)
         room = max(1, max_clumps - len(long_clumps))
         layers = self._layers_for(clumps, core)
         if layers > room:
             needed = layers + len(long_clumps)
+            more = "more than " if search is not None and len(clumps) >= search else ""
             self.short = True
             ctx.notes.append(
-                f"{needed} clumps would meet {s.texels_per_metre:g} "
+                f"{more}{needed} clumps would meet {s.texels_per_metre:g} "
                 f"texels/m; {max_clumps} layers fit the {s.budget_mib:g} MiB budget and "
                 "the GL's layers, so texels are coarser")
             if count is None and ctx.kind.orthographic:
@@ -97,10 +106,12 @@ class ClumpMembers:
         dropping one clump per layer over can take a point light among many statics from 46
         clumps in 101 layers to a single cube, a sixth of the layers it was given."""
         points = [self.units.points[u] for u in core]
+        summaries = clumping.object_summaries(points, footprint)
 
         def clumps_of(count: int) -> tuple[list[clumping.Clump], int]:
             clumps = self._one_cube(clumping.make_clumps(
-                points, footprint, self.ctx.settings.clumping, 0.0, count), core)
+                points, footprint, self.ctx.settings.clumping, 0.0, count,
+                summaries=summaries), core)
             return clumps, self._layers_for(clumps, core)
 
         clumps, layers = clumps_of(room)
@@ -132,9 +143,10 @@ class ClumpMembers:
                                 clumping.union_rect(np.array([c.rect for c in cubes])))
         return [c for c in clumps if all(c is not cube for cube in cubes)] + [merged]
 
-    def _clumps_at_target(self, count: int | None):
-        """The units' clumps at the density target (or ``count`` of them), the core units
-        they are made of, the long faces' clumps, and the light's footprint function."""
+    def _clumps_at_target(self, count: int | None, search: int | None = None):
+        """The units' clumps at the density target (or ``count`` of them; no more than
+        ``search`` where given), the core units they are made of, the long faces' clumps, and
+        the light's footprint function."""
         ctx, units = self.ctx, self.units
         footprint, per_metre = ctx.kind.footprint(ctx.light, units.points)
         long_keys = [k for k in units.keys if k in units.long]
@@ -144,7 +156,7 @@ class ClumpMembers:
             count = max(1, min(count, len(core)) - len(long_clumps)) if core else None
         clumps = clumping.make_clumps([units.points[u] for u in core], footprint,
                                       ctx.settings.clumping, self._max_extent(per_metre),
-                                      count) if core else []
+                                      count, search) if core else []
         return clumps, core, long_clumps, footprint
 
     def _layers_for(self, clumps: list[clumping.Clump], core: list[int]) -> int:
