@@ -171,8 +171,10 @@ def group(sizes: list[int], rects: np.ndarray | None, max_resolution: int,
     one map is cheaper (``merge``), and merged further while there are more than ``max_maps``
     (those groups get coarser texels: degrade, never drop a shadow).
 
-    ``rects`` (n, 4) are the light-space squares of the bounding spheres (directional light);
-    without them, maps are only merged to meet ``max_maps``, round robin.
+    ``rects`` (n, 4) are the light-space squares of the bounding spheres (directional light)
+    or the rectangles of directions seen from a lamp: groups merged to meet ``max_maps`` are
+    the nearest in them. Without them, maps are only merged to meet ``max_maps``, round robin,
+    which suits no map that is one frustum from a lamp.
     """
     n = len(sizes)
     limit = n if max_maps is None else max(1, max_maps)

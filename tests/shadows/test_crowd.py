@@ -10,8 +10,10 @@ import pytest
 from game import transforms
 from game.render.renderer import Renderer, View
 from game.scene import parse_scene
+from game.scene.geometry import pack
 from game.shadows import crowd
 from game.shadows.fit import fit_directional, fit_squares
+from game.shadows.lights import LightShadows
 from game.shadows.plan import (
     CHARACTER_DENSITY_FLOOR,
     KIND_CHARACTER,
@@ -303,3 +305,54 @@ def test_the_density_floor_follows_the_clump_maps_where_the_budget_holds_them_co
     assert len(maps) == 1
     # The target's floor would ask 2 r 200 texels: the largest map, 256^2.
     assert 2.0 * radius * reached * CHARACTER_DENSITY_FLOOR <= maps[0].viewport < 256
+
+
+def _ring(kind: str, height: float, camera: str = "[0.0, 0.0, 0.0]"):
+    """Forty walkers standing in a ring 4 m around a lamp of ``kind`` at ``height``."""
+    aim = 'direction = [0.0, -1.0, 0.0]\ncone = 170.0\n' if kind == "spot" else ""
+    walkers = "".join(
+        f'[[character]]\nshape = "capsule"\nradius = 0.3\nheight = 1.8\n'
+        f"path = [[{4 * np.cos(a):.3f}, 0.9, {4 * np.sin(a):.3f}]]\nspeed = 0.0\n\n"
+        for a in np.linspace(0.0, 2 * np.pi, 40, endpoint=False))
+    return parse_scene(
+        f'name = "ring"\n[camera]\nposition = [0.0, 12.0, 12.0]\ntarget = {camera}\n'
+        f'[[light]]\nkind = "{kind}"\nposition = [0.0, {height}, 0.0]\n{aim}\n'
+        '[[floor]]\nshape = "box"\nsize = [30.0, 0.2, 30.0]\nposition = [0.0, -0.1, 0.0]\n\n'
+        '[[static]]\nshape = "box"\nsize = [1.0, 1.0, 1.0]\nposition = [10.0, 0.5, 10.0]\n\n'
+        + walkers)
+
+
+@pytest.mark.parametrize("kind", ["point", "spot"])
+def test_walkers_that_share_a_lamps_map_for_want_of_records_all_lie_in_it(kind):
+    """Walkers in a ring around a lamp, with too few map records for one map each: walkers
+    must share maps. A shared map is one frustum from the lamp, so its walkers must be
+    neighbours seen from it; walkers on either side of the lamp in one map fall outside its
+    frustum, and their shadows are lost (random scene 88, whose near walkers left wedges
+    lit). The point lamp is at the walkers' chests, so that no frustum holds two opposite."""
+    scene = _ring(kind, 2.5 if kind == "spot" else 1.2)
+    geom = pack(scene)
+    shadows = LightShadows(geom, scene.lights, ShadowSettings(), 64, 24)
+    models = np.stack([c.model_matrix(0.0) for c in scene.characters])
+    plan, _ = shadows.plan(models)
+    maps = [m for m in plan.maps if m.kind == KIND_CHARACTER]
+    assert 4 < len(maps) < len(scene.characters), len(maps)  # shared, for want of records
+    first = geom.character_object(0)
+    held = []
+    for m in maps:
+        for o in m.objects:
+            pts = geom.character_points[o - first]
+            world = pts @ models[o - first][:3, :3].T + models[o - first][:3, 3]
+            clip = np.c_[world, np.ones(len(world))] @ m.fit.view_proj.T
+            held.append(bool((clip[:, 3] > 0).all()
+                             and (np.abs(clip[:, :2]) <= clip[:, 3:4] * (1 + 1e-6)).all()))
+    assert len(held) == len(scene.characters) and all(held), held
+
+
+def test_a_lamps_walkers_whose_shadows_the_view_cannot_see_get_no_map():
+    """The camera looks at the sky: a spot lamp over the ring shadows nothing it sees, so no
+    walker is shown and none gets a map (an empty crowd is planned without a failure)."""
+    scene = _ring("spot", 2.5, camera="[0.0, 40.0, -30.0]")
+    shadows = LightShadows(pack(scene), scene.lights, ShadowSettings(), 64, 24)
+    models = np.stack([c.model_matrix(0.0) for c in scene.characters])
+    plan, _ = shadows.plan(models, View.from_camera(scene.camera, (320, 180)))
+    assert not [m for m in plan.maps if m.kind == KIND_CHARACTER]

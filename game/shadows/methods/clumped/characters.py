@@ -15,6 +15,7 @@ from game.shadows.fit import MapFit, fit_squares
 from game.shadows.method import reached_characters
 from game.shadows.methods.clumped.context import LightContext
 from game.shadows.methods.clumped.layers import LayerPool
+from game.shadows.octahedral import octahedral_encode
 from game.shadows.plan import CHARACTER_DENSITY_FLOOR, KIND_CHARACTER, CharacterCounts, MapRecord
 
 
@@ -103,13 +104,16 @@ class CharacterMaps:
             needed = self._needed(view, visible, placed, centres, radii, clump_density)
         shown = np.flatnonzero(visible)
         sizes = self.crowd.sizes([self.names[i] for i in shown.tolist()], needed[shown])
-        rects = None
         if ctx.kind.orthographic:
             xy = centres[shown] @ ctx.rotation[:2].T
             r = radii[shown][:, None]
             rects = np.concatenate([xy - r, xy + r], axis=1)
+        else:
+            rects = self._seen_from_lamp(placed[shown])
+        # Around a lamp, walkers share a map only where the records run short: one frustum
+        # holds the neighbours the rectangles seen from the lamp pair up.
         planned = crowd.group(sizes, rects, self.resolution, room,
-                              merge=s.character_texels_per_pixel > 0)
+                              merge=s.character_texels_per_pixel > 0 and ctx.kind.orthographic)
         shrunk = crowd.pack(planned, len(self.layers), s.clump_resolution)
         covers = fits = None
         if ctx.kind.orthographic:
@@ -143,6 +147,20 @@ class CharacterMaps:
             drawn += 1
         return CharacterCounts(drawn, int(n - len(shown)),
                                sum(len(m.members) for m in planned if len(m.members) > 1), shrunk)
+
+    def _seen_from_lamp(self, placed: np.ndarray) -> np.ndarray:
+        """Each walker's rectangle (n, 4) of the directions it spans seen from the lamp
+        (octahedral coordinates, pole straight down, where walkers below a lamp lie unfolded),
+        from its posed box ``placed`` (n, 8, 3). Walkers merged where the map records run short
+        must be neighbours seen from the lamp: one frustum over walkers on either side of it
+        clips them away, and their shadows with them."""
+        d = placed.reshape(-1, 3) - np.asarray(self.ctx.light.position, float)
+        with np.errstate(invalid="ignore"):  # a corner at the lamp has no direction: NaN
+            e = octahedral_encode(np.stack([d[:, 0], d[:, 2], -d[:, 1]], axis=1))
+            e = e.reshape(*placed.shape[:2], 2)
+            rects = np.concatenate([np.fmin.reduce(e, axis=1), np.fmax.reduce(e, axis=1)],
+                                   axis=1)
+        return np.nan_to_num(rects)
 
     def _needed(self, view, visible: np.ndarray, placed: np.ndarray, centres: np.ndarray,
                 radii: np.ndarray, clump_density: float) -> np.ndarray:
