@@ -281,6 +281,18 @@ def split_light(idx: np.ndarray, rects: np.ndarray) -> tuple[np.ndarray, np.ndar
     return np.sort(idx[order[:cut]]), np.sort(idx[order[cut:]])
 
 
+def _check_clump_args(strategy: str, max_extent: float, count: int | None,
+                      limit: int | None) -> None:
+    if strategy not in STRATEGIES:
+        raise ValueError(f"unknown clumping strategy {strategy!r}; valid: {', '.join(STRATEGIES)}")
+    if count is not None and count < 1:
+        raise ValueError(f"count must be at least 1, got {count}")
+    if limit is not None and limit < 1:
+        raise ValueError(f"limit must be at least 1, got {limit}")
+    if count is None and (np.isnan(max_extent) or max_extent <= 0):
+        raise ValueError(f"max_extent must be positive, got {max_extent}")
+
+
 def make_clumps(
     points: Sequence[np.ndarray],
     footprint: Footprint,
@@ -311,26 +323,19 @@ def make_clumps(
         Split largest-first until exactly this many clumps exist (or one per object, if there are
         fewer objects), regardless of ``max_extent``.
     limit : int, optional
-        With ``max_extent``: stop splitting once this many clumps exist, so that a caller who
-        can afford far fewer maps learns that the target is out of reach without paying for
-        every split it would take (the clumps returned then need not fit ``max_extent``).
+        With ``max_extent`` (ignored with ``count``): stop splitting once this many clumps
+        exist, so that a caller who can afford far fewer maps learns that the target is out of
+        reach without paying for every split it would take (the clumps returned then need not
+        fit ``max_extent``).
     summaries : (rects, centres), optional
-        :func:`object_summaries` of ``points``, for a caller that clumps the same objects
-        several times.
+        :func:`object_summaries` of ``points``, for a caller that clumps them several times.
 
     Returns
     -------
     list of Clump
         Disjoint clumps covering every object once, ordered by their smallest member.
     """
-    if strategy not in STRATEGIES:
-        raise ValueError(f"unknown clumping strategy {strategy!r}; valid: {', '.join(STRATEGIES)}")
-    if count is not None and count < 1:
-        raise ValueError(f"count must be at least 1, got {count}")
-    if limit is not None and limit < 1:
-        raise ValueError(f"limit must be at least 1, got {limit}")
-    if count is None and (np.isnan(max_extent) or max_extent <= 0):
-        raise ValueError(f"max_extent must be positive, got {max_extent}")
+    _check_clump_args(strategy, max_extent, count, limit)
     n = len(points)
     if n == 0:
         return []

@@ -165,23 +165,17 @@ class CrowdPlanner:
         self._size = {n: s for n, s in self._size.items() if n in keep}
 
 
-def group(sizes: list[int], rects: np.ndarray | None, max_resolution: int,
+def group(sizes: list[int], rects: np.ndarray, max_resolution: int,
           max_maps: int | None = None, merge: bool = True) -> list[CrowdMap]:
     """Maps for characters of these sizes: one each, merged in pairs where the cost model says
     one map is cheaper (``merge``), and merged further while there are more than ``max_maps``
     (those groups get coarser texels: degrade, never drop a shadow).
 
-    ``rects`` (n, 4) are the light-space squares of the bounding spheres (directional light)
-    or the rectangles of directions seen from a lamp: groups merged to meet ``max_maps`` are
-    the nearest in them. Without them, maps are only merged to meet ``max_maps``, round robin,
-    which suits no map that is one frustum from a lamp.
+    ``rects`` (n, 4) are the light-space squares of the bounding spheres (a directional
+    light; around a lamp, game/shadows/crowd_runs.py).
     """
     n = len(sizes)
     limit = n if max_maps is None else max(1, max_maps)
-    if rects is None:
-        if n <= limit:
-            return [CrowdMap([i], sizes[i]) for i in range(n)]
-        return [CrowdMap(list(range(g, n, limit)), max_resolution) for g in range(limit)]
     half = 0.5 * (rects[:, 2:] - rects[:, :2]).max(axis=1)
     texel = 2.0 * half / (np.asarray(sizes, float) - SPARE_TEXELS)  # as fit_directional's
     boxes, texels = rects.tolist(), texel.tolist()

@@ -158,9 +158,6 @@ def test_more_characters_than_map_records_are_merged_never_dropped():
     maps = crowd.group([128] * 20, rects, 512, max_maps=5)
     assert len(maps) == 5
     assert sorted(k for m in maps for k in m.members) == list(range(20))
-    # Without footprints (spot and point lights) too.
-    maps = crowd.group([128] * 20, None, 512, max_maps=5)
-    assert len(maps) == 5 and sorted(k for m in maps for k in m.members) == list(range(20))
 
 
 def test_a_frames_fits_at_once_equal_the_fits_one_by_one():

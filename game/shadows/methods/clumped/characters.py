@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from game.shadows import crowd
+from game.shadows import crowd, crowd_runs
 from game.shadows.atlas import Square
 from game.shadows.fit import MapFit, fit_squares
 from game.shadows.method import reached_characters
@@ -108,12 +108,14 @@ class CharacterMaps:
             xy = centres[shown] @ ctx.rotation[:2].T
             r = radii[shown][:, None]
             rects = np.concatenate([xy - r, xy + r], axis=1)
+            planned = crowd.group(sizes, rects, self.resolution, room,
+                                  merge=s.character_texels_per_pixel > 0)
         else:
-            rects = self._seen_from_lamp(placed[shown])
-        # Around a lamp, walkers share a map only where the records run short: one frustum
-        # holds the neighbours the rectangles seen from the lamp pair up.
-        planned = crowd.group(sizes, rects, self.resolution, room,
-                              merge=s.character_texels_per_pixel > 0 and ctx.kind.orthographic)
+            # Around a lamp walkers share a map only where the records run short: the maps
+            # are frusta aimed at each caster, whose texels would not line up as a cost
+            # model's groups need (docs/design/crowds.md).
+            seen = self._seen_from_lamp(placed[shown]) if len(shown) > room else None
+            planned = crowd_runs.runs(sizes, seen, self.resolution, room)
         shrunk = crowd.pack(planned, len(self.layers), s.clump_resolution)
         covers = fits = None
         if ctx.kind.orthographic:
@@ -149,18 +151,15 @@ class CharacterMaps:
                                sum(len(m.members) for m in planned if len(m.members) > 1), shrunk)
 
     def _seen_from_lamp(self, placed: np.ndarray) -> np.ndarray:
-        """Each walker's rectangle (n, 4) of the directions it spans seen from the lamp
-        (octahedral coordinates, pole straight down, where walkers below a lamp lie unfolded),
-        from its posed box ``placed`` (n, 8, 3). Walkers merged where the map records run short
-        must be neighbours seen from the lamp: one frustum over walkers on either side of it
-        clips them away, and their shadows with them."""
+        """Where each walker lies seen from the lamp (n, 2): the centre of the directions its
+        posed box ``placed`` (n, 8, 3) spans, in octahedral coordinates with the pole straight
+        down, where walkers below a lamp lie unfolded."""
         d = placed.reshape(-1, 3) - np.asarray(self.ctx.light.position, float)
         with np.errstate(invalid="ignore"):  # a corner at the lamp has no direction: NaN
             e = octahedral_encode(np.stack([d[:, 0], d[:, 2], -d[:, 1]], axis=1))
             e = e.reshape(*placed.shape[:2], 2)
-            rects = np.concatenate([np.fmin.reduce(e, axis=1), np.fmax.reduce(e, axis=1)],
-                                   axis=1)
-        return np.nan_to_num(rects)
+            centre = (np.fmin.reduce(e, axis=1) + np.fmax.reduce(e, axis=1)) / 2
+        return np.nan_to_num(centre)
 
     def _needed(self, view, visible: np.ndarray, placed: np.ndarray, centres: np.ndarray,
                 radii: np.ndarray, clump_density: float) -> np.ndarray:

@@ -69,10 +69,12 @@ class ClumpMembers:
         layers = self._layers_for(clumps, core)
         if layers > room:
             needed = layers + len(long_clumps)
-            more = "more than " if search is not None and len(clumps) >= search else ""
+            if search is not None and len(clumps) >= search:
+                # Counted only so far: every clump takes a layer at least.
+                needed = f"at least {search + len(long_clumps)}"
             self.short = True
             ctx.notes.append(
-                f"{more}{needed} clumps would meet {s.texels_per_metre:g} "
+                f"{needed} clumps would meet {s.texels_per_metre:g} "
                 f"texels/m; {max_clumps} layers fit the {s.budget_mib:g} MiB budget and "
                 "the GL's layers, so texels are coarser")
             if count is None and ctx.kind.orthographic:
