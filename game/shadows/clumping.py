@@ -283,6 +283,7 @@ def split_light(idx: np.ndarray, rects: np.ndarray) -> tuple[np.ndarray, np.ndar
 
 def _check_clump_args(strategy: str, max_extent: float, count: int | None,
                       limit: int | None) -> None:
+    """ValueError where :func:`make_clumps`'s arguments make no clumps."""
     if strategy not in STRATEGIES:
         raise ValueError(f"unknown clumping strategy {strategy!r}; valid: {', '.join(STRATEGIES)}")
     if count is not None and count < 1:

@@ -19,8 +19,8 @@ CURVE_BITS = 16  # cells per side of the curve's grid, as a power of two
 
 
 def hilbert_order(points: np.ndarray) -> np.ndarray:
-    """Each point's (n, 2) distance along a Hilbert curve over the points' bounding square's
-    grid of ``2**CURVE_BITS`` cells per side."""
+    """The distance of each of ``points`` (n, 2) along a Hilbert curve over a grid of
+    ``2**CURVE_BITS`` cells per side laid on the points' bounding square."""
     p = np.nan_to_num(np.asarray(points, float))
     side = 1 << CURVE_BITS
     lo = p.min(axis=0) if len(p) else np.zeros(2)
