@@ -280,7 +280,7 @@ def results_page(runs: list[RecordedRun], here: Path, caches: list[SuiteRun] = (
     lines += question_one(runs, here) + question_two(runs, here)
     lines += shading_section(runs, here, header)
     for window in windows:
-        lines += window_section(window, here)
+        lines += window_section(window, here, header, table)
     for cache in caches:
         lines += cache_section(cache, here)
     for sweep in sweeps:

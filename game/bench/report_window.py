@@ -10,7 +10,6 @@ GL work runs in the process); on a GPU by wall time, which holds the GPU's work.
 from __future__ import annotations
 
 import math
-import os
 import statistics
 from pathlib import Path
 
@@ -79,27 +78,22 @@ def _setup(rows: list[dict], column: str) -> str:
                "view." if sweep else ""))
 
 
-def window_section(run: SuiteRun, here: Path) -> list[str]:
-    """The section: how the run was made, a table of its runs, then the ratios."""
-    rows, rec = run.rows, run.record
+def window_section(run: SuiteRun, here: Path, header, table) -> list[str]:
+    """The section: how the run was made, a table of its runs, then the ratios; ``header``
+    and ``table`` are the results page's (game/bench/report.py)."""
+    rows = run.rows
     column = "fps_cpu" if software_renderer(rows[0]["renderer"]) else "fps_wall"
-    where = Path(os.path.relpath(run.folder, here)).as_posix()
-    code = f"; code `{rec['commit'][:10]}`" if rec.get("commit") else ""
-    code += " with local changes" if rec.get("dirty") else ""
-    lines = ["## The window's frame rate", "",
-             f"Run [`{run.name}`]({where}/run.json): `{rec['command']}`; {rec.get('renderer')}, "
-             f"OpenGL {rec.get('version')}; {rec['date']}{code}.", "", _setup(rows, column), ""]
+    lines = ["## The window's frame rate", "", *header(run, here), _setup(rows, column), ""]
     keys = list(dict.fromkeys(_key(r) for r in rows))
     rounds = sorted({int(r["round"]) for r in rows})
-    head = ["run"] + [f"fps, round {n}" for n in rounds] + ["shading pass ms (median)"]
-    lines += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    body = []
     for key in keys:
         fps = _fps(rows, key, column)
         shade = statistics.median(row_number(r, "shade_ms") for r in rows if _key(r) == key)
-        cells = ([_label(key)] + [f"{fps[n]:.2f}" if n in fps else "-" for n in rounds]
-                 + [f"{shade:.1f}"])
-        lines.append("| " + " | ".join(cells) + " |")
-    lines.append("")
+        body.append([_label(key)] + [f"{fps[n]:.2f}" if n in fps else "-" for n in rounds]
+                    + [f"{shade:.1f}"])
+    lines += table(["run"] + [f"fps, round {n}" for n in rounds] + ["shading pass ms (median)"],
+                   body)
     soft = [k for k in keys if k[1]]
     method = soft[0][0] if soft else "clumped"
     turn = next((k[2] for k in keys if k[2]), 0.0)

@@ -182,12 +182,13 @@ def _report(args) -> int:
     return 0
 
 
-def _refuse_sweep_flags(args, what: str) -> None:
-    """A suite of its own takes none of the sweep's choices: one line naming those given."""
+def _refuse_sweep_flags(args, what: str, extra: tuple[str, ...] | list[str] = ()) -> None:
+    """A suite of its own takes none of the sweep's choices: one line naming those given,
+    with the ``extra`` flags given that the suite also refuses."""
     given = [flag for flag, value in (("--scenes", args.scenes), ("--methods", args.methods),
                                       ("--param", args.param), ("--list", args.list),
                                       ("--frames", args.frames), ("--repeat", args.repeat > 1))
-             if value]
+             if value] + list(extra)
     if given:
         raise ArgumentError(f"{what}; {', '.join(given)} belong{'s' if len(given) == 1 else ''} "
                             "to the sweep")
@@ -225,17 +226,13 @@ def _window_suite(args) -> int:
     from game.app import outputs
     from game.bench import window_suite as ws
 
-    _refuse_sweep_flags(args, "--suite window measures a fixed set")
-    given = given_flags(args, ("--warmup", "--error-frames", "--flicker-frames"))
-    given += [flag for flag, value in (("--size", args.size), ("--clock", args.clock != "auto"))
-              if value]
     if args.report is not None:
         raise ArgumentError("--suite window measures; --report writes the page from recorded "
                             "runs: give one or the other")
-    if given:
-        raise ArgumentError(f"--suite window measures the window as play opens it; "
-                            f"{', '.join(given)} belong{'s' if len(given) == 1 else ''} to the "
-                            "sweep")
+    given = given_flags(args, ("--warmup", "--error-frames", "--flicker-frames"))
+    given += [flag for flag, value in (("--size", args.size), ("--clock", args.clock != "auto"))
+              if value]
+    _refuse_sweep_flags(args, "--suite window measures the window as play opens it", given)
     out = args.out or Path("bench_window")
     _check_out(out)
     outputs.check_paths(files=[out / "window.csv", out / "run.json"])

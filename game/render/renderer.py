@@ -215,7 +215,7 @@ class Renderer(SceneEdits):
             self._soft_bind = self.traced.before_shade(
                 self.geom, models, soft, view, lambda points: self.shading.draw(
                     points, self.shadow_pass, Variant.points(), self.culler, culled))
-        bind = self._lean_bind()
+        bind = self._soft_bind if self.target.gbuffer == GBuffer.LEAN else None
         with timer.measure(passes.SHADE):
             count = self.counts.count_now(self.shadows)
             variant = Variant.of(self.target.gbuffer, self.scene.lights, self.settings.pcf,
@@ -248,11 +248,6 @@ class Renderer(SceneEdits):
         self.last_view, self.last_models = view, models
         return plan, grids[0].mode, bounded
 
-    def _lean_bind(self):
-        """What binds the soft blocks to the shading pass where the target holds the lean
-        G-buffer (a direct soft frame, whose every draw of the pass reads them), else None."""
-        return self._soft_bind if self.target.gbuffer == GBuffer.LEAN else None
-
     def _frame(self, counts: dict, culled: bool, read: bool) -> Frame:
         """The frame's record, with its ``counts`` (:func:`plan_counts`)."""
         counts = {**counts, "depth_first": self.shading.depth_first.on,
@@ -265,8 +260,7 @@ class Renderer(SceneEdits):
             covered = rgba[..., 3] > 0
             gbuffer = (self.target.read_gbuffer(covered) if self.target.gbuffer == GBuffer.FULL
                        else None)
-        candidates = (self.shading.candidates(self.target, self.shadow_pass, self.culler,
-                                              self._lean_bind())
+        candidates = (self.shading.candidates(self.target, self.shadow_pass, self.culler)
                       if self.count_candidates else None)
         if gbuffer is not None and len(self.scene.lights) > 1:
             variant = Variant.of(GBuffer.FULL, self.scene.lights, self.settings.pcf,

@@ -72,7 +72,8 @@ class ShadingPass:
         self.depth_first = DepthFirstChoice(depth_first)
         self._programs: dict[Variant, tuple] = {}
         self._depth: tuple | None = None   # the depth pass's program and vertex arrays
-        self.last: tuple[Variant, bool] | None = None  # the last draw's variant, culled_only
+        # The last draw's variant, culled_only and bind, for :meth:`candidates` to replay.
+        self.last: tuple[Variant, bool, Callable[[object], None] | None] | None = None
 
     def _program(self, variant: Variant, culler: TriangleCuller | None) -> tuple:
         """(program, vertex array over every triangle, vertex array over the culled ones)."""
@@ -117,12 +118,11 @@ class ShadingPass:
             vao.render(moderngl.TRIANGLES, vertices=total - closed, first=closed)
 
     def candidates(self, target: FrameTarget, maps: ShadowMapPass,
-                   culler: TriangleCuller | None,
-                   bind: Callable[[object], None] | None = None) -> np.ndarray:
+                   culler: TriangleCuller | None) -> np.ndarray:
         """(H, W) map records each pixel considered in the last draw: it is drawn again
-        (outside the frame's timings) with the records counted in the colour's alpha, which
-        alone differs. ``bind`` as :meth:`draw` takes it: what the last draw bound besides."""
-        variant, culled_only = self.last
+        (outside the frame's timings), with what it bound besides, and the records counted in
+        the colour's alpha, which alone differs."""
+        variant, culled_only, bind = self.last
         self.draw(target, maps, variant._replace(count_pixels=False, count_candidates=True),
                   culler, culled_only, bind)
         return np.maximum(target.read_colour()[..., 3].astype(np.int32) - 1, 0)
@@ -152,7 +152,7 @@ class ShadingPass:
         blocks, game/soft/direct.py)."""
         prog, vao, culled = self._program(variant, culler)
         if not variant.unlit:
-            self.last = (variant, culled_only)
+            self.last = (variant, culled_only, bind)
         target.begin()
         if bind is not None:
             bind(prog)

@@ -11,6 +11,8 @@ and a sort each frame costs far less than merging the nearest pair again and aga
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from game.shadows.crowd import CrowdMap
@@ -42,17 +44,17 @@ def hilbert_order(points: np.ndarray) -> np.ndarray:
     return d
 
 
-def runs(sizes: list[int], directions: np.ndarray | None, max_resolution: int,
-         max_maps: int | None = None) -> list[CrowdMap]:
+def runs(sizes: list[int], directions: Callable[[], np.ndarray], max_resolution: int,
+         max_maps: int) -> list[CrowdMap]:
     """Maps for walkers of these sizes around a lamp: one each, or, where there are more than
-    ``max_maps``, that many runs of neighbours along the curve over ``directions`` (n, 2: where
-    each walker lies seen from the lamp; read only then). A run of several walkers is fitted
-    at ``max_resolution``, coarser than asked: degrade, never drop a shadow."""
+    ``max_maps``, that many runs of neighbours along the curve over ``directions()`` (n, 2:
+    where each walker lies seen from the lamp; asked only then). A run of several walkers is
+    fitted at ``max_resolution``, coarser than asked: degrade, never drop a shadow."""
     n = len(sizes)
-    limit = n if max_maps is None else max(1, max_maps)
+    limit = max(1, max_maps)
     if n <= limit:
         return [CrowdMap([i], sizes[i]) for i in range(n)]
-    order = np.argsort(hilbert_order(directions), kind="stable")
+    order = np.argsort(hilbert_order(directions()), kind="stable")
     return [CrowdMap(sorted(run.tolist()),
                      sizes[int(run[0])] if len(run) == 1 else max_resolution)
             for run in np.array_split(order, limit)]

@@ -40,7 +40,7 @@ def test_the_order_is_the_textbook_curve_and_steps_one_cell_at_a_time():
 def test_walkers_in_a_ring_share_maps_with_their_neighbours_and_every_one_has_one():
     angles = np.random.default_rng(5).permutation(np.linspace(0, 2 * np.pi, 40, endpoint=False))
     directions = np.stack([np.cos(angles), np.sin(angles)], axis=1)
-    maps = runs([256] * 40, directions, 512, max_maps=10)
+    maps = runs([256] * 40, lambda: directions, 512, max_maps=10)
     assert len(maps) == 10
     assert sorted(k for m in maps for k in m.members) == list(range(40))
     for m in maps:
@@ -53,5 +53,8 @@ def test_walkers_in_a_ring_share_maps_with_their_neighbours_and_every_one_has_on
 
 
 def test_walkers_the_records_hold_keep_a_map_each_at_their_own_size():
-    maps = runs([64, 128, 256], None, 512, max_maps=5)
+    def unasked():
+        raise AssertionError("the directions are not needed")
+
+    maps = runs([64, 128, 256], unasked, 512, max_maps=5)
     assert [(m.members, m.resolution) for m in maps] == [([0], 64), ([1], 128), ([2], 256)]

@@ -114,8 +114,8 @@ class CharacterMaps:
             # Around a lamp walkers share a map only where the records run short: the maps
             # are frusta aimed at each caster, whose texels would not line up as a cost
             # model's groups need (docs/design/crowds.md).
-            seen = self._seen_from_lamp(placed[shown]) if len(shown) > room else None
-            planned = crowd_runs.runs(sizes, seen, self.resolution, room)
+            planned = crowd_runs.runs(sizes, lambda: self._seen_from_lamp(placed[shown]),
+                                      self.resolution, room)
         shrunk = crowd.pack(planned, len(self.layers), s.clump_resolution)
         covers = fits = None
         if ctx.kind.orthographic:

@@ -64,7 +64,7 @@ class ClumpMembers:
         # tens of thousands, minutes of splitting for a number in a note.
         search = (None if count is not None or ctx.kind.orthographic
                   else LAMP_SEARCH * max(1, max_clumps))
-        clumps, core, long_clumps, footprint = self._clumps_at_target(count, search)
+        clumps, core, long_clumps, footprint, summaries = self._clumps_at_target(count, search)
         room = max(1, max_clumps - len(long_clumps))
         layers = self._layers_for(clumps, core)
         if layers > room:
@@ -87,9 +87,9 @@ class ClumpMembers:
                 # anew into a different number of maps.
                 self.extent_scale = math.sqrt(needed / max_clumps)
                 self._make_units()
-                clumps, core, long_clumps, footprint = self._clumps_at_target(None)
+                clumps, core, long_clumps, footprint, summaries = self._clumps_at_target(None)
                 room = max(1, max_clumps - len(long_clumps))
-            clumps = self._fewer_clumps(core, footprint, room)
+            clumps = self._fewer_clumps(core, footprint, summaries, room)
         for layers in self.layers:
             for layer in layers:
                 self.pool.give(layer)
@@ -99,16 +99,17 @@ class ClumpMembers:
         self.shared_faces = {}
         self.mark_all()
 
-    def _fewer_clumps(self, core: list[int], footprint, room: int) -> list[clumping.Clump]:
+    def _fewer_clumps(self, core: list[int], footprint, summaries,
+                      room: int) -> list[clumping.Clump]:
         """The most clumps of the ``core`` units whose maps fit ``room`` layers: a clump around
         a point light takes a cube's six, so fewer clumps until the maps of all of them fit.
 
         The count is searched by halves: merging clumps can turn several one-map clumps into
         one cube of six, so the layers over the room say little of how many clumps to drop:
         dropping one clump per layer over can take a point light among many statics from 46
-        clumps in 101 layers to a single cube, a sixth of the layers it was given."""
+        clumps in 101 layers to a single cube, a sixth of the layers it was given. The core
+        units' ``summaries`` are :meth:`_clumps_at_target`'s."""
         points = [self.units.points[u] for u in core]
-        summaries = clumping.object_summaries(points, footprint)
 
         def clumps_of(count: int) -> tuple[list[clumping.Clump], int]:
             clumps = self._one_cube(clumping.make_clumps(
@@ -147,8 +148,8 @@ class ClumpMembers:
 
     def _clumps_at_target(self, count: int | None, search: int | None = None):
         """The units' clumps at the density target (or ``count`` of them; no more than
-        ``search`` where given), the core units they are made of, the long faces' clumps, and
-        the light's footprint function."""
+        ``search`` where given), the core units they are made of, the long faces' clumps, the
+        light's footprint function, and the core units' summaries (None without any)."""
         ctx, units = self.ctx, self.units
         footprint, per_metre = ctx.kind.footprint(ctx.light, units.points)
         long_keys = [k for k in units.keys if k in units.long]
@@ -156,10 +157,13 @@ class ClumpMembers:
         long_clumps = self.long_clumps(long_keys, footprint)
         if count is not None:
             count = max(1, min(count, len(core)) - len(long_clumps)) if core else None
-        clumps = clumping.make_clumps([units.points[u] for u in core], footprint,
-                                      ctx.settings.clumping, self._max_extent(per_metre),
-                                      count, search) if core else []
-        return clumps, core, long_clumps, footprint
+        if not core:
+            return [], core, long_clumps, footprint, None
+        points = [units.points[u] for u in core]
+        summaries = clumping.object_summaries(points, footprint)
+        clumps = clumping.make_clumps(points, footprint, ctx.settings.clumping,
+                                      self._max_extent(per_metre), count, search, summaries)
+        return clumps, core, long_clumps, footprint, summaries
 
     def _layers_for(self, clumps: list[clumping.Clump], core: list[int]) -> int:
         """The layers these clumps' maps take: one each, six for a clump around the light."""
