@@ -63,6 +63,13 @@ class LightKind:
         """Whether a range or a cone keeps the light from reaching every caster."""
         return light.range is not None
 
+    def finest_extent(self, light: Light, side: int, base_side: int) -> float | None:
+        """The widest a clump may be, in footprint units, for its map of ``side`` texels to
+        be no coarser than the baselines' map of ``base_side`` texels for this light; None
+        where the density target alone bounds clumps (parallel light: its target, in metres,
+        holds at every distance, as its maps' texels do)."""
+        return None
+
     def footprint(self, light: Light, statics: list[np.ndarray]) -> tuple[Footprint, float]:
         """The light-space footprint function clumping measures casters with, and its units
         per metre at the casters' typical distance."""
@@ -151,6 +158,10 @@ class Spot(LightKind):
 
         return spot, 1.0 / typical
 
+    def finest_extent(self, light: Light, side: int, base_side: int) -> float | None:
+        # The baselines' one map spans the cone's tangents.
+        return side * 2.0 * _cone_tan(light) / base_side
+
     def fit(self, light: Light, points: np.ndarray, resolution: int,
             rotation: np.ndarray | None, radius: float | None = None) -> MapFit | None:
         if outside_cone(points, light.position, light.direction, light.cone):
@@ -199,6 +210,10 @@ class Point(LightKind):
 
         # An octahedral unit spans about pi/2 radians.
         return point, 1.0 / (typical * math.pi / 2)
+
+    def finest_extent(self, light: Light, side: int, base_side: int) -> float | None:
+        # A face of the baselines' cube spans pi/2 radians, about one octahedral unit.
+        return side / base_side
 
     def engine_fits(self, light: Light, points: np.ndarray, resolution: int,
                     rotation: np.ndarray | None) -> list[MapFit]:

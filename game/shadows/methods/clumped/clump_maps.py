@@ -156,6 +156,17 @@ class ClumpMaps:
         return ctx.kind.clump_fits(ctx.light, points, side, ctx.rotation, cube=cube,
                                    depth_points=depth)
 
+    def coverage_texel(self) -> float | None:
+        """The clump maps' texel averaged over what they cover: each map weighs as its span
+        squared (texel times side), so that the wide maps, which hold most receivers, count
+        most; None without clump maps."""
+        maps = [(r.fit.texel, r.viewport) for r in self.records if r.kind == KIND_CLUMP]
+        if not maps:
+            return None
+        texel, side = np.array(maps, float).T
+        area = (texel * side) ** 2
+        return float((texel * area).sum() / area.sum())
+
     def _density_reached(self) -> float:
         """The clump maps' texels per metre: the target, or under a directional light the
         median of the maps' own where the budget held them coarser (of the long faces' maps

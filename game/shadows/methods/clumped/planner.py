@@ -81,6 +81,38 @@ class ClumpedShadows(ShadowMethod, SharesBudget, ViewSized):
         if (self.members.short and settings.clump_count is None
                 and side // 2 >= MIN_SHORT_RESOLUTION):
             self._halve(side)
+        if (self.members.short and settings.clump_count is None
+                and not self.ctx.kind.orthographic):
+            self._one_clump_if_finer()
+
+    def _one_clump_if_finer(self) -> None:
+        """A lamp short of layers: its statics as one clump, in the maps the baselines give
+        the light (a cube around a point light, a spot's map over its cone) at the largest
+        side that fits, up to theirs, where those maps' texels are finer than the clumps'.
+        Seen from a lamp, clumps lie behind one another, and clumps merged to fit the layers
+        take maps that overlap on the same directions, where a cube spends every texel on a
+        direction of its own. Not under parallel light, whose clumps tile its plane."""
+        texel = self.maps.coverage_texel()
+        if texel is None:
+            return
+        settings, notes = self.settings, list(self.notes)
+        whole = (self.pool, self.members, self.maps, self.characters, self.view)
+        side = min(settings.single_resolution, settings.max_clump_resolution)
+        while side >= MIN_SHORT_RESOLUTION:
+            self.notes = list(notes)
+            self.settings = dataclasses.replace(settings, clump_resolution=side, clump_count=1)
+            self.pool, self.members, self.maps, self.characters, self.view = self._parts()
+            if not self.members.short:
+                one = self.maps.coverage_texel()
+                if one is not None and one < texel:
+                    self.note(f"its clumps, merged to fit the layers, are coarser than the "
+                              f"baselines' maps ({self.ctx.kind.engine_maps}) at {side}^2: "
+                              "the statics take those")
+                    return
+                break  # a smaller side is coarser still
+            side //= 2
+        self.settings, self.notes = settings, notes
+        self.pool, self.members, self.maps, self.characters, self.view = whole
 
     def _halve(self, side: int) -> None:
         """Short of layers, maps of a quarter of the texels, four times as many, hug the statics

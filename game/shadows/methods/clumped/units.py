@@ -42,10 +42,18 @@ class StaticUnits:
 
 def max_extent(ctx: LightContext, per_metre: float, extent_scale: float) -> float:
     """The widest a clump may be, in footprint units: one map at the density target, times
-    ``extent_scale`` where the budget cannot meet the target."""
+    ``extent_scale`` where the budget cannot meet the target.
+
+    A lamp's target holds at the casters' typical distance, but the baselines' maps are fixed
+    in angle, and nearer the lamp they are finer than the target asks. A lamp's clump is held
+    no wider than keeps its map as fine as theirs (``single_resolution`` is the side the
+    baselines give this light: game/shadows/lights.py), so that clumping never costs a lamp's
+    shadows accuracy where the budget holds."""
     s = ctx.settings
-    return (clumping.max_extent_for_density(s.clump_resolution, s.texels_per_metre)
-            * per_metre * extent_scale)
+    extent = (clumping.max_extent_for_density(s.clump_resolution, s.texels_per_metre)
+              * per_metre * extent_scale)
+    finest = ctx.kind.finest_extent(ctx.light, s.clump_resolution, s.single_resolution)
+    return extent if finest is None else min(extent, finest * extent_scale)
 
 
 def make_units(ctx: LightContext, extent_scale: float) -> StaticUnits:
