@@ -83,12 +83,15 @@ class ClumpedShadows(ShadowMethod, SharesBudget, ViewSized):
             self._halve(side)
         if (self.members.short and settings.clump_count is None
                 and not self.ctx.kind.orthographic):
-            self._one_clump_if_finer()
+            self._one_clump_if_finer(side)
 
-    def _one_clump_if_finer(self) -> None:
+    def _one_clump_if_finer(self, most: int) -> None:
         """A lamp short of layers: its statics as one clump, in the maps the baselines give
         the light (a cube around a point light, a spot's map over its cone) at the largest
-        side that fits, up to theirs, where those maps' texels are finer than the clumps'.
+        side that fits, up to ``most`` (the side its layers were given: a larger one would
+        make every light's layers squares of larger array layers, and the whole layers they
+        round up to would take the budget from the other lights) and up to the baselines',
+        where those maps' texels are finer than the clumps'.
         Seen from a lamp, clumps lie behind one another, and clumps merged to fit the layers
         take maps that overlap on the same directions, where a cube spends every texel on a
         direction of its own. Not under parallel light, whose clumps tile its plane."""
@@ -97,7 +100,7 @@ class ClumpedShadows(ShadowMethod, SharesBudget, ViewSized):
             return
         settings, notes = self.settings, list(self.notes)
         whole = (self.pool, self.members, self.maps, self.characters, self.view)
-        side = min(settings.single_resolution, settings.max_clump_resolution)
+        side = min(settings.single_resolution, most)
         while side >= MIN_SHORT_RESOLUTION:
             self.notes = list(notes)
             self.settings = dataclasses.replace(settings, clump_resolution=side, clump_count=1)
