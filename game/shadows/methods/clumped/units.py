@@ -40,7 +40,8 @@ class StaticUnits:
         return {key: u for u, key in enumerate(self.keys)}
 
 
-def max_extent(ctx: LightContext, per_metre: float, extent_scale: float) -> float:
+def max_extent(ctx: LightContext, per_metre: float, extent_scale: float,
+               as_fine_as_baselines: bool = True) -> float:
     """The widest a clump may be, in footprint units: one map at the density target, times
     ``extent_scale`` where the budget cannot meet the target.
 
@@ -48,12 +49,14 @@ def max_extent(ctx: LightContext, per_metre: float, extent_scale: float) -> floa
     in angle, and nearer the lamp they are finer than the target asks. A lamp's clump is held
     no wider than keeps its map as fine as theirs (``single_resolution`` is the side the
     baselines give this light: game/shadows/lights.py), so that clumping never costs a lamp's
-    shadows accuracy where the budget holds."""
+    shadows accuracy where the budget holds (``as_fine_as_baselines``)."""
     s = ctx.settings
     extent = (clumping.max_extent_for_density(s.clump_resolution, s.texels_per_metre)
               * per_metre * extent_scale)
     finest = ctx.kind.finest_extent(ctx.light, s.clump_resolution, s.single_resolution)
-    return extent if finest is None else min(extent, finest * extent_scale)
+    if finest is None or not as_fine_as_baselines:
+        return extent
+    return min(extent, finest * extent_scale)
 
 
 def make_units(ctx: LightContext, extent_scale: float) -> StaticUnits:
@@ -76,7 +79,10 @@ def make_units(ctx: LightContext, extent_scale: float) -> StaticUnits:
             parts.append((i, faces))
             points.append(g.static_points[i] if len(split) == 1 else g.static_corners(i, faces))
     footprint, per_metre = ctx.kind.footprint(light, points)
-    limit = max_extent(ctx, per_metre, extent_scale)
+    # Parts are split at the density target alone: held to the baselines' angle, a wall
+    # beside a lamp would split into pieces that each take a map, where one cube around the
+    # lamp holds the whole wall.
+    limit = max_extent(ctx, per_metre, extent_scale, as_fine_as_baselines=False)
     rects = clumping.object_summaries(points, footprint)[0] if points else np.zeros((0, 4))
     units = StaticUnits([], [], [], beyond, set())
     serial = dict.fromkeys(range(g.n_statics), 0)
