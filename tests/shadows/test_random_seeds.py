@@ -14,9 +14,10 @@ import pytest
 
 from game.app import capture
 from game.bench.accuracy_summary import TARGET_RATIO, TARGET_SLACK_PX
-from game.scene import load_scene, random_scene
+from game.scene import load_scene, parse_scene, random_scene
 from game.scene.geometry import pack
 from game.scene.model import Light
+from game.shadows import lights
 from game.shadows.cube_sides import COARSE_CUBE_RATIO, lamp_side
 from game.shadows.fit import CUBE_FACES
 from game.shadows.lights import LightShadows, scene_radius
@@ -119,14 +120,14 @@ def test_a_short_point_light_keeps_its_cube_at_the_whole_side(tmp_path):
 
 @needs_corpus
 def test_a_point_light_whose_cube_is_coarser_than_the_baselines_says_so(tmp_path):
-    """Seed 13: three lights share clumped's budget, and the two range-less point lights'
-    clumps around them share cubes of 1024^2 faces where the baselines draw 4096^2. The note
-    names both; seed 20's lamps, whose cube is half the baselines' side and whose frusta keep
-    clumped ahead, get none."""
+    """Seed 13: three lights share clumped's budget, and the range-less point light 1's clumps
+    around it share a cube of 1024^2 faces where the baselines draw 4096^2. The note names
+    it; seed 20's lamps, whose cube is half the baselines' side and whose frusta keep clumped
+    ahead, get none."""
     scene = _scene(13, tmp_path / "s13")
     shadows = LightShadows(pack(scene), scene.lights, ShadowSettings(), 2048, 4096)
     notes = [n for n in shadows.notes if "share a cube of" in n]
-    assert len(notes) == 1 and notes[0].startswith("lights 0, 1: "), shadows.notes
+    assert len(notes) == 1 and notes[0].startswith("light 1: "), shadows.notes
     assert "1024^2" in notes[0] and "4096^2" in notes[0], notes[0]
     assert shadows.methods[1].cube_side * COARSE_CUBE_RATIO <= ShadowSettings().single_resolution
     scene = _scene(20, tmp_path / "s20")
@@ -134,19 +135,32 @@ def test_a_point_light_whose_cube_is_coarser_than_the_baselines_says_so(tmp_path
     assert not [n for n in shadows.notes if "share a cube of" in n], shadows.notes
 
 
-@needs_corpus
-def test_a_point_light_with_room_in_its_share_gets_a_finer_cube(tmp_path):
-    """Seed 122: three point lamps share the budget at 1024^2 maps. Light 0's clumps take a
-    cube around it and meet the density target in part of its share, where the baselines draw
-    4096^2 faces: its maps are planned at 2048^2. Light 1's cube stays at 1024^2: its share
-    of the budget, by its short range, holds no cube of 2048^2 faces."""
-    scene = _scene(122, tmp_path / "s122")
+def _lamps_in_boxes():
+    """Four lamps with a range, each inside a box of 3 m that its range alone reaches."""
+    text = ('name = "lamps_in_boxes"\n[camera]\nposition = [0.0, 30.0, 40.0]\n'
+            'target = [0.0, 0.0, 0.0]\n[[floor]]\nshape = "box"\nsize = [80.0, 0.2, 80.0]\n'
+            'position = [0.0, -0.1, 0.0]\n\n')
+    for x, z in ((-20, -20), (20, -20), (-20, 20), (20, 20)):
+        text += (f'[[light]]\nkind = "point"\nposition = [{x}.0, 2.0, {z}.0]\nrange = 16.0\n\n'
+                 f'[[static]]\nshape = "box"\nsize = [3.0, 3.0, 3.0]\n'
+                 f'position = [{x}.0, 1.5, {z}.0]\n\n')
+    return parse_scene(text)
+
+
+def test_a_point_light_with_room_in_its_share_gets_a_finer_cube(monkeypatch):
+    """Four lamps share the budget, so their clump maps are halved to 1024^2. Each lamp's box
+    surrounds it and takes a cube of maps, which meets the density target in part of its
+    share where the baselines draw 2048^2 faces: its maps are planned at 2048^2. Without
+    :func:`finer_cubes` they stay at 1024^2."""
+    scene = _lamps_in_boxes()
     geom = pack(scene)
+    base = lamp_side(scene.lights[0], ShadowSettings(), scene_radius(geom))
     shadows = LightShadows(geom, scene.lights, ShadowSettings(), 2048, 4096)
-    assert shadows.methods[0].cube_side == 2048, shadows.notes
-    assert shadows.methods[0].meets_density
-    assert shadows.methods[1].cube_side == 1024
-    assert lamp_side(scene.lights[1], ShadowSettings(), scene_radius(geom)) > 1024
+    assert [m.cube_side for m in shadows.methods] == [base] * 4, shadows.notes
+    assert all(m.meets_density for m in shadows.methods)
+    monkeypatch.setattr(lights, "finer_cubes", lambda *args: None)
+    shadows = LightShadows(geom, scene.lights, ShadowSettings(), 2048, 4096)
+    assert [m.cube_side for m in shadows.methods] == [base // 2] * 4, shadows.notes
 
 
 def _walker_false_shadows(frame: Path, scene) -> tuple[int, int]:
