@@ -92,6 +92,7 @@ class ClumpedShadows(ShadowMethod, SharesBudget, ViewSized):
         make every light's layers squares of larger array layers, and the whole layers they
         round up to would take the budget from the other lights) and up to the baselines',
         where those maps' texels are finer than the clumps'.
+
         Seen from a lamp, clumps lie behind one another, and clumps merged to fit the layers
         take maps that overlap on the same directions, where a cube spends every texel on a
         direction of its own. Not under parallel light, whose clumps tile its plane."""

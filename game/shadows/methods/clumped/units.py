@@ -47,9 +47,8 @@ def max_extent(ctx: LightContext, per_metre: float, extent_scale: float,
 
     A lamp's target holds at the casters' typical distance, but the baselines' maps are fixed
     in angle, and nearer the lamp they are finer than the target asks. A lamp's clump is held
-    no wider than keeps its map as fine as theirs (``single_resolution`` is the side the
-    baselines give this light: game/shadows/lights.py), so that clumping never costs a lamp's
-    shadows accuracy where the budget holds (``as_fine_as_baselines``)."""
+    no wider than keeps its map, in angle, as fine as theirs (``as_fine_as_baselines``;
+    ``single_resolution`` is the side the baselines give this light: game/shadows/lights.py)."""
     s = ctx.settings
     extent = (clumping.max_extent_for_density(s.clump_resolution, s.texels_per_metre)
               * per_metre * extent_scale)
