@@ -37,6 +37,7 @@ class ClumpMembers:
         self.layers: list[list[int]] = []     # a clump's layers: one, or cube faces
         self.dirty: set[int] = set()          # clumps whose maps must be drawn
         self.shared_faces: dict[tuple, tuple] = {}  # a clump's own keys -> long faces it shares
+        self._frusta: dict[tuple[int, ...], bool] = {}  # units -> one frustum holds them
 
     def mark_all(self) -> None:
         """Every clump's maps are drawn again."""
@@ -44,6 +45,7 @@ class ClumpMembers:
 
     def _make_units(self) -> None:
         self.units = make_units(self.ctx, self.extent_scale)
+        self._frusta = {}
 
     def _max_extent(self, per_metre: float) -> float:
         return max_extent(self.ctx, per_metre, self.extent_scale)
@@ -138,8 +140,7 @@ class ClumpMembers:
         ctx = self.ctx
         if ctx.kind.orthographic:
             return clumps
-        cubes = [c for c in clumps if not ctx.kind.one_frustum(ctx.light, np.concatenate(
-            [self.units.points[core[m]] for m in c.members]))]
+        cubes = [c for c in clumps if not self._one_frustum(c, core)]
         if len(cubes) < 2:
             return clumps
         merged = clumping.Clump(tuple(sorted(m for c in cubes for m in c.members)),
@@ -170,8 +171,17 @@ class ClumpMembers:
         ctx = self.ctx
         if ctx.kind.orthographic:
             return len(clumps)
-        return sum(1 if ctx.kind.one_frustum(ctx.light, np.concatenate(
-            [self.units.points[core[m]] for m in c.members])) else CUBE_FACES for c in clumps)
+        return sum(1 if self._one_frustum(c, core) else CUBE_FACES for c in clumps)
+
+    def _one_frustum(self, clump: clumping.Clump, core: list[int]) -> bool:
+        """Whether one frustum from the light holds ``clump`` (of the ``core`` units), asked
+        once per member set: the search for fewer clumps meets the same clumps at many
+        counts."""
+        key = tuple(core[m] for m in clump.members)
+        if key not in self._frusta:
+            self._frusta[key] = self.ctx.kind.one_frustum(self.ctx.light, np.concatenate(
+                [self.units.points[u] for u in key]))
+        return self._frusta[key]
 
     def long_clumps(self, keys: list[UnitKey], footprint) -> list[list[UnitKey]]:
         """The long faces ``keys`` in clumps of their own: few, each about as wide as two of
