@@ -49,8 +49,7 @@ def finer_cubes(methods: list[ShadowMethod], shares: list[float], sides: list[in
         base = min(baseline_side(method.light, settings, scene_radius),
                    settings.max_clump_resolution)
         while (isinstance(method, SharesBudget) and method.cube_side is not None
-               and method.meets_density and sides[k] * 2 <= base
-               and method.cube_side * 2 <= base):
+               and method.meets_density and sides[k] * 2 <= base):
             sides[k] *= 2
             finer = create(k, shares[k])
             # The planner may halve the side again itself (more clumps at the target): then

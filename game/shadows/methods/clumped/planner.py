@@ -99,13 +99,12 @@ class ClumpedShadows(ShadowMethod, SharesBudget, ViewSized):
         texel = self.maps.coverage_texel()
         if texel is None:
             return
-        settings, notes = self.settings, list(self.notes)
-        whole = (self.pool, self.members, self.maps, self.characters, self.view)
+        saved = self._saved()
+        settings, notes, _ = saved
         side = min(settings.single_resolution, most)
         while side >= MIN_SHORT_RESOLUTION:
-            self.notes = list(notes)
-            self.settings = dataclasses.replace(settings, clump_resolution=side, clump_count=1)
-            self.pool, self.members, self.maps, self.characters, self.view = self._parts()
+            self._replan(dataclasses.replace(settings, clump_resolution=side, clump_count=1),
+                         list(notes))
             if not self.members.short:
                 one = self.maps.coverage_texel()
                 if one is not None and one < texel:
@@ -115,8 +114,7 @@ class ClumpedShadows(ShadowMethod, SharesBudget, ViewSized):
                     return
                 break  # a smaller side is coarser still
             side //= 2
-        self.settings, self.notes = settings, notes
-        self.pool, self.members, self.maps, self.characters, self.view = whole
+        self._restore(saved)
 
     def _halve(self, side: int) -> None:
         """Short of layers, maps of a quarter of the texels, four times as many, hug the statics
@@ -124,18 +122,30 @@ class ClumpedShadows(ShadowMethod, SharesBudget, ViewSized):
         around the light stays: its six faces hold the receivers round the light whatever the
         side, and halving would quarter their texels to give the other clumps maps that, four
         times as many, together hold no more texels."""
-        whole = (self.pool, self.members, self.maps, self.characters, self.view)
-        settings, notes, cube = self.settings, list(self.notes), self.cube_side
-        self.notes = []
-        self.settings = dataclasses.replace(settings, clump_resolution=side // 2)
-        self.pool, self.members, self.maps, self.characters, self.view = self._parts()
+        saved, cube = self._saved(), self.cube_side
+        settings = self.settings
+        self._replan(dataclasses.replace(settings, clump_resolution=side // 2), [])
         if cube is not None and self.cube_side is not None:
-            self.settings, self.notes = settings, notes
-            self.pool, self.members, self.maps, self.characters, self.view = whole
+            self._restore(saved)
             return
         self.note(f"the clumps at {settings.texels_per_metre:g} texels/m do not fit the "
                   f"{settings.budget_mib:g} MiB budget in maps of {side}^2: the clump "
                   f"maps are {side // 2}^2, four times as many")
+
+    def _saved(self) -> tuple:
+        """What :meth:`_replan` replaces, for :meth:`_restore`: the settings, the notes and the
+        parts."""
+        return (self.settings, list(self.notes),
+                (self.pool, self.members, self.maps, self.characters, self.view))
+
+    def _replan(self, settings: ShadowSettings, notes: list[str]) -> None:
+        """The parts planned anew from ``settings``, after ``notes``."""
+        self.settings, self.notes = settings, notes
+        self.pool, self.members, self.maps, self.characters, self.view = self._parts()
+
+    def _restore(self, saved: tuple) -> None:
+        self.settings, self.notes, parts = saved
+        self.pool, self.members, self.maps, self.characters, self.view = parts
 
     def _parts(self) -> tuple[LayerPool, ClumpMembers, ClumpMaps, CharacterMaps, ViewSizedMaps]:
         """The parts planned from the settings: the character maps' layers first, then the
