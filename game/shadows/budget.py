@@ -23,7 +23,7 @@ import dataclasses
 
 from game.errors import GameError
 from game.gpu.limits import GLLimits
-from game.shadows.plan import ShadowSettings, layer_bytes
+from game.shadows.plan import ShadowSettings, budget_of, layer_bytes
 from game.shadows.registry import method_class
 
 MIN_MAP_RESOLUTION = 64        # texels per side below which a map is useless; never halve past it
@@ -59,7 +59,7 @@ def fit_settings(settings: ShadowSettings, limits: GLLimits,
         # gets the resolution it was asked for, within the GL's limit, so that a comparison at
         # a given resolution is made at that resolution.
         return (dataclasses.replace(settings, **changes) if changes else settings), notes
-    budget = settings.budget_mib * 2**20
+    budget = budget_of(settings) * 2**20
     name = used[0]
     res = changes.get(name, getattr(settings, name))
     start = res
@@ -68,7 +68,7 @@ def fit_settings(settings: ShadowSettings, limits: GLLimits,
     if res != start:
         changes[name] = res
         notes.append(f"{name.replace('_', '-')} {start} needs {needed} x "
-                     f"{layer_bytes(start) / 2**20:g} MiB, over the {settings.budget_mib:g} MiB "
+                     f"{layer_bytes(start) / 2**20:g} MiB, over the {budget_of(settings):g} MiB "
                      f"shadow budget; using {res}")
     # The later fields size maps that use a corner of one layer (the characters'): at most the
     # layer's resolution.
@@ -93,7 +93,7 @@ def fit_baseline_memory(settings: ShadowSettings, resolution: int,
     method = method_class(settings.method)
     if method.budgeted or not method.resolution_fields or not layers:
         return None
-    budget_mib = BASELINE_BUDGET_SHARE * settings.budget_mib
+    budget_mib = BASELINE_BUDGET_SHARE * budget_of(settings)
     res, halvings = resolution, 0
     while res > MIN_MAP_RESOLUTION and layer_bytes(res) * layers > budget_mib * 2**20:
         res, halvings = res // 2, halvings + 1

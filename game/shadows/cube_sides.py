@@ -11,9 +11,10 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from game.scene.model import Light
-from game.shadows.budget import BASELINE_BUDGET_SHARE
+from game.shadows.budget import BASELINE_BUDGET_SHARE, MIN_MAP_RESOLUTION
+from game.shadows.light_kinds import kind_of
 from game.shadows.method import ShadowMethod, SharesBudget
-from game.shadows.plan import ShadowSettings
+from game.shadows.plan import ShadowSettings, budget_of, layer_bytes
 
 # A clumped point light's cube with faces this many times coarser than the baselines' cube
 # gets a note. At half the baselines' side the clumps beside the light, in frusta finer than
@@ -67,6 +68,23 @@ def baseline_side(light: Light, settings: ShadowSettings, scene_radius: float) -
             else lamp_side(light, settings, scene_radius))
 
 
+def baselines_memory(lights: list[Light], settings: ShadowSettings, scene_radius: float,
+                     walkers: bool) -> list[float]:
+    """What each light is owed by default, in MiB: the baselines' maps of it (one map, or a
+    cube's six faces, at :func:`baseline_side`, every side halved as often as the baselines'
+    own budget halves them), and a layer of that side for its walkers' maps where there are
+    walkers. With that much, a light whose clumps are coarser than the baselines' maps can take
+    those maps for its statics, and is never held coarser than them for want of memory."""
+    sides = [baseline_side(light, settings, scene_radius) for light in lights]
+    layers = [kind_of(light).max_maps_per_caster for light in lights]
+    cap = BASELINE_BUDGET_SHARE * budget_of(settings) * 2**20
+    while (sum(n * layer_bytes(side) for n, side in zip(layers, sides, strict=True)) > cap
+           and max(sides) > MIN_MAP_RESOLUTION):
+        sides = [max(1, side // 2) for side in sides]
+    return [(n + walkers) * layer_bytes(side) / 2**20
+            for n, side in zip(layers, sides, strict=True)]
+
+
 def coarse_cube_notes(methods: list[ShadowMethod], settings: ShadowSettings,
                       scene_radius: float) -> list[str]:
     """One note per pair of sides: the clumped point lights whose cube around the light has
@@ -86,6 +104,6 @@ def coarse_cube_notes(methods: list[ShadowMethod], settings: ShadowSettings,
     return [f"{'light' if len(ks) == 1 else 'lights'} {', '.join(map(str, ks))}: the clumps "
             f"around the light share a cube of {side}^2 faces where single and static-dynamic "
             f"draw a cube of {base}^2 with these settings, texels {base // side} times as wide: "
-            f"the {settings.budget_mib:g} MiB budget{shared} goes to clump maps of {side}^2 "
-            f"(the baselines' budget is {BASELINE_BUDGET_SHARE * settings.budget_mib:g} MiB)"
+            f"the {budget_of(settings):g} MiB budget{shared} goes to clump maps of {side}^2 "
+            f"(the baselines' budget is {BASELINE_BUDGET_SHARE * budget_of(settings):g} MiB)"
             for (side, base), ks in coarse.items()]

@@ -27,7 +27,7 @@ from game.scene.geometry import PackedGeometry
 from game.scene.model import Light
 from game.shadows import registry
 from game.shadows.budget import fit_baseline_memory
-from game.shadows.cube_sides import coarse_cube_notes, finer_cubes, lamp_side
+from game.shadows.cube_sides import baselines_memory, coarse_cube_notes, finer_cubes, lamp_side
 from game.shadows.light_kinds import kind_of
 from game.shadows.method import ShadowMethod, SharesBudget, ViewSized, caster_spheres
 from game.shadows.plan import (
@@ -35,6 +35,7 @@ from game.shadows.plan import (
     CharacterCounts,
     ShadowPlan,
     ShadowSettings,
+    budget_of,
     layer_bytes,
 )
 from game.shadows.view_budget import ViewBudget, atlas_shape
@@ -109,39 +110,53 @@ class LightShadows:
         # out in whole array layers, take more than the budget: each time the budget shrinks by
         # what they took past it, at least a layer, so this ends.
         budget_notes: list[str] = []
-        asked, packed = settings.budget_mib, None
+        # By default no light gets less than the baselines' maps of it take (the comparison
+        # is then never between a light's clumps and maps it had no memory for); a budget
+        # given is held to.
+        budgeted = registry.method_class(settings.method).budgeted
+        owed = (baselines_memory(lights, settings, scene_radius(geom), geom.n_characters > 0)
+                if settings.budget_mib is None and budgeted else [0.0] * len(lights))
+        settings = dataclasses.replace(settings, budget_mib=budget_of(settings))
+        asked, packed, last = None, False, float("inf")
         # The other lights' clumps are drawn as whole statics (plan): their casters' spheres
         # are the whole statics'.
         self._geom = geom
         self._eyes = [kind_of(light).eye(light) for light in lights]
         self._whole: dict[tuple[int, tuple[int, ...]], np.ndarray] = {}
         while True:
-            self._make(geom, lights, settings, max_layers, max_maps)
+            self._make(geom, lights, settings, max_layers, max_maps, owed)
             fitted = fit_baseline_memory(settings, self._resolution(), self._places()[1])
             if fitted is not None:
                 settings, note = fitted
                 budget_notes.append(note)
                 continue
+            asked = self.budget_mib if asked is None else asked
             over = self.array_mib - asked
             step = max(over, layer_bytes(self._resolution()) / 2**20)
-            if not registry.method_class(settings.method).budgeted or over <= 0 \
-                    or settings.budget_mib <= step:
+            # The shared budget shrinks; what a light is owed does not, and where only that
+            # is left the plan stays over.
+            if (not budgeted or over <= 0 or settings.budget_mib <= step
+                    or self.budget_mib >= last):
                 break
+            last = self.budget_mib
             settings = dataclasses.replace(settings, budget_mib=settings.budget_mib - step)
-            packed = (f"the lights' maps, laid out in whole layers of the array, took more than "
-                      f"the {asked:g} MiB budget; they are planned within "
-                      f"{settings.budget_mib:.4g} MiB")
-        if packed and self.array_mib > asked:
-            packed = (f"the lights' maps need {self.array_mib:.4g} MiB of array layers at the "
-                      f"fewest, more than the {asked:g} MiB budget")
-        self._notes[:0] = budget_notes + ([packed] if packed else [])
+            packed = True
+        if packed:
+            budget_notes.append(
+                f"the lights' maps need {self.array_mib:.4g} MiB of array layers at the fewest, "
+                f"more than the {asked:.4g} MiB budget" if self.array_mib > asked else
+                f"the lights' maps, laid out in whole layers of the array, took more than the "
+                f"{asked:.4g} MiB budget; they are planned within {self.budget_mib:.4g} MiB")
+        self._notes[:0] = budget_notes
 
     def _make(self, geom: PackedGeometry, lights: list[Light], settings: ShadowSettings,
-              max_layers: int, max_maps: int) -> None:
+              max_layers: int, max_maps: int, owed: list[float]) -> None:
         n = len(lights)
         radius = scene_radius(geom)
         shares, sides = budget_shares(lights, settings.budget_mib, settings.clump_resolution,
                                       radius)
+        shares = [max(share, o) for share, o in zip(shares, owed, strict=True)]
+        self.budget_mib = sum(shares)  # the memory the lights' plans were given
 
         def create(k: int, share: float) -> ShadowMethod:
             light, side = lights[k], sides[k]
@@ -160,7 +175,7 @@ class LightShadows:
         finer_cubes(self.methods, shares, sides, create, settings, radius)
         self._notes: list[str] = []
         if n > 1:
-            self._pass_on_what_is_left(shares, create, radius, settings.budget_mib)
+            self._pass_on_what_is_left(shares, create, radius, self.budget_mib)
         self._notes += coarse_cube_notes(self.methods, settings, radius)
         self._bases: list[tuple[int, int]] | None = None
         # With view-sized maps, one atlas for every light's clump maps, so that texels go where

@@ -36,7 +36,7 @@ NORMAL_BIAS_TEXELS = 0.25      # offset along the normal, times sin(angle to the
 DEPTH_BIAS_TEXELS = 1.0        # offset towards the light
 SLOPE_BIAS_TEXELS = 1.0        # offset towards the light, times tan(angle to the light)
 MAX_SLOPE = 8.0                # cap on that tan, for grazing light
-SHADOW_BUDGET_MIB = 512        # depth-array memory the clumped method may use
+SHADOW_BUDGET_MIB = 512        # depth-array memory the clumped method's lights share
 DEPTH_TEXEL_BYTES = 4          # GL_DEPTH_COMPONENT32F
 MAX_CLUMP_RESOLUTION = 4096    # view-sized clump maps: the largest side (the array's layers)
 MIN_CLUMP_RESOLUTION = 128     # view-sized clump maps: the smallest side
@@ -74,7 +74,9 @@ class ShadowSettings:
     max_slope: float = MAX_SLOPE
     pcf: bool = False
     grid: str = "auto"
-    budget_mib: float = SHADOW_BUDGET_MIB
+    # depth-array memory the clumped method may use; None: SHADOW_BUDGET_MIB, and no light
+    # gets less than the baselines' maps of it take (game/shadows/lights.py)
+    budget_mib: float | None = None
     # clumped: size each clump map by what the view needs, in the memory the fixed maps would
     # take (else every clump map has clump_resolution texels per side)
     view_resolution: bool = False
@@ -84,6 +86,12 @@ class ShadowSettings:
     cascades: int = CASCADES
     cascade_lambda: float = CASCADE_LAMBDA
     cascade_resolution: int = CASCADE_RESOLUTION
+
+
+def budget_of(settings: ShadowSettings) -> float:
+    """The memory budget the lights share, in MiB: ``budget_mib``, or by default
+    :data:`SHADOW_BUDGET_MIB`."""
+    return SHADOW_BUDGET_MIB if settings.budget_mib is None else settings.budget_mib
 
 
 def shadow_reach(settings: ShadowSettings) -> float:

@@ -16,8 +16,9 @@ from game.gpu.limits import GLLimits
 from game.scene import load_scene, parse_scene
 from game.scene.geometry import pack
 from game.shadows.budget import BASELINE_BUDGET_SHARE, fit_settings
+from game.shadows.fit import CUBE_FACES
 from game.shadows.lights import LightShadows
-from game.shadows.plan import ShadowSettings, layer_bytes
+from game.shadows.plan import ShadowSettings, budget_of, layer_bytes
 from tests.helpers import ROOT, TINY
 
 LIMITS = GLLimits(max_texture_size=16384, max_array_layers=2048, max_maps=512)
@@ -49,7 +50,7 @@ def _array(text_or_path, method: str, **changes):
 @pytest.mark.parametrize("method", BASELINES)
 def test_many_point_lights_fit_the_baselines_budget(method, count):
     shape, size, notes = _array(_lamps(count), method)
-    budget = BASELINE_BUDGET_SHARE * ShadowSettings().budget_mib * 2**20
+    budget = BASELINE_BUDGET_SHARE * budget_of(ShadowSettings()) * 2**20
     assert size <= budget, (shape, size / 2**30)
     if method != "csm" or count == 64:  # 16 cubes of csm's 2048² fit as asked
         assert any("baselines may take" in n for n in notes), notes
@@ -62,6 +63,21 @@ def test_a_budget_nothing_fits_is_refused_in_one_line_before_the_driver():
         _array(_lamps(64), "single", budget_mib=0.001)
     message = str(caught.value)
     assert "\n" not in message and "MiB" in message and " need " in message, message
+
+
+def test_by_default_no_light_gets_less_memory_than_the_baselines_maps_of_it():
+    """Three point lights with no range: the baselines draw a cube of 4096^2 faces around
+    each, 384 MiB. Clumped's 512 MiB, shared, would give each a third of that. By default the
+    lights are given at least the baselines' cubes; a budget given is held to."""
+    scene = parse_scene(_lamps(3), TINY, TINY.parent)
+    geom = pack(scene)
+    cube = CUBE_FACES * layer_bytes(ShadowSettings().single_resolution) / 2**20
+    owed = LightShadows(geom, scene.lights, ShadowSettings(), LIMITS.max_layers,
+                        LIMITS.max_maps)
+    assert owed.budget_mib >= 3 * cube, owed.budget_mib
+    held = LightShadows(geom, scene.lights, ShadowSettings(budget_mib=512.0), LIMITS.max_layers,
+                        LIMITS.max_maps)
+    assert held.budget_mib == 512.0 and held.array_mib <= 512.0, held.array_mib
 
 
 SHIPPED = sorted(p for p in glob.glob(str(ROOT / "assets" / "*.toml"))

@@ -9,7 +9,7 @@ import dataclasses
 from imgui_bundle import imgui
 
 from game.shadows import clumping, registry
-from game.shadows.plan import ShadowSettings
+from game.shadows.plan import SHADOW_BUDGET_MIB, ShadowSettings
 
 # The methods offered: the map-based ones and the compute tracer's exact hard shadows.
 METHODS = tuple(registry.METHODS)
@@ -26,6 +26,8 @@ MAX_FLOAT_EDIT = 1e6
 EDIT_RANGES = {"texels_per_metre": (0.01, 4096.0), "cascade_lambda": (0.0, 1.0),
                "max_slope": (0.0, 1000.0), "budget_mib": (1.0, 65536.0), "cascades": (1, 16),
                "clump_count": (1, 1024)}
+# The value an "auto" setting takes when it is first set by hand.
+MANUAL_START = {"budget_mib": float(SHADOW_BUDGET_MIB)}
 # Words shortened in the labels, so that the labels leave the controls room in a narrow panel;
 # a shortened label shows the field's name as its tooltip.
 SHORT_WORDS = {"character": "char"}
@@ -93,7 +95,7 @@ class SettingsEditor:
             changed, auto = imgui.checkbox(f"auto##{name}", value is None)
             imgui.same_line()
             if changed:
-                new[name] = None if auto else 1
+                new[name] = None if auto else MANUAL_START.get(name, 1)
                 return
             if auto:
                 imgui.text(label)

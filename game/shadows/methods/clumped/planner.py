@@ -34,6 +34,7 @@ from game.shadows.plan import (
     MapRecord,
     ShadowPlan,
     ShadowSettings,
+    budget_of,
     layer_bytes,
 )
 from game.shadows.view_budget import ClumpRequest, Placement
@@ -69,6 +70,7 @@ class ClumpedShadows(ShadowMethod, SharesBudget, ViewSized):
 
     def __init__(self, geom: PackedGeometry, light: Light, settings: ShadowSettings,
                  max_layers: int, max_maps: int | None = None):
+        settings = dataclasses.replace(settings, budget_mib=budget_of(settings))
         if settings.view_resolution:
             # The atlas's squares have power-of-two sides: the fixed maps whose texels it holds
             # too, no larger than asked, so that it keeps to the budget.
@@ -83,15 +85,14 @@ class ClumpedShadows(ShadowMethod, SharesBudget, ViewSized):
             self._halve(side)
         if (self.members.short and settings.clump_count is None
                 and not self.ctx.kind.orthographic):
-            self._one_clump_if_finer(side)
+            self._one_clump_if_finer()
 
-    def _one_clump_if_finer(self, most: int) -> None:
+    def _one_clump_if_finer(self) -> None:
         """A lamp short of layers: its statics as one clump, in the maps the baselines give
         the light (a cube around a point light, a spot's map over its cone) at the largest
-        side that fits, up to ``most`` (the side its layers were given: a larger one would
-        make every light's layers squares of larger array layers, and the whole layers they
-        round up to would take the budget from the other lights) and up to the baselines',
-        where those maps' texels are finer than the clumps'.
+        side that fits, up to the baselines', where those maps' texels are finer than the
+        clumps'. By default the light's share holds the baselines' maps
+        (game/shadows/lights.py).
 
         Seen from a lamp, clumps lie behind one another, and clumps merged to fit the layers
         take maps that overlap on the same directions, where a cube spends every texel on a
@@ -101,7 +102,7 @@ class ClumpedShadows(ShadowMethod, SharesBudget, ViewSized):
             return
         saved = self._saved()
         settings, notes, _ = saved
-        side = min(settings.single_resolution, most)
+        side = min(settings.single_resolution, settings.max_clump_resolution)
         while side >= MIN_SHORT_RESOLUTION:
             self._replan(dataclasses.replace(settings, clump_resolution=side, clump_count=1),
                          list(notes))
