@@ -107,8 +107,10 @@ class LightShadows:
         # The baselines' maps are sized anew where their array is over the baselines' budget;
         # each time every side halves, so this ends.
         # A budgeted method's lights are planned again within less where their layers, laid
-        # out in whole array layers, take more than the budget: each time the budget shrinks by
-        # what they took past it, at least a layer, so this ends.
+        # out in whole array layers, take more than they were given: each time the shared
+        # budget shrinks by what they took past it, at least a layer, so this ends; it also
+        # stops where what the lights were given shrank by less than a layer (what a light is
+        # owed does not shrink).
         budget_notes: list[str] = []
         # By default no light gets less than the baselines' maps of it take (the comparison
         # is then never between a light's clumps and maps it had no memory for); a budget
@@ -133,10 +135,8 @@ class LightShadows:
             asked = self.budget_mib if asked is None else asked
             over = self.array_mib - asked
             step = max(over, layer_bytes(self._resolution()) / 2**20)
-            # The shared budget shrinks; what a light is owed does not, and where only that
-            # is left the plan stays over.
             if (not budgeted or over <= 0 or settings.budget_mib <= step
-                    or self.budget_mib >= last):
+                    or last - self.budget_mib < layer_bytes(self._resolution()) / 2**20):
                 break
             last = self.budget_mib
             settings = dataclasses.replace(settings, budget_mib=settings.budget_mib - step)
@@ -144,9 +144,10 @@ class LightShadows:
         if packed:
             budget_notes.append(
                 f"the lights' maps need {self.array_mib:.4g} MiB of array layers at the fewest, "
-                f"more than the {asked:.4g} MiB budget" if self.array_mib > asked else
+                f"more than the {asked:.4g} MiB they were given" if self.array_mib > asked else
                 f"the lights' maps, laid out in whole layers of the array, took more than the "
-                f"{asked:.4g} MiB budget; they are planned within {self.budget_mib:.4g} MiB")
+                f"{asked:.4g} MiB they were given; they are planned within "
+                f"{self.budget_mib:.4g} MiB")
         self._notes[:0] = budget_notes
 
     def _make(self, geom: PackedGeometry, lights: list[Light], settings: ShadowSettings,

@@ -77,7 +77,7 @@ def test_by_default_no_light_gets_less_memory_than_the_baselines_maps_of_it():
     assert owed.budget_mib >= 3 * cube, owed.budget_mib
     held = LightShadows(geom, scene.lights, ShadowSettings(budget_mib=512.0), LIMITS.max_layers,
                         LIMITS.max_maps)
-    assert held.budget_mib == 512.0 and held.array_mib <= 512.0, held.array_mib
+    assert held.budget_mib <= 512.0 + 1e-6 and held.array_mib <= 512.0, held.array_mib
 
 
 SHIPPED = sorted(p for p in glob.glob(str(ROOT / "assets" / "*.toml"))

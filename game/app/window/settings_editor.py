@@ -77,7 +77,7 @@ class SettingsEditor:
             elif value is None or isinstance(value, int):
                 self._edit_number(label, name, value, field.default is None, new)
             elif isinstance(value, float):
-                self._edit_number(label, name, value, False, new)
+                self._edit_number(label, name, value, field.default is None, new)
             else:
                 imgui.text(f"{label}: {value}")
             if label != name.replace("_", " "):
