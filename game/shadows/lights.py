@@ -109,8 +109,8 @@ class LightShadows:
         # A budgeted method's lights are planned again within less where their layers, laid
         # out in whole array layers, take more than they were given: each time the shared
         # budget shrinks by what they took past it, at least a layer, so this ends; it also
-        # stops where what the lights were given shrank by less than a layer (what a light is
-        # owed does not shrink).
+        # stops where what the lights were given did not shrink (what a light is owed does
+        # not).
         budget_notes: list[str] = []
         # By default no light gets less than the baselines' maps of it take (the comparison
         # is then never between a light's clumps and maps it had no memory for); a budget
@@ -136,7 +136,7 @@ class LightShadows:
             over = self.array_mib - asked
             step = max(over, layer_bytes(self._resolution()) / 2**20)
             if (not budgeted or over <= 0 or settings.budget_mib <= step
-                    or last - self.budget_mib < layer_bytes(self._resolution()) / 2**20):
+                    or self.budget_mib >= last):
                 break
             last = self.budget_mib
             settings = dataclasses.replace(settings, budget_mib=settings.budget_mib - step)
