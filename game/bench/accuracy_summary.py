@@ -130,8 +130,9 @@ def summarise(rows: Sequence[dict], methods: Sequence[str]) -> dict:
                          for r in worst_error],
         "failed": sum(1 for r in rows if not _ok(r)),
         # The runs' own seconds, summed: the sweep's work, whatever the workers and resumes.
-        "run_seconds": round(sum(v for r in rows
-                                 if not math.isnan(v := row_number(r, "seconds"))), 1),
+        # Summed exactly, so that rows in another order (the CSV's) give the same figure.
+        "run_seconds": round(math.fsum(v for r in rows
+                                       if not math.isnan(v := row_number(r, "seconds"))), 1),
         "targets": {"ratio": TARGET_RATIO, "slack_px": TARGET_SLACK_PX, "share": TARGET_SHARE,
                     "ceiling_ratio": CEILING_RATIO, "ceiling_slack_px": CEILING_SLACK_PX,
                     "max_error_pct": MAX_ERROR_PCT, "tiny_run_px": TINY_RUN_PX},
