@@ -116,7 +116,8 @@ class LightShadows:
         # is then never between a light's clumps and maps it had no memory for); a budget
         # given is held to.
         budgeted = registry.method_class(settings.method).budgeted
-        owed = (baselines_memory(lights, settings, scene_radius(geom), geom.n_characters > 0)
+        self._radius = scene_radius(geom)  # over every static vertex: once, not per re-plan
+        owed = (baselines_memory(lights, settings, self._radius, geom.n_characters > 0)
                 if settings.budget_mib is None and budgeted else [0.0] * len(lights))
         settings = dataclasses.replace(settings, budget_mib=budget_of(settings))
         asked, packed, last = None, False, float("inf")
@@ -153,7 +154,7 @@ class LightShadows:
     def _make(self, geom: PackedGeometry, lights: list[Light], settings: ShadowSettings,
               max_layers: int, max_maps: int, owed: list[float]) -> None:
         n = len(lights)
-        radius = scene_radius(geom)
+        radius = self._radius
         shares, sides = budget_shares(lights, settings.budget_mib, settings.clump_resolution,
                                       radius)
         shares = [max(share, o) for share, o in zip(shares, owed, strict=True)]
