@@ -49,12 +49,14 @@ bool decided(int i, int sampled_before, int sampled) {
 }
 
 #if DEPTH_BOUNDS
+#include "depth_bounds.glsl"
 // The depth bounds of the cached maps, one texel per block of BOUNDS_BLOCK x BOUNDS_BLOCK depth
-// texels: (nearest, farthest) (game/gpu/depth_bounds.py).
-uniform sampler2DArray u_shadow_bounds;
+// texels: the nearest and farthest, or a plane and its spread (shaders/depth_bounds.glsl,
+// game/gpu/depth_bounds.py).
+uniform usampler2DArray u_shadow_bounds;
 
 // The compare in map i at layer uv as its block's bounds settle it: 1 lit (nearer than every
-// texel of the block), 0 shadowed (farther than every one), -1 not settled, where the texels
+// texel it would read), 0 shadowed (farther than every one), -1 not settled, where the texels
 // must be read. The texels read are those within `reach` of the one at uv (1 with PCF's 3 x 3
 // taps), all in its block or not settled.
 float settled(int i, vec2 uv, float depth, int reach) {
@@ -68,7 +70,8 @@ float settled(int i, vec2 uv, float depth, int reach) {
         || any(greaterThanEqual(inner, ivec2(BOUNDS_BLOCK - reach)))) {
         return -1.0;
     }
-    vec2 b = texelFetch(u_shadow_bounds, ivec3(t / BOUNDS_BLOCK, u_maps[i].layer), 0).rg;
+    uvec2 q = texelFetch(u_shadow_bounds, ivec3(t / BOUNDS_BLOCK, u_maps[i].layer), 0).rg;
+    vec2 b = bounds_range(q, vec2(inner) - BOUNDS_CENTRE, float(reach));
     return depth <= b.x ? 1.0 : (depth > b.y ? 0.0 : -1.0);
 }
 #endif

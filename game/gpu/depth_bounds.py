@@ -1,4 +1,4 @@
-"""Depth bounds of a depth array's cached maps: per block of texels, the nearest and farthest depth.
+"""Depth bounds of a depth array's cached maps: per block of texels, how near and far they lie.
 
 Why: on a CPU rasteriser a shadow lookup costs mostly its memory traffic. A fragment reads one
 texel, and neighbouring fragments read texels far apart wherever the map's texels are finer than
@@ -6,16 +6,20 @@ the screen's pixels, as a tight map's are: every read is a cache miss. A block's
 most fragments without the texel: a fragment nearer the light than every texel of its block is
 lit, one farther than every texel is in shadow, whichever texel of the block its lookup would
 have read. So the answer is exact, and the bounds, 1 / (:data:`BLOCK` ** 2) of the texels, stay
-in the cache. Only fragments whose depth lies within their block's bounds, near a shadow's edge
-or on a caster's own surface, read the texel itself.
+in the cache. Only fragments whose depth lies within their block's bounds read the texel itself.
+
+A block's bounds take one of two forms (shaders/depth_bounds.glsl): its nearest and farthest
+depth, or a plane through its depths and how far they lie from it. The plane settles a caster's
+own sloped surface, whose fragments lie only the bias nearer the light than its texels, but
+within its nearest and farthest; near a shadow's edge the nearest and farthest are kept.
 
 Bounds are made when a map is drawn into the array and kept while the map is: for the maps that
 are drawn once and cached (static clumps), never for those drawn every frame, where making them
 would cost a pass over the texels per frame.
 
-The array of bounds is RG32F, one texel per block (nearest, farthest), layer for layer with the
-depth array; a compute pass (shaders/depth_bounds.comp) reads the depth texels through a sampler
-of its own that does not compare.
+The array of bounds is RG32UI, one texel per block, layer for layer with the depth array; a
+compute pass (shaders/depth_bounds.comp) reads the depth texels through a sampler of its own
+that does not compare.
 """
 
 from __future__ import annotations
@@ -25,7 +29,7 @@ import moderngl
 from game.gpu import glsl, resources
 
 BLOCK = 16          # depth texels per side of a block
-TEXEL_BYTES = 8     # RG32F: a block's nearest and farthest depth
+TEXEL_BYTES = 8     # RG32UI: a block's bounds in either form
 LOCAL_SIZE = 8      # shaders/depth_bounds.comp's work group side
 
 
@@ -54,9 +58,9 @@ class DepthBounds:
         self.resolution = resolution
         self.side = side(resolution)
         self.layers = layers
-        self.texture = ctx.texture_array((self.side, self.side, layers), 2, dtype="f4")
+        self.texture = ctx.texture_array((self.side, self.side, layers), 2, dtype="u4")
         self.texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        self.program = ctx.compute_shader(glsl.build("depth_bounds.comp", {"BLOCK": BLOCK}))
+        self.program = ctx.compute_shader(glsl.build("depth_bounds.comp", {"BOUNDS_BLOCK": BLOCK}))
         self.sampler = ctx.sampler(filter=(moderngl.NEAREST, moderngl.NEAREST), compare_func="")
 
     @property

@@ -1,5 +1,6 @@
-"""Depth bounds of the cached maps: each block's nearest and farthest texel, made only for maps
-kept across frames, and a shading pass that reads them gives the very frame it gives without."""
+"""Depth bounds of the cached maps: per block of texels, their nearest and farthest depth or a
+plane and its spread, made only for maps kept across frames, and a shading pass that reads them
+gives the very frame it gives without."""
 
 import numpy as np
 import pytest
@@ -24,27 +25,60 @@ def _depth_layers(array) -> np.ndarray:
     return np.frombuffer(data, np.float32).reshape(array.layers, r, r)
 
 
-def test_each_block_holds_the_nearest_and_farthest_of_its_texels(ctx):
+LEVEL = 0x80000000
+CENTRE = 0.5 * (BLOCK - 1)
+
+
+def _bounds(q: np.ndarray) -> tuple:
+    """Decode blocks' bounds (shaders/depth_bounds.glsl): (level, nearest, farthest, mid,
+    slope x, slope y, spread), each an array over the blocks."""
+    x, y = q[..., 0], q[..., 1]
+    level = x >= LEVEL
+    nearest = (x & (LEVEL - 1)).astype(np.uint32).view(np.float32).astype(np.float64)
+    farthest = y.astype(np.uint32).view(np.float32).astype(np.float64)
+    mid = (x >> 8).astype(np.float64) / (2**23 - 1)
+    halves = y.astype(np.uint32).view(np.uint16).reshape(*y.shape, 2).view(np.float16)
+    halves = np.where(level[..., None], 0.0, halves.astype(np.float64))  # level: y is a depth
+    spread = (((x & 255) + 800).astype(np.uint32) << 20).view(np.float32).astype(np.float64)
+    return level, nearest, farthest, mid, halves[..., 0], halves[..., 1], spread
+
+
+def test_each_block_holds_its_texels_within_its_bounds_the_tighter_form_kept(ctx):
     scene = load_scene(ASSETS / "courtyard.toml")
     r = Renderer(ctx, scene, SMALL_SIZE)
     try:
         r.render(0.0, View.from_camera(scene.camera, SMALL_SIZE))
         plan, maps = r.last_plan, r.shadow_pass
-        depth = _depth_layers(maps.array)
+        depth = _depth_layers(maps.array).astype(np.float64)
         side = maps.bounds.side
-        bounds = np.frombuffer(maps.bounds.texture.read(), np.float32)
-        bounds = bounds.reshape(maps.array.layers, side, side, 2)
+        q = np.frombuffer(maps.bounds.texture.read(), np.uint32)
+        q = q.reshape(maps.array.layers, side, side, 2)
         marked = shadow_pass.bounded_maps(plan)
         assert any(marked)
+        offsets = np.arange(BLOCK) - CENTRE   # a texel's offset from its block's centre
+        sloped_blocks = 0
         for i, rec in enumerate(plan.maps):
             if not marked[i]:
                 continue
             x, y, n = *rec.origin, rec.viewport
             texels = depth[rec.layer, y:y + n, x:x + n]
-            blocks = texels.reshape(n // BLOCK, BLOCK, n // BLOCK, BLOCK)
-            got = bounds[rec.layer, y // BLOCK:(y + n) // BLOCK, x // BLOCK:(x + n) // BLOCK]
-            np.testing.assert_array_equal(got[..., 0], blocks.min(axis=(1, 3)))
-            np.testing.assert_array_equal(got[..., 1], blocks.max(axis=(1, 3)))
+            blocks = texels.reshape(n // BLOCK, BLOCK, n // BLOCK, BLOCK).transpose(0, 2, 1, 3)
+            got = q[rec.layer, y // BLOCK:(y + n) // BLOCK, x // BLOCK:(x + n) // BLOCK]
+            level, nearest, farthest, mid, du, dv, spread = _bounds(got)
+            lo, hi = blocks.min(axis=(2, 3)), blocks.max(axis=(2, 3))
+            np.testing.assert_array_equal(nearest[level], lo[level])
+            np.testing.assert_array_equal(farthest[level], hi[level])
+            # blocks[row, column, texel row, texel column]: a texel's plane at its offsets
+            plane = (mid[..., None, None] + du[..., None, None] * offsets[None, None, None, :]
+                     + dv[..., None, None] * offsets[None, None, :, None])
+            off = np.abs(blocks - plane).max(axis=(2, 3))
+            sloped = ~level
+            assert (off[sloped] <= spread[sloped]).all()
+            # Kept only where its band is the narrower.
+            assert (2 * spread[sloped] < (hi - lo)[sloped]).all()
+            sloped_blocks += sloped.sum()
+        # The courtyard's walls and roofs face the sun at a slant: their blocks are planes.
+        assert sloped_blocks > 100
     finally:
         r.release()
 
@@ -133,15 +167,19 @@ def test_a_frame_read_through_the_bounds_is_the_frame_read_without(ctx, monkeypa
 
 
 def test_the_shading_pass_reads_the_bounds(ctx):
-    # Bounds that call every block's texels as far as can be (depth 1) light every fragment
-    # of the cached maps without reading a texel: the shadows of the statics are gone.
+    # Bounds that call every block's texels as far as can be (nearest and farthest depth 1)
+    # light every fragment of the cached maps without reading a texel: the shadows of the
+    # statics are gone.
     scene = load_scene(ASSETS / "courtyard.toml")
     r = Renderer(ctx, scene, SMALL_SIZE, gbuffer=True)
     try:
         view = View.from_camera(scene.camera, SMALL_SIZE)
         before = r.render(0.0, view).gbuffer["lit"]
         bounds = r.shadow_pass.bounds.texture
-        bounds.write(np.ones(bounds.width * bounds.height * bounds.layers * 2, np.float32))
+        far = np.full(bounds.width * bounds.height * bounds.layers * 2, 1.0, np.float32)
+        far = far.view(np.uint32)
+        far[0::2] |= LEVEL
+        bounds.write(far)
         after = r.render(0.0, view).gbuffer["lit"]
     finally:
         r.release()
