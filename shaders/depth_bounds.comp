@@ -70,7 +70,10 @@ void main() {
     uvec2 fit = sloped_form(dot(sum, ones) / float(BOUNDS_BLOCK * BOUNDS_BLOCK),
                             vec2(dot(sum_x, ones), dot(sum_y, ones)) / SQUARES, 0.0);
     vec4 off = vec4(0.0);
-    for (int y = 0; y < BOUNDS_BLOCK; y += 2) {
+    // A block of one depth (open sky, or a caster's flat face square to the light) keeps the
+    // level form, which is exact: its texels need no second walk.
+    int rows = hi > lo ? BOUNDS_BLOCK : 0;
+    for (int y = 0; y < rows; y += 2) {
         for (int x = 0; x < BOUNDS_BLOCK; x += 2) {
             vec4 d = texels(first, texel, x, y);
             vec2 c = vec2(x, y) - BOUNDS_CENTRE;
