@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING
 from game.app import outputs
 from game.bench.chart_axes import place_labels, plain_log_ticks, pyplot
 from game.bench.chart_camera import camera_figure
-from game.bench.rows import maps_ms, row_number
+from game.bench.rows import camera_ms, maps_ms, row_number
 from game.bench.runs import COMPARED_GROUPS
 
 if TYPE_CHECKING:
@@ -333,8 +333,9 @@ def lights_figure(plt, rows: list[dict]) -> Figure | None:
     if not picked:
         return None
     _need_two(row_number(r, "lights") for r in picked)
-    fig, axes = plt.subplots(1, 3, figsize=(12.0, 4.0))
+    fig, axes = plt.subplots(1, 4, figsize=(16.0, 4.0))
     panels = (("shadow-map passes, ms (median)", maps_ms),
+              ("camera pass (cull + shade), ms (median)", camera_ms),
               ("whole frame, ms (median)", lambda r: row_number(r, "total_ms_median")),
               ("shadow error, % (all lights pooled)",
                lambda r: 100.0 * row_number(r, "error")))
@@ -352,10 +353,9 @@ def lights_figure(plt, rows: list[dict]) -> Figure | None:
         ax.set_xlabel("lights: the moon and street lamps (log scale)")
         ax.set_ylabel(ylabel)
         ax.grid(True, which="both", alpha=0.3)
-    axes[0].set_yscale("log")
-    axes[1].set_yscale("log")
-    plain_log_ticks(axes[0].yaxis)
-    plain_log_ticks(axes[1].yaxis)
+    for ax in axes[:3]:
+        ax.set_yscale("log")
+        plain_log_ticks(ax.yaxis)
     axes[0].legend(fontsize=7)
     fig.suptitle(f"cost and error against the number of lights, night town\n{_size(picked)}",
                  fontsize=10)

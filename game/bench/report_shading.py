@@ -72,11 +72,38 @@ def shading_section(runs, here: Path, header: Callable[[object, Path], list[str]
         if chart.is_file():
             where = Path(os.path.relpath(chart, here)).as_posix()
             lines += [f"![camera pass against maps, run {run.name}]({where})", ""]
+        lines += per_light_lines(run, pairs, here)
     lines += density_section(runs, here, header)
     lines += ["What the camera pass still pays above one map's, the search through the grid "
               "and the finer texels: [the architecture]"
               "(design/architecture.md#many-small-maps-or-one-large-one); how the cached maps' "
               "[depth bounds](design/depth-bounds.md) settle most reads.", ""]
+    return lines
+
+
+def per_light_lines(run, pairs: list[tuple[dict, dict]], here: Path) -> list[str]:
+    """What each added light costs the camera pass on the night town (the bench's lights
+    series), clumped beside ``single``, where the run has two light counts or more."""
+    series = sorted(((row_number(c, "lights"), c, s) for c, s in pairs
+                     if c["group"] == "lights" and c["factor"] == "lights"),
+                    key=lambda t: t[0])
+    if len(series) < 2 or not all(math.isfinite(n) for n, _, _ in series):
+        return []
+    (few, c0, s0), (many, c1, s1) = series[0], series[-1]
+    added = many - few
+
+    def step(first: dict, last: dict) -> str:
+        return (f"{camera_ms(first):.1f} to {camera_ms(last):.1f} ms, "
+                f"{(camera_ms(last) - camera_ms(first)) / added:+.1f} ms a light")
+
+    counts = ", ".join(f"{n:.0f}" for n, _, _ in series)
+    lines = [f"**Each added light** (the night town with {counts} lights, run {run.name}): "
+             f"from {few:.0f} to {many:.0f} lights clumped's camera pass goes from "
+             f"{step(c0, c1)}; `single`'s from {step(s0, s1)}.", ""]
+    chart = run.folder / "charts" / "lights.png"
+    if chart.is_file():
+        where = Path(os.path.relpath(chart, here)).as_posix()
+        lines += [f"![cost against lights, run {run.name}]({where})", ""]
     return lines
 
 

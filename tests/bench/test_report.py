@@ -158,3 +158,26 @@ def test_a_cache_run_gets_its_answer_from_its_figures(root):
             "`grid` and `tri-cache` in 1, fewer last-level misses in 1, and a shorter time per "
             "ray on one thread in 2") in page
     assert "3.0 to 5.0 times Embree's" in page and "on 0 of 60 points" in page
+
+
+def test_each_added_light_is_the_camera_pass_grown_over_the_lights_added(tmp_path):
+    from types import SimpleNamespace
+
+    from game.bench.report_shading import per_light_lines
+
+    def row(method, lights, cull, shade):
+        return {"method": method, "group": "lights", "factor": "lights", "lights": str(lights),
+                "cull_ms_median": str(cull), "shade_ms_median": str(shade)}
+
+    pairs = [(row("clumped", n, 1.0, 10.0 + 2.0 * n), row("single", n, 1.0, 12.0 + 3.0 * n))
+             for n in (4, 1, 16)]
+    run = SimpleNamespace(name="lights", folder=tmp_path)
+    text = "\n".join(per_light_lines(run, pairs, tmp_path))
+    # 1 to 16 lights: clumped 13.0 -> 43.0 ms, (43 - 13) / 15 = +2.0 a light; single +3.0.
+    assert "with 1, 4, 16 lights" in text
+    assert "clumped's camera pass goes from 13.0 to 43.0 ms, +2.0 ms a light" in text
+    assert "`single`'s from 16.0 to 61.0 ms, +3.0 ms a light" in text
+    # One light count, or rows of another series, say nothing.
+    assert per_light_lines(run, pairs[:1], tmp_path) == []
+    other = [({**c, "factor": "characters"}, s) for c, s in pairs]
+    assert per_light_lines(run, other, tmp_path) == []
