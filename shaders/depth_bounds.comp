@@ -2,8 +2,8 @@
 // The depth bounds of one map's square: per block of BOUNDS_BLOCK x BOUNDS_BLOCK depth texels,
 // their nearest and farthest depth, or a plane and how far the texels lie from it, whichever is
 // the tighter (shaders/depth_bounds.glsl, game/gpu/depth_bounds.py). The shading pass reads a
-// block's bounds before its texel: a fragment nearer the light than they allow is lit, one
-// farther is in shadow, whichever texel its lookup would pick (shaders/shadow.glsl).
+// block's bounds before its texels: a fragment nearer the light than they allow at the texels
+// it would read is lit, one farther is in shadow (shaders/shadow.glsl).
 layout(local_size_x = 8, local_size_y = 8) in;
 #include "depth_bounds.glsl"
 
@@ -14,7 +14,7 @@ uniform int u_side;               // blocks per side of the square
 
 // Added to every spread: the shading pass evaluates the plane in its own float arithmetic, which
 // may round otherwise than this pass's by a few units in the last place of a depth in [0, 1].
-const float MARGIN = 1.0 / 2097152.0;   // 2^-21, eight units in the last place at 1.0
+const float MARGIN = 1.0 / 2097152.0;   // 2^-21: four units in the last place at 1.0, eight below
 // The sum of the squared offsets from the centre along one axis, over the block's texels.
 const float SQUARES = float(BOUNDS_BLOCK * BOUNDS_BLOCK * (BOUNDS_BLOCK * BOUNDS_BLOCK - 1)) / 12.0;
 
@@ -24,17 +24,23 @@ const vec4 GATHER_X = vec4(0.0, 1.0, 1.0, 0.0);
 const vec4 GATHER_Y = vec4(1.0, 1.0, 0.0, 0.0);
 
 // The least code whose spread is at least e (rounded up: the mantissa bits below the three kept
-// carry one into them).
+// carry one into them); above 255 where the code cannot hold it.
 uint spread_code(float e) {
     uint bits = floatBitsToUint(max(e, 0.0));
     uint top = (bits >> 20) + ((bits & 0xFFFFFu) != 0u ? 1u : 0u);
-    return uint(clamp(int(top) - int(BOUNDS_SPREAD_FIRST), 0, 255));
+    return uint(max(int(top) - int(BOUNDS_SPREAD_FIRST), 0));
 }
 
-// The sloped form (shaders/depth_bounds.glsl) of a plane and a spread of e.
-uvec2 sloped_form(float mid, vec2 slope, float e) {
+// The smallest normal half: a slope below it would be stored as a subnormal half, which a
+// device may flush to zero when it packs or unpacks, and read as another plane than the one the
+// spread was measured from.
+const float HALF_NORMAL = 1.0 / 16384.0;
+
+// A plane in the sloped form (shaders/depth_bounds.glsl), its spread's code left at 0.
+uvec2 plane_form(float mid, vec2 slope) {
     uint m = uint(clamp(mid, 0.0, 1.0) * BOUNDS_MID_SCALE + 0.5);
-    return uvec2((m << 8) | spread_code(e + MARGIN), packHalf2x16(slope));
+    slope = mix(slope, vec2(0.0), lessThan(abs(slope), vec2(HALF_NORMAL)));
+    return uvec2(m << 8, packHalf2x16(slope));
 }
 
 vec4 texels(vec2 first, vec2 texel, int x, int y) {
@@ -67,8 +73,8 @@ void main() {
     vec4 ones = vec4(1.0);
     // The least-squares plane (the offsets are centred, so its terms part), made as the shading
     // pass will read it, then its texels' greatest distance from it.
-    uvec2 fit = sloped_form(dot(sum, ones) / float(BOUNDS_BLOCK * BOUNDS_BLOCK),
-                            vec2(dot(sum_x, ones), dot(sum_y, ones)) / SQUARES, 0.0);
+    uvec2 fit = plane_form(dot(sum, ones) / float(BOUNDS_BLOCK * BOUNDS_BLOCK),
+                           vec2(dot(sum_x, ones), dot(sum_y, ones)) / SQUARES);
     vec4 off = vec4(0.0);
     // A block of one depth (open sky, or a caster's flat face square to the light) keeps the
     // level form, which is exact: its texels need no second walk.
@@ -84,10 +90,11 @@ void main() {
             off = max(off, abs(d - plane));
         }
     }
-    uvec2 sloped = sloped_form(bounds_mid(fit), bounds_slope(fit),
-                               max(max(off.x, off.y), max(off.z, off.w)));
+    // The plane's own bits, so that the spread holds of the plane as stored.
+    uint code = spread_code(max(max(off.x, off.y), max(off.z, off.w)) + MARGIN);
+    uvec2 sloped = uvec2(fit.x | min(code, 255u), fit.y);
     // The level form is exact and kept unless the plane's band is the narrower.
     uvec2 level = uvec2(floatBitsToUint(lo) | BOUNDS_LEVEL, floatBitsToUint(hi));
-    uvec2 kept = 2.0 * bounds_spread(sloped) < hi - lo ? sloped : level;
+    uvec2 kept = code <= 255u && 2.0 * bounds_spread(sloped) < hi - lo ? sloped : level;
     imageStore(u_bounds, ivec3(b, u_square.z), uvec4(kept, 0u, 0u));
 }

@@ -102,7 +102,10 @@ float lookup(int i, vec2 uv, float depth) {
     float known = -1.0;
 #endif
 #if !PCF
-    float v = texture(u_shadow_maps, vec4(uv, layer, depth));
+    // Read at the centre of the texel that settled() took the bounds of: a device may snap a
+    // coordinate near a texel's edge to its neighbour, whose depth a plane's band does not hold.
+    vec2 texels = vec2(textureSize(u_shadow_maps, 0).xy);
+    float v = texture(u_shadow_maps, vec4((floor(uv * texels) + 0.5) / texels, layer, depth));
 #else
     // The 3 x 3 texels around uv's, each index held inside the map's own square (first to
     // last), read as one tap and three 2 x 2 gathers: nine taps' texels and mean in four

@@ -84,10 +84,17 @@ def shading_section(runs, here: Path, header: Callable[[object, Path], list[str]
 def per_light_lines(run, pairs: list[tuple[dict, dict]], here: Path) -> list[str]:
     """What each added light costs the camera pass on the night town (the bench's lights
     series), clumped beside ``single``, where the run has two light counts or more."""
+    def measured(row: dict) -> bool:
+        return (row.get("status") == "ok" and math.isfinite(camera_ms(row))
+                and math.isfinite(row_number(row, "lights")))
+
     series = sorted(((row_number(c, "lights"), c, s) for c, s in pairs
-                     if c["group"] == "lights" and c["factor"] == "lights"),
+                     if c["group"] == "lights" and c["factor"] == "lights"
+                     and measured(c) and measured(s)),
                     key=lambda t: t[0])
-    if len(series) < 2 or not all(math.isfinite(n) for n, _, _ in series):
+    counts = [n for n, _, _ in series]
+    # One pair a light count: two of one count (two frame sizes, say) have no one step.
+    if len(counts) < 2 or len(set(counts)) < len(counts):
         return []
     (few, c0, s0), (many, c1, s1) = series[0], series[-1]
     added = many - few
@@ -96,8 +103,8 @@ def per_light_lines(run, pairs: list[tuple[dict, dict]], here: Path) -> list[str
         return (f"{camera_ms(first):.1f} to {camera_ms(last):.1f} ms, "
                 f"{(camera_ms(last) - camera_ms(first)) / added:+.1f} ms a light")
 
-    counts = ", ".join(f"{n:.0f}" for n, _, _ in series)
-    lines = [f"**Each added light** (the night town with {counts} lights, run {run.name}): "
+    lines = [f"**Each added light** (the night town with {', '.join(f'{n:.0f}' for n in counts)}"
+             f" lights, run {run.name}): "
              f"from {few:.0f} to {many:.0f} lights clumped's camera pass goes from "
              f"{step(c0, c1)}; `single`'s from {step(s0, s1)}.", ""]
     chart = run.folder / "charts" / "lights.png"

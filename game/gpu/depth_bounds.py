@@ -3,9 +3,9 @@
 Why: on a CPU rasteriser a shadow lookup costs mostly its memory traffic. A fragment reads one
 texel, and neighbouring fragments read texels far apart wherever the map's texels are finer than
 the screen's pixels, as a tight map's are: every read is a cache miss. A block's bounds answer
-most fragments without the texel: a fragment nearer the light than every texel of its block is
-lit, one farther than every texel is in shadow, whichever texel of the block its lookup would
-have read. So the answer is exact, and the bounds, 1 / (:data:`BLOCK` ** 2) of the texels, stay
+most fragments without the texel: a fragment nearer the light than the bounds allow at the
+texels its lookup would read is lit, one farther than they allow is in shadow. So the answer is
+exact, and the bounds, 1 / (:data:`BLOCK` ** 2) of the texels, stay
 in the cache. Only fragments whose depth lies within their block's bounds read the texel itself.
 
 A block's bounds take one of two forms (shaders/depth_bounds.glsl): its nearest and farthest

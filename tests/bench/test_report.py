@@ -167,7 +167,7 @@ def test_each_added_light_is_the_camera_pass_grown_over_the_lights_added(tmp_pat
 
     def row(method, lights, cull, shade):
         return {"method": method, "group": "lights", "factor": "lights", "lights": str(lights),
-                "cull_ms_median": str(cull), "shade_ms_median": str(shade)}
+                "cull_ms_median": str(cull), "shade_ms_median": str(shade), "status": "ok"}
 
     pairs = [(row("clumped", n, 1.0, 10.0 + 2.0 * n), row("single", n, 1.0, 12.0 + 3.0 * n))
              for n in (4, 1, 16)]
@@ -181,3 +181,10 @@ def test_each_added_light_is_the_camera_pass_grown_over_the_lights_added(tmp_pat
     assert per_light_lines(run, pairs[:1], tmp_path) == []
     other = [({**c, "factor": "characters"}, s) for c, s in pairs]
     assert per_light_lines(run, other, tmp_path) == []
+    # A run that failed at 16 lights is left out: the step is from 1 to 4.
+    failed = [(c, {**s, "status": "failed", "shade_ms_median": "nan"}) if c["lights"] == "16"
+              else (c, s) for c, s in pairs]
+    text = "\n".join(per_light_lines(run, failed, tmp_path))
+    assert "with 1, 4 lights" in text and "13.0 to 19.0 ms, +2.0 ms a light" in text
+    # Two pairs of one light count (two frame sizes) give no one step.
+    assert per_light_lines(run, pairs + pairs[:1], tmp_path) == []
