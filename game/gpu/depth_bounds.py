@@ -5,8 +5,8 @@ texel, and neighbouring fragments read texels far apart wherever the map's texel
 the screen's pixels, as a tight map's are: every read is a cache miss. A block's bounds answer
 most fragments without the texel: a fragment nearer the light than the bounds allow at the
 texels its lookup would read is lit, one farther than they allow is in shadow. So the answer is
-exact, and the bounds, 1 / (:data:`BLOCK` ** 2) of the texels, stay
-in the cache. Only fragments whose depth lies within their block's bounds read the texel itself.
+exact, and the bounds, 1 / (:data:`BLOCK` ** 2) of the texels, stay in the cache. Only fragments
+whose depth lies within their block's bounds read the texel itself.
 
 A block's bounds take one of two forms (shaders/depth_bounds.glsl): its nearest and farthest
 depth, or a plane through its depths and how far they lie from it. The plane settles a caster's
