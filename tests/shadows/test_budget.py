@@ -200,8 +200,9 @@ def test_capture_clamps_a_resolution_above_the_gl_limit(tmp_path, capsys):
 
 def test_clumps_short_of_layers_get_maps_of_half_the_side(ctx):
     """A density target the budget cannot meet: the clump maps are halved once, four times as
-    many, the maps are wider than the target's (the clumps or tiles the budget gives), a note
-    says so, and the frame still matches Embree. A budget that holds the target keeps 2048."""
+    many, the maps are wider than the target's (the clumps or tiles the budget gives), notes
+    say so and give the texels per metre held, and the frame still matches Embree. A budget
+    that holds the target keeps 2048, with no such note."""
     scene = parse_scene(TINY, TINY_PATH, TINY_PATH.parent)
     layer_mib = 4 * 2048 ** 2 / 2**20
     short = ShadowSettings(texels_per_metre=4000.0, budget_mib=4 * layer_mib,
@@ -212,6 +213,10 @@ def test_clumps_short_of_layers_get_maps_of_half_the_side(ctx):
         assert method.resolution == 1024
         assert method.maps.density < short.texels_per_metre  # wider than the target's
         assert any("four times as many" in note for note in method.notes)
+        # ... and how much wider, in the texels per metre the maps hold.
+        held = f"its clump maps hold {method.maps.density:.3g} texels/m (their median), " \
+               "where 4000 were asked"
+        assert held in method.notes, method.notes
         _, err = render_and_check(renderer, 0.0)
         assert err["shadowed"] >= 100 and err["error"] <= MAX_ERROR, err["error"]
     finally:
@@ -221,5 +226,6 @@ def test_clumps_short_of_layers_get_maps_of_half_the_side(ctx):
     try:
         assert renderer.method.resolution == 2048
         assert renderer.method.maps.density == 96.0
+        assert not [n for n in renderer.method.notes if "texels/m (their median)" in n]
     finally:
         renderer.release()

@@ -86,6 +86,12 @@ class ClumpedShadows(ShadowMethod, SharesBudget, ViewSized):
         if (self.members.short and settings.clump_count is None
                 and not self.ctx.kind.orthographic):
             self._one_clump_if_finer()
+        if self.members.short and self.ctx.kind.orthographic:
+            # How much coarser. Seen from far away the texels may be under a pixel wide on
+            # screen, no collapse (game/shadows/collapse.py), while the error that their size
+            # and bias bring at every caster's edge is not small.
+            self.note(f"its clump maps hold {self.maps.density:.3g} texels/m (their median), "
+                      f"where {settings.texels_per_metre:g} were asked")
 
     def _one_clump_if_finer(self) -> None:
         """A lamp short of layers: its statics as one clump, in the maps the baselines give
