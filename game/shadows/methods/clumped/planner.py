@@ -89,7 +89,7 @@ class ClumpedShadows(ShadowMethod, SharesBudget, ViewSized):
         if self.members.short and self.ctx.kind.orthographic:
             # How much coarser. Seen from far away the texels may be under a pixel wide on
             # screen, no collapse (game/shadows/collapse.py), while the error that their size
-            # and bias bring at every caster's edge is not small.
+            # and bias bring along every shadow's edge is not small.
             self.note(f"its clump maps hold {self.maps.density:.3g} texels/m (their median), "
                       f"where {settings.texels_per_metre:g} were asked")
 
