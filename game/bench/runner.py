@@ -37,6 +37,7 @@ def run(opts: BenchOptions, ctx=None, command: str = "") -> dict:
     (game/bench/report.py).
     """
 
+    _need_extras()
     check_outputs(opts.out)
     opts.out.mkdir(parents=True, exist_ok=True)
     (opts.out / "scenes").mkdir(exist_ok=True)
@@ -184,11 +185,18 @@ def _refuse(problem: str) -> NoReturn:
     raise GameError(problem)
 
 
-def _progress(total: int, enabled: bool):
+def _need_extras() -> None:
+    """Refuse, before anything is written, a bench without its extras (the progress bar and
+    the charts)."""
     try:
-        from tqdm import tqdm
+        import matplotlib  # noqa: F401
+        import tqdm  # noqa: F401
     except ImportError as exc:
         raise GameError("bench needs tqdm and matplotlib: pip install -e '.[bench]'") from exc
+
+
+def _progress(total: int, enabled: bool):
+    from tqdm import tqdm
     # None: drawn only on a terminal; a pipe or a log file would keep every redraw.
     return tqdm(total=total, disable=None if enabled else True, unit="run", file=sys.stderr,
                 dynamic_ncols=True)

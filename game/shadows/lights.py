@@ -264,11 +264,15 @@ class LightShadows:
 
     @property
     def notes(self) -> list[str]:
-        """Each light's notes; with several lights, each says which light it is about."""
+        """Each light's notes; with several lights, each says which lights it is about, once
+        for all the lights that say the same (sixteen street lamps under ``csm``, say)."""
         if len(self.methods) == 1:
             return self._notes + self.methods[0].notes
-        return self._notes + [f"light {k}: {note}" for k, m in enumerate(self.methods)
-                              for note in m.notes]
+        said: dict[str, list[int]] = {}
+        for k, m in enumerate(self.methods):
+            for note in m.notes:
+                said.setdefault(note, []).append(k)
+        return self._notes + [f"{named_lights(lights)}: {note}" for note, lights in said.items()]
 
     def prepare(self) -> ArrayShape:
         """What the depth array must hold for the next plan: the shared atlas made anew
@@ -404,3 +408,17 @@ def scene_radius(geom: PackedGeometry) -> float:
         return 1.0
     points = geom.positions[fixed][:, [0, 2]]
     return float(np.linalg.norm(points.max(axis=0) - points.min(axis=0))) / 2
+
+
+def named_lights(lights: list[int]) -> str:
+    """``light 3``, or ``lights 1-16`` and ``lights 0, 2, 5-7`` for several, runs joined."""
+    if len(lights) == 1:
+        return f"light {lights[0]}"
+    runs: list[list[int]] = []
+    for k in lights:
+        if runs and k == runs[-1][-1] + 1:
+            runs[-1].append(k)
+        else:
+            runs.append([k])
+    parts = [f"{r[0]}" if len(r) == 1 else f"{r[0]}-{r[-1]}" for r in runs]
+    return f"lights {', '.join(parts)}"

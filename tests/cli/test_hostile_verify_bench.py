@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from game import cli
-from tests.cli.cli_helpers import run_main
+from tests.cli.cli_helpers import assert_one_line_error, run, run_main
 from tests.helpers import ROOT, stoppable
 from tests.helpers import TINY as TINY_PATH
 
@@ -275,3 +275,15 @@ def test_the_gpu_suite_checks_its_output_paths_first(capsys, tmp_path, monkeypat
                            "--no-progress")
     assert code != 0 and len(lines) == 1, lines
     assert name in lines[0], lines[0]
+
+
+def test_a_bench_without_its_extras_says_so_and_writes_nothing(tmp_path):
+    # tqdm hidden behind a module of the same name that will not import.
+    hide = tmp_path / "hide"
+    hide.mkdir()
+    (hide / "tqdm.py").write_text('raise ImportError("hidden by the test")\n')
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(hide), str(ROOT)])}
+    out = tmp_path / "out"
+    result = run("bench", *BENCH, "--out", out, env=env)
+    assert_one_line_error(result, "bench needs tqdm and matplotlib", "pip install -e '.[bench]'")
+    assert not out.exists()

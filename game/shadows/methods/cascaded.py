@@ -133,7 +133,7 @@ class CascadedShadows(ShadowMethod):
                                   for z in (bounds[0][2], bounds[1][2])], float)
         kind = kind_of(light)
         if not kind.orthographic:
-            self.note(f"csm: cascades need a directional light; for this {light.kind} light it "
+            self.note(f"csm: cascades need a directional light; for a {light.kind} light it "
                       f"draws the maps of single at cascade_resolution ({kind.engine_maps})")
             self._light_rot = None
             self._statics = reached_statics(g, light)
