@@ -23,13 +23,15 @@ POINT = SCENES / "point.toml"
 SPOT = SCENES / "spot.toml"
 LOW_SUN = SCENES / "low_sun.toml"
 POINT_AMONG = SCENES / "point_among.toml"
+SPOT_SLAB = SCENES / "spot_slab.toml"  # a spot lamp over a slab that reaches behind it
+PLAZA = SCENES / "plaza_128.toml"      # 128 capsule walkers, three boxes, a sun
 
 ACCURACY_SIZE = (320, 180)   # frames scored against Embree
 SMALL_SIZE = (160, 90)       # frames compared with each other
 MAX_ERROR = 0.05             # the shadow-error bound every method holds on ACCURACY_SCENES
 # The scenes the accuracy bound is asserted on, for every method.
 ACCURACY_SCENES = {"courtyard": COURTYARD, "square": DEFAULT, "spot": SPOT, "point": POINT,
-                   "low_sun": LOW_SUN, "point_among": POINT_AMONG}
+                   "low_sun": LOW_SUN, "point_among": POINT_AMONG, "spot_slab": SPOT_SLAB}
 
 
 def stoppable() -> None:

@@ -15,6 +15,7 @@ import pytest
 from game.render.renderer import Renderer, View
 from game.scene import Light, load_scene
 from game.shadows import clumping
+from game.shadows.fit import MIN_NEAR_SHARE, fit_spot
 from game.shadows.light_kinds import kind_of
 from game.shadows.plan import ShadowSettings
 from tests.helpers import ACCURACY_SIZE as SIZE
@@ -110,6 +111,24 @@ def test_the_point_footprint_skips_only_the_light_itself():
     moved = box + np.array([5.0, 0.0, 0.0])
     plain, _ = clumping.object_summaries([moved], footprint)
     assert np.all(np.isfinite(plain))
+
+
+def test_a_caster_reaching_behind_a_spot_keeps_its_part_nearest_the_lamp():
+    """A slab whose corners lie behind the spot's plane and a metre before it: its triangles
+    cross every depth in front of the lamp, so the map's near plane lies at the nearest it may,
+    not at the nearest corner in front (tests/scenes/spot_slab.toml, where that corner's
+    near plane left 9% of the shadowed floor lit)."""
+    eye = np.zeros(3)
+    slab = np.array([[-3.0, 1.0, -1.0], [3.0, 1.0, -1.0], [-3.0, -2.0, 2.0], [3.0, -2.0, 2.0]])
+    down_forward = np.array([0.0, -1.0, 1.0]) / np.sqrt(2.0)
+    fit = fit_spot(slab, eye, down_forward, 120.0, 1024)
+    depths = slab @ down_forward
+    assert depths.min() < 0.0 < 0.5 < depths[depths > 0].min()
+    assert fit.near <= MIN_NEAR_SHARE * fit.far * 1.01, (fit.near, fit.far)
+    # A caster wholly in front keeps its near plane at its nearest corner, less a margin.
+    ahead = slab + 3.0 * down_forward
+    near = (ahead @ down_forward).min()
+    assert 0.9 * near < fit_spot(ahead, eye, down_forward, 120.0, 1024).near < near
 
 
 def test_a_caster_that_is_only_the_light_is_refused_in_words():
