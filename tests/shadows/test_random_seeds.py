@@ -4,7 +4,8 @@ baselines (seed 20), a point light among many statics whose clumps all merged in
 cube (seed 59) and whose cube was halved where it was short of layers (seed 59), point lights'
 cubes coarser than the baselines' by the budget (seed 13), a crowd seen from far above (seed
 168), a crowd around lamps that shared maps round robin (seed 88), and lamps whose clumps were
-coarser than the baselines' maps for them (seeds 116, 159 and 37)."""
+coarser than the baselines' maps for them (seeds 116, 159 and 37). Beside them, the plaza of
+128 walkers the crowd's accuracy was first questioned on (tests/scenes/plaza_128.toml)."""
 
 from __future__ import annotations
 
@@ -24,7 +25,7 @@ from game.shadows.cube_sides import COARSE_CUBE_RATIO, lamp_side
 from game.shadows.fit import CUBE_FACES
 from game.shadows.lights import LightShadows, scene_radius
 from game.shadows.plan import SHADOW_BUDGET_MIB, ShadowSettings
-from tests.helpers import MAX_ERROR
+from tests.helpers import MAX_ERROR, PLAZA
 
 # A budget given, held to: no light is owed the baselines' memory, so a lamp stays short of
 # layers where these tests need it to be.
@@ -229,6 +230,25 @@ def test_a_lamps_shadows_are_drawn_as_well_as_the_baselines_draw_them(ctx, tmp_p
     short of layers, whose shares of the budget held no cube at the baselines' side: their
     clumps drew twice the baselines' error and more."""
     _within_the_target(ctx, tmp_path, seed, frames=2)
+
+
+def test_a_plaza_of_128_walkers_is_shadowed_as_well_as_the_baselines_shadow_it(ctx, tmp_path):
+    """tests/scenes/plaza_128.toml: 128 capsules crossing a square among three boxes under a
+    sun from the side, seen from street level, two frames as the sweep scores them. Each
+    walker passes through its neighbours' shadows and their maps' rectangles; clumped draws
+    the crowd within the sweep's target of the better baseline, and shadows no more of the
+    walkers' lit pixels than a mesh walker's folds would."""
+    pytest.importorskip("embreex")
+    scene = load_scene(PLAZA)
+    got = {m: sum(score["misclassified"]
+                  for score in _light_scores(ctx, scene, m, tmp_path / m, frames=2))
+           for m in ("clumped", "single", "static-dynamic")}
+    best = min(got["single"], got["static-dynamic"])
+    assert got["clumped"] <= TARGET_RATIO * best + TARGET_SLACK_PX, got
+    for k in range(2):
+        wrong, lit = _walker_false_shadows(tmp_path / "clumped" / f"frame_{k:04d}.npz", scene)
+        assert lit >= 2000, f"only {lit} lit walker pixels to judge"
+        assert wrong <= WALKER_FALSE_SHADOW * lit, f"{wrong} of {lit} lit walker pixels shadowed"
 
 
 def _within_the_target(ctx, tmp_path: Path, seed: int, frames: int = 1) -> None:
