@@ -327,6 +327,23 @@ def _affected(geom: PackedGeometry, maps: list[MapRecord], collapsed: list[MapTe
     return ", ".join(parts)
 
 
+def coarse_statics_note(method: ShadowMethod, fits: list) -> str | None:
+    """A baseline's note where its map of a directional light's statics holds
+    :data:`COLLAPSE_FACTOR` times fewer texels per metre than clumped's target, or None. Seen
+    from far away those texels may be under a pixel wide on screen, no collapse; their bias
+    still moves every shadow's edge by about a texel and loses the shadows of details under it
+    (a town's window recesses)."""
+    if not fits or fits[0].perspective:
+        return None
+    density = 1.0 / max(f.texel for f in fits)
+    target = method.settings.texels_per_metre
+    if density * COLLAPSE_FACTOR >= target:
+        return None
+    return (f"its {method.resolution}^2 map holds {density:.3g} texels/m over the statics, "
+            f"where clumped aims for {target:g}: texels {100.0 / density:.0f} cm wide move "
+            f"every shadow's edge and lose the shadows of details under them")
+
+
 def light_note(k: int, method: ShadowMethod, maps: list[MapRecord], first: int,
                depths: ViewDepths, geom: PackedGeometry) -> str | None:
     """The one note on light ``k`` whose maps collapsed in this view, or None."""

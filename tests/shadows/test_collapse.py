@@ -13,8 +13,12 @@ import pytest
 from game import transforms
 from game.render.renderer import Renderer, View
 from game.scene import load_scene
+from game.scene.geometry import pack
+from game.scene.model import Light
 from game.shadows import collapse
 from game.shadows.fit import fit_squares
+from game.shadows.methods.single import SingleShadows
+from game.shadows.methods.static_dynamic import StaticDynamicShadows
 from game.shadows.plan import KIND_ALL, MapRecord, ShadowSettings
 from tests.helpers import SCENES
 
@@ -111,3 +115,26 @@ def test_one_note_per_light(ctx):
     own, _ = frame_notes(ctx, scene, ShadowSettings(budget_mib=0.25))
     lights = [int(re.match(r"light (\d+): ", note)[1]) for note in own]
     assert lights[:2] == [0, 1] and len(set(lights)) == len(lights)
+
+
+@pytest.mark.parametrize("method", [SingleShadows, StaticDynamicShadows])
+def test_a_baselines_map_of_the_statics_says_when_it_holds_too_few_texels_per_metre(method):
+    """tiny.toml's sun map at 1024^2: a note in the texels per metre it holds where clumped's
+    target asks four times as many or more, none at the default target, none for a lamp."""
+    scene = load_scene(SCENES / "tiny.toml")
+    geom = pack(scene)
+    plain = method(geom, scene.light, ShadowSettings(single_resolution=1024), 64)
+    texel = max(f.fit.texel for f in plain.plan(np.repeat(np.eye(4)[None], geom.n_characters, 0)).maps[:1])
+    assert not plain.notes
+    density = 1.0 / texel
+    asked = ShadowSettings(single_resolution=1024, texels_per_metre=4.0 * density * 1.01)
+    noted = method(geom, scene.light, asked, 64)
+    assert noted.notes == [
+        f"its 1024^2 map holds {density:.3g} texels/m over the statics, where clumped aims for "
+        f"{asked.texels_per_metre:g}: texels {100.0 / density:.0f} cm wide move every "
+        f"shadow's edge and lose the shadows of details under them"], noted.notes
+    just = ShadowSettings(single_resolution=1024, texels_per_metre=4.0 * density * 0.99)
+    assert not method(geom, scene.light, just, 64).notes
+    lamp = Light(kind="point", direction=None, position=np.array([0.0, 6.0, 0.0]), cone=None,
+                 range=None)
+    assert not method(geom, lamp, asked, 64).notes

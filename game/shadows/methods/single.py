@@ -9,6 +9,7 @@ import numpy as np
 from game import transforms
 from game.scene.geometry import PackedGeometry
 from game.scene.model import Light
+from game.shadows.collapse import coarse_statics_note
 from game.shadows.fit import deciding_points
 from game.shadows.light_kinds import fits_for_light, kind_of
 from game.shadows.method import ShadowMethod, reached_characters, reached_statics
@@ -44,6 +45,10 @@ class SingleShadows(ShadowMethod):
         points = [self.geom.static_points[i] for i in self._statics]
         self._static_points = deciding_points(
             np.concatenate(points) if points else np.zeros((0, 3)), self._light_rot)
+        note = coarse_statics_note(self, fits_for_light(self._static_points, light,
+                                                        self._light_rot, self.resolution))
+        if note is not None:
+            self.note(note)
 
     def update_statics(self, geom: PackedGeometry, changed: set[str]) -> list[int]:
         """Statics changed: the one map is re-fitted (it is re-rendered every frame anyway)."""

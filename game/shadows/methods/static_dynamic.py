@@ -12,6 +12,7 @@ import numpy as np
 from game import transforms
 from game.scene.geometry import PackedGeometry
 from game.scene.model import Light
+from game.shadows.collapse import coarse_statics_note
 from game.shadows.light_kinds import fits_for_light, kind_of
 from game.shadows.method import ShadowMethod, reached_characters, reached_statics
 from game.shadows.plan import (
@@ -63,6 +64,9 @@ class StaticDynamicShadows(ShadowMethod):
         points = [self.geom.static_points[i] for i in statics]
         fits = fits_for_light(np.concatenate(points) if points else np.zeros((0, 3)), light,
                               self._light_rot, self.resolution)
+        note = coarse_statics_note(self, fits)
+        if note is not None:
+            self.note(note)
         objects = [self.geom.static_object(i) for i in statics]
         names = map_names("statics", len(fits))
         self._static = [MapRecord(name, KIND_CLUMP, fit, layer, self.resolution, objects)
