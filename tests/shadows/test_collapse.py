@@ -124,7 +124,8 @@ def test_a_baselines_map_of_the_statics_says_when_it_holds_too_few_texels_per_me
     scene = load_scene(SCENES / "tiny.toml")
     geom = pack(scene)
     plain = method(geom, scene.light, ShadowSettings(single_resolution=1024), 64)
-    texel = max(f.fit.texel for f in plain.plan(np.repeat(np.eye(4)[None], geom.n_characters, 0)).maps[:1])
+    models = np.repeat(np.eye(4)[None], geom.n_characters, 0)
+    texel = plain.plan(models).maps[0].fit.texel
     assert not plain.notes
     density = 1.0 / texel
     asked = ShadowSettings(single_resolution=1024, texels_per_metre=4.0 * density * 1.01)
