@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from game.scene.geometry import PackedGeometry
+from game.shadows.fit import MapFit
 from game.shadows.method import ShadowMethod, ViewSized
 from game.shadows.plan import (
     KIND_CASCADE,
@@ -327,9 +328,9 @@ def _affected(geom: PackedGeometry, maps: list[MapRecord], collapsed: list[MapTe
     return ", ".join(parts)
 
 
-def coarse_statics_note(method: ShadowMethod, fits: list) -> str | None:
-    """A baseline's note where its map of a directional light's statics holds
-    :data:`COLLAPSE_FACTOR` times fewer texels per metre than clumped's target, or None. Seen
+def coarse_statics_note(method: ShadowMethod, fits: list[MapFit]) -> str | None:
+    """A baseline's note where its map of a directional light's statics holds fewer than one
+    :data:`COLLAPSE_FACTOR`-th of clumped's target texels per metre, or None. Seen
     from far away those texels may be under a pixel wide on screen, no collapse; their bias
     still moves every shadow's edge by about a texel and loses the shadows of details under it
     (a town's window recesses)."""

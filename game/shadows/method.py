@@ -123,11 +123,21 @@ class ShadowMethod(ABC):
         # Map records the shading pass holds; maps may share layers, so this may be more.
         self.max_maps = max_layers if max_maps is None else max_maps
         self.notes: list[str] = []   # one line each: how the method degraded, and why
+        self._restated: str | None = None
 
     def note(self, text: str) -> None:
         """Say once how the method degraded (a method planned again says it again)."""
         if text not in self.notes:
             self.notes.append(text)
+
+    def restate(self, text: str | None) -> None:
+        """Say ``text`` in place of what the last call said: a note on a map that is fitted
+        anew when the light or the statics change holds only while that fit does."""
+        if self._restated in self.notes:
+            self.notes.remove(self._restated)
+        self._restated = text
+        if text is not None:
+            self.note(text)
 
     @classmethod
     def min_layers(cls, settings: ShadowSettings, n_characters: int) -> int:

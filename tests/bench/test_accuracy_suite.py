@@ -145,11 +145,6 @@ def test_the_sweep_writes_a_row_per_seed_and_method_scored_as_verify_scores(swee
         assert text == random_scene.draw(int(r["seed"])).text
     summary = json.loads((out / "summary.json").read_text())
     assert summary["scenes"] == len(SWEEP_SEEDS) == summary["compared"]
-    # The sweep's target on the seeds CI runs: clumped within 1.25x + 10 px of the better
-    # baseline on each, and every method within 5% or saying why not.
-    assert summary["within_target"] == len(SWEEP_SEEDS) and not summary["over_ceiling"], (
-        summary["worst_against_baseline"])
-    assert summary["every_method_within_max_or_noted"], summary["methods"]
     assert summary == accuracy_summary.json_ready(
         {**accuracy_summary.summarise(rows, registry.MAP_METHODS),
          **{k: summary[k] for k in ("seeds", "wall_s", "workers", "cluster")}})
@@ -158,6 +153,17 @@ def test_the_sweep_writes_a_row_per_seed_and_method_scored_as_verify_scores(swee
     record = json.loads((out / "run.json").read_text())
     assert "--suite accuracy" in record["command"] and record["renderer"]
     assert "within 1.25x + 10 px" in result.stdout
+
+
+@needs_sweep
+def test_the_seeds_ci_runs_meet_the_sweeps_target(sweep):
+    """Clumped within 1.25x + 10 px of the better baseline on each seed, none over the
+    ceiling, and every method within 5% or saying why not."""
+    out, _ = sweep
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["within_target"] == len(SWEEP_SEEDS) and not summary["over_ceiling"], (
+        summary["worst_against_baseline"])
+    assert summary["every_method_within_max_or_noted"], summary["methods"]
 
 
 @needs_sweep

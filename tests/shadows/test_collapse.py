@@ -4,6 +4,7 @@ whose plan falls far short of its target, none where it holds it."""
 
 from __future__ import annotations
 
+import dataclasses
 import re
 from types import SimpleNamespace
 
@@ -139,3 +140,12 @@ def test_a_baselines_map_of_the_statics_says_when_it_holds_too_few_texels_per_me
     lamp = Light(kind="point", direction=None, position=np.array([0.0, 6.0, 0.0]), cone=None,
                  range=None)
     assert not method(geom, lamp, asked, 64).notes
+    # A light turned refits the map: its note is said again for the new fit, not beside the
+    # old one, and goes when the light is a lamp.
+    far_short = method(geom, scene.light, dataclasses.replace(
+        asked, texels_per_metre=40.0 * density), 64)
+    turned = dataclasses.replace(scene.light, direction=np.array([0.3, -1.0, 0.2]))
+    far_short.set_light(turned)
+    assert len(far_short.notes) == 1 and far_short.notes[0].startswith("its 1024^2 map holds")
+    far_short.set_light(lamp)
+    assert far_short.notes == []

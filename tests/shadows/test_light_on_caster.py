@@ -114,10 +114,10 @@ def test_the_point_footprint_skips_only_the_light_itself():
 
 
 def test_a_caster_reaching_behind_a_spot_keeps_its_part_nearest_the_lamp():
-    """A slab whose corners lie behind the spot's plane and a metre before it: its triangles
-    cross every depth in front of the lamp, so the map's near plane lies at the nearest it may,
-    not at the nearest corner in front (tests/scenes/spot_slab.toml, where that corner's
-    near plane left 9% of the shadowed floor lit)."""
+    """A slab whose corners lie behind the spot's plane and nearly three metres before it:
+    its triangles cross every depth in front of the lamp, so the map's near plane lies at the
+    nearest it may, not at the nearest corner in front (tests/scenes/spot_slab.toml, where
+    that corner's near plane left 9% of the shadowed floor lit)."""
     eye = np.zeros(3)
     slab = np.array([[-3.0, 1.0, -1.0], [3.0, 1.0, -1.0], [-3.0, -2.0, 2.0], [3.0, -2.0, 2.0]])
     down_forward = np.array([0.0, -1.0, 1.0]) / np.sqrt(2.0)

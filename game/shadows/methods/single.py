@@ -45,10 +45,8 @@ class SingleShadows(ShadowMethod):
         points = [self.geom.static_points[i] for i in self._statics]
         self._static_points = deciding_points(
             np.concatenate(points) if points else np.zeros((0, 3)), self._light_rot)
-        note = coarse_statics_note(self, fits_for_light(self._static_points, light,
-                                                        self._light_rot, self.resolution))
-        if note is not None:
-            self.note(note)
+        self.restate(coarse_statics_note(self, fits_for_light(self._static_points, light,
+                                                              self._light_rot, self.resolution)))
 
     def update_statics(self, geom: PackedGeometry, changed: set[str]) -> list[int]:
         """Statics changed: the one map is re-fitted (it is re-rendered every frame anyway)."""

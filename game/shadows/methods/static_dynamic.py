@@ -64,9 +64,7 @@ class StaticDynamicShadows(ShadowMethod):
         points = [self.geom.static_points[i] for i in statics]
         fits = fits_for_light(np.concatenate(points) if points else np.zeros((0, 3)), light,
                               self._light_rot, self.resolution)
-        note = coarse_statics_note(self, fits)
-        if note is not None:
-            self.note(note)
+        self.restate(coarse_statics_note(self, fits))
         objects = [self.geom.static_object(i) for i in statics]
         names = map_names("statics", len(fits))
         self._static = [MapRecord(name, KIND_CLUMP, fit, layer, self.resolution, objects)
