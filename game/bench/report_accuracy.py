@@ -51,12 +51,15 @@ def accuracy_section(run: SuiteRun, here: Path) -> list[str]:
     t = s["targets"]
     rec = run.record
     where = Path(os.path.relpath(run.folder, here)).as_posix()
+    size = rec.get("size")
+    at = (f"at {size[0]}x{size[1]}" if isinstance(size, list) and len(size) == 2
+          else "at each scene's own size")
     lines = [
-        "## Accuracy on random scenes", "",
+        f"## Accuracy on random scenes, {at}", "",
         "Every map method at its defaults on seeded random scenes (`python -m game scenes "
         "random --seed N`: crowds of capsules and real meshes, statics of every shape, real "
         "props, the real level, suns, spot and point lamps, street-level and high cameras), "
-        "each run scored against Embree as `verify` scores it.", "",
+        f"each run scored against Embree as `verify` scores it, {at}.", "",
         f"**What the figures say.** On {s['compared']} scenes `clumped` misclassifies at most "
         f"{t['ratio']:g}x the pixels of the better of {' and '.join(f'`{b}`' for b in BASELINES)}"
         f" plus {t['slack_px']:g} on {s['within_target']} "

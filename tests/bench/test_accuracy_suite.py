@@ -211,7 +211,7 @@ def test_the_results_page_gets_a_section_from_a_recorded_sweep(sweep, tmp_path):
     shutil.copy(ROOT / "README.md", root / "README.md")
     report.write_report(root)
     page = (root / "docs" / "results.md").read_text()
-    assert "## Accuracy on random scenes" in page
+    assert "## Accuracy on random scenes, at 160x90" in page
     section = accuracy_section(load_accuracy_run(root / "docs" / "runs" / "accuracy"),
                                root / "docs")
     assert f"On {len(SWEEP_SEEDS)} scenes" in "\n".join(section)
