@@ -158,6 +158,12 @@ class Spot(LightKind):
 
         return spot, 1.0 / typical
 
+    def one_frustum(self, light: Light, points: np.ndarray) -> bool:
+        # A cone no wider than a cube's face: one map over it holds everything the light can
+        # shadow, in one layer where a cube takes six, with texels no coarser than a face's.
+        return (_cone_tan(light) <= CUBE_FACE_TAN
+                or holds_in_one_frustum(points, light.position, self.widest_tan))
+
     def finest_extent(self, light: Light, side: int, base_side: int) -> float | None:
         # The baselines' one map spans the cone's tangents.
         return side * 2.0 * _cone_tan(light) / base_side
@@ -170,12 +176,14 @@ class Spot(LightKind):
         # A caster wider than the cone (a level's walls before the lamp) needs no texels
         # outside it: nothing there is lit. Aimed along the light and held to the cone, its
         # map is then no coarser than the engine's one map over the cone. A caster that
-        # reaches behind the lamp (the lamp on it) keeps its own map, widened around the lamp.
-        if (own is None or (own.rect[2] - own.rect[0]) / 2 <= _cone_tan(light)
-                or float(((points - light.position) @ light.direction).min()) <= 0.0):
+        # reaches behind the lamp (the lamp on it or among it) takes the map over the cone
+        # too: its own map, aimed at its middle and widened around the lamp, may miss part
+        # of the cone.
+        behind = float(((points - light.position) @ light.direction).min()) <= 0.0
+        if own is None or (not behind and (own.rect[2] - own.rect[0]) / 2 <= _cone_tan(light)):
             return own
         cone = fit_spot(points, light.position, light.direction, light.cone, resolution)
-        return cone if cone is not None and cone.texel < own.texel else own
+        return cone if cone is not None and (behind or cone.texel < own.texel) else own
 
     def engine_fits(self, light: Light, points: np.ndarray, resolution: int,
                     rotation: np.ndarray | None) -> list[MapFit]:
