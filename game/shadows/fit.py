@@ -158,7 +158,7 @@ def fit_perspective(points: np.ndarray, eye: np.ndarray, resolution: int,
     size = resolution * texel
     # A triangle with a corner behind the near floor crosses every depth in front of it, down
     # to the floor: a near plane at its nearest corner in front would clip the part between.
-    near = float(depth[front].min()) if front.all() else near_floor
+    near = float(depth.min()) if front.all() else near_floor
     span = far_depth - near
     near = max(near - DEPTH_MARGIN * span, near_floor)
     far = far_depth + DEPTH_MARGIN * span + 1e-6 * far_depth

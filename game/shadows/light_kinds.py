@@ -161,8 +161,7 @@ class Spot(LightKind):
     def one_frustum(self, light: Light, points: np.ndarray) -> bool:
         # A cone no wider than a cube's face: one map over it holds everything the light can
         # shadow, in one layer where a cube takes six, with texels no coarser than a face's.
-        return (_cone_tan(light) <= CUBE_FACE_TAN
-                or holds_in_one_frustum(points, light.position, self.widest_tan))
+        return _cone_tan(light) <= CUBE_FACE_TAN or super().one_frustum(light, points)
 
     def finest_extent(self, light: Light, side: int, base_side: int) -> float | None:
         # The baselines' one map spans the cone's tangents.
