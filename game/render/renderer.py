@@ -110,7 +110,8 @@ class Renderer(SceneEdits):
 
     def collapse_notes(self, max_age_s: float = 0.0) -> list[str]:
         """One line per light whose maps were far coarser on screen, in the last frame, than
-        its plan aimed for (game/shadows/collapse.py); kept while the plan and view are, or
+        its plan aimed for, and one per light whose method wasted its maps on the view
+        (game/shadows/collapse.py); kept while the plan and view are, or
         for ``max_age_s`` seconds (the window asks every frame, and a large scene's take a
         while)."""
         plan, view = self.last_plan, self.last_view

@@ -361,15 +361,20 @@ def light_note(k: int, method: ShadowMethod, maps: list[MapRecord], first: int,
 
 def collapse_notes(methods: list[ShadowMethod], maps: list[MapRecord], first_maps: list[int],
                    view, geom: PackedGeometry, models: np.ndarray) -> list[str]:
-    """One note per light whose maps collapsed in ``view``: ``maps`` are the frame's plan's,
-    light k's from ``first_maps[k]`` to the next light's first."""
+    """One note per light whose maps collapsed in ``view``, and one per light whose method
+    says its scheme loses in this view (:meth:`ShadowMethod.view_note`): ``maps`` are the
+    frame's plan's, light k's from ``first_maps[k]`` to the next light's first."""
     if view is None or view.size is None or not maps:
         return []
     depths = ViewDepths(Receivers.of(geom, models), view)
+    nearest = float(depths.depths.min()) if len(depths.depths) else np.inf
     ends = list(first_maps[1:]) + [len(maps)]
     notes = []
     for k, (method, start, end) in enumerate(zip(methods, first_maps, ends, strict=True)):
         note = light_note(k, method, maps[start:end], start, depths, geom)
         if note is not None:
             notes.append(note)
+        note = method.view_note(view, maps[start:end], nearest)
+        if note is not None:
+            notes.append(f"light {k}: {note}")
     return notes

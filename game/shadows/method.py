@@ -23,7 +23,7 @@ from game.scene.geometry import PackedGeometry
 from game.scene.model import Light
 from game.shadows.atlas import Square
 from game.shadows.light_kinds import kind_of
-from game.shadows.plan import ShadowPlan, ShadowSettings, layer_bytes
+from game.shadows.plan import MapRecord, ShadowPlan, ShadowSettings, layer_bytes
 from game.shadows.view_budget import ClumpRequest, Placement
 
 # Where the shading pass's visibility of the hard light comes from.
@@ -190,6 +190,12 @@ class ShadowMethod(ABC):
 
     def mark_rendered_lost(self) -> None:  # noqa: B027 - most methods cache nothing
         """The depth array was re-created: every cached map must be drawn again."""
+
+    def view_note(self, view, maps: list[MapRecord], nearest: float) -> str | None:
+        """What the method's own scheme loses in ``view``, where no receiver in view is nearer
+        than view depth ``nearest``; ``maps`` are its last plan's. None by default: only a
+        method whose maps follow the view can waste them on it."""
+        return None
 
 
 class SharesBudget(ABC):

@@ -18,6 +18,7 @@ from game.scene.geometry import pack
 from game.scene.model import Light
 from game.shadows import collapse
 from game.shadows.fit import fit_squares
+from game.shadows.methods.cascaded import CascadedShadows
 from game.shadows.methods.single import SingleShadows
 from game.shadows.methods.static_dynamic import StaticDynamicShadows
 from game.shadows.plan import KIND_ALL, MapRecord, ShadowSettings
@@ -149,3 +150,43 @@ def test_a_baselines_map_of_the_statics_says_when_it_holds_too_few_texels_per_me
     assert len(far_short.notes) == 1 and far_short.notes[0].startswith("its 1024^2 map holds")
     far_short.set_light(lamp)
     assert far_short.notes == []
+
+
+def csm_notes(scene, eye, target) -> tuple[list[str], np.ndarray]:
+    """The view's notes of ``csm`` on ``scene`` seen from ``eye``, and its cascades' splits."""
+    geom = pack(scene)
+    cam = dataclasses.replace(scene.camera, position=np.array(eye, float),
+                              target=np.array(target, float), fov=60.0)
+    view = View.from_camera(cam, SIZE)
+    method = CascadedShadows(geom, scene.light, ShadowSettings(method="csm"), 64)
+    models = np.repeat(np.eye(4)[None], geom.n_characters, 0)
+    plan = method.plan(models, view)
+    return (collapse.collapse_notes([method], plan.maps, [0], view, geom, models),
+            method.splits(view))
+
+
+def test_csm_says_when_its_cascades_end_before_anything_in_view():
+    """tiny.toml seen from 20 m up at 45 degrees: the floor's nearest point in view is on the
+    frame's bottom edge, at view depth h / (sin(pitch) + tan(fov / 2) cos(pitch)), past half
+    the cascades; from eye height the nearest floor is in the second cascade, and says
+    nothing."""
+    scene = load_scene(SCENES / "tiny.toml")
+    notes, splits = csm_notes(scene, [0.0, 20.0, 20.0], [0.0, 0.0, 0.0])
+    pitch = np.radians(45.0)
+    nearest = 20.0 / (np.sin(pitch) + np.tan(np.radians(30.0)) * np.cos(pitch))
+    first = int(np.sum(splits[1:-1] <= nearest))
+    assert 2 * first >= len(splits) - 1, (nearest, splits)
+    [note] = notes
+    found = re.match(r"light 0: csm: nothing in view is nearer than ([\d.]+) m, so cascades "
+                     r"0-(\d+), which end at ([\d.]+) m, hold no receiver, and its shadows "
+                     r"take texels [\d.-]+ cm wide", note)
+    assert found, note
+    assert float(found[1]) == pytest.approx(nearest, rel=5e-3)   # three figures
+    assert int(found[2]) == first - 1
+    assert found[3] == f"{splits[first]:.3g}"
+    street, splits = csm_notes(scene, [0.0, 1.7, 12.0], [0.0, 1.0, 0.0])
+    assert street == [] and splits[1] < 2.68 < splits[2], splits
+    lamp = dataclasses.replace(scene, lights=[Light(
+        kind="point", direction=None, position=np.array([0.0, 6.0, 0.0]), cone=None,
+        range=None)])
+    assert csm_notes(lamp, [0.0, 20.0, 20.0], [0.0, 0.0, 0.0])[0] == []

@@ -153,6 +153,34 @@ class CascadedShadows(ShadowMethod):
         depths = -transforms.transform_points(view, self._corners)[:, 2]
         return float(np.clip(depths.max(), near * 1.001, far))
 
+    def splits(self, view) -> np.ndarray:
+        """The view depths where the cascades meet, from the camera's near plane to the
+        shadow distance (``cascades + 1`` of them)."""
+        s = self.settings
+        near = self._near(view)
+        far = self._shadow_far(view.view, near, self._far(view))
+        return split_distances(near, far, s.cascades, s.cascade_lambda)
+
+    def view_note(self, view, maps: list[MapRecord], nearest: float) -> str | None:
+        """Where half the cascades or more end before the nearest receiver in view, most of
+        the maps are spent on empty space, and every shadow takes one of the wide slices that
+        the practical split meant for the distance. A camera high above the scene is the
+        common case; a nearest receiver past the first split alone is the scheme at work."""
+        if self._light_rot is None or not maps or not np.isfinite(nearest):
+            return None
+        splits = self.splits(view)
+        first = int(np.searchsorted(splits[1:-1], nearest, side="right"))
+        if 2 * first < len(maps):
+            return None
+        empty = ("cascade 0, which ends" if first == 1
+                 else f"cascades 0-{first - 1}, which end")
+        texels = sorted(record.fit.texel * 100.0 for record in maps[first:])
+        width = (f"{texels[0]:.2g} cm" if len(texels) == 1 or texels[-1] < texels[0] * 1.05
+                 else f"{texels[0]:.2g}-{texels[-1]:.2g} cm")
+        return (f"csm: nothing in view is nearer than {nearest:.3g} m, so {empty} at "
+                f"{splits[first]:.3g} m, hold no receiver, and its shadows take texels {width} "
+                "wide: the finer cascades are spent on the space before it")
+
     def plan(self, models: np.ndarray, view=None) -> ShadowPlan:
         if view is None:
             raise ValueError("csm needs the camera view to fit its cascades")
@@ -180,9 +208,7 @@ class CascadedShadows(ShadowMethod):
                            for p in character_points])
             boxes = np.concatenate([boxes, cb])
             objects = np.concatenate([objects, character_objects])
-        near = self._near(view)
-        far = self._shadow_far(view.view, near, self._far(view))
-        splits = split_distances(near, far, s.cascades, s.cascade_lambda)
+        splits = self.splits(view)
         # Every cascade holds the scene's whole depth range (receivers included), so a
         # fragment inside a cascade's rectangle is always inside its volume: the shader can pick
         # the first rectangle that holds it ("map-based cascade selection").
