@@ -21,12 +21,14 @@ from game.soft.composite import SoftComposite
 from game.soft.direct import DirectRaster
 from game.soft.methods import TraceSettings
 from game.soft.raster import RasterSoft
+from game.soft.settle import ExactTrace
 from game.soft.still_lookups import refine_phase
 from game.soft.tracer import TraceResult
 
 UPSAMPLE = "soft_upsample"   # the points, the blocks' values and the marked ones
 COMPOSITE = "composite"
 REFINE = "soft_refine"       # a still view's maps from other points, and their lookups
+SETTLE = "soft_settle"       # a still view's pixels traced exactly (game/soft/settle.py)
 
 
 class DirectFrames:
@@ -42,6 +44,7 @@ class DirectFrames:
         self.settings: TraceSettings | None = None
         self._clip_to_world = np.eye(4)           # and its clip space -> world
         self._models = np.zeros((0, 4, 4))        # the walkers' poses of the frame
+        self._draw_points: Callable[[FrameTarget], None] | None = None   # the frame's scene
 
     @property
     def divisor(self) -> int:
@@ -63,6 +66,7 @@ class DirectFrames:
             self.points.remake(cells, GBuffer.FULL)
             self.points.covers = self.blocks.covers
             draw_points(self.points)
+        self._draw_points = draw_points
         points = self.points
         self.result = raster.trace((points.position, points.normal, points.colour), cells,
                                    models, settings, light, plan_key=plan_key)
@@ -80,9 +84,11 @@ class DirectFrames:
         return lambda program: self.blocks.bind_shading(program, soft_light, radiance)
 
     def composite(self, frame: Frame, composite: SoftComposite, raster: RasterSoft,
-                  target: FrameTarget, radiance: np.ndarray, read: bool) -> TraceResult:
+                  target: FrameTarget, radiance: np.ndarray, read: bool,
+                  exact: ExactTrace | None = None) -> TraceResult:
         """The blocks that look the light up, lit over the picture the shading pass drew into
-        ``target``, and a still view's refining round; the frame's times: the trace's as
+        ``target``, and a still view's refining round, or once it has refined, its batch of
+        pixels settled by ``exact`` (None: never); the frame's times: the trace's as
         ``soft_*``, the G-buffer's share of the total apart."""
         result, ms = self.result, frame.ms
         inside = ms.get(UPSAMPLE, 0.0)
@@ -99,14 +105,42 @@ class DirectFrames:
                                           self._models)
                 self.blocks.refine(composite, raster, target, self._clip_to_world,
                                    self.settings, maps, refining[1])
+        elif exact is not None and self.blocks.settles(self.settings):
+            with self.timer.measure(SETTLE):
+                if self.blocks.wants_gbuffer:
+                    self._start_settling(target.size)
+                self.blocks.settle_batch(exact, self._total(ms, inside))
         if read:
             frame.image = composite.read()
         ms.update({f"soft_{k}": v for k, v in result.ms.items()})
-        for name in (COMPOSITE, UPSAMPLE, REFINE):
+        total = self._total(ms, inside)
+        for name in (COMPOSITE, UPSAMPLE, REFINE, SETTLE):
             ms[name] = self.timer.ms.get(name, 0.0)
-        ms[passes.TOTAL] = (ms.get(passes.TOTAL, 0.0) + ms[COMPOSITE] + ms[UPSAMPLE] + ms[REFINE]
-                            - inside)
+        ms[passes.TOTAL] = total
         return result
+
+    def _total(self, ms: dict, inside: float) -> float:
+        """The frame's total so far: what ran before the shading pass's end (``ms``' total,
+        which holds ``inside`` of the passes timed here), and the passes timed here since."""
+        here = sum(self.timer.ms.get(name, 0.0) for name in (COMPOSITE, UPSAMPLE, REFINE, SETTLE))
+        return ms.get(passes.TOTAL, 0.0) + here - inside
+
+    def _start_settling(self, size: tuple[int, int]) -> None:
+        """The scene drawn once more at the frame's ``size`` into a full G-buffer, whose
+        positions and normals the settling keeps; the G-buffer is released."""
+        gbuffer = FrameTarget(self.ctx, size, GBuffer.FULL)
+        try:
+            self._draw_points(gbuffer)
+            w, h = size
+            fb = gbuffer.framebuffer
+            covered = np.frombuffer(fb.read(components=4, attachment=0), np.uint8)
+            position, normal = (np.frombuffer(fb.read(components=4, attachment=k, dtype="f4"),
+                                              np.float32).reshape(h, w, 4)[..., :3]
+                                for k in (1, 2))
+            self.blocks.start_settling(position, normal,
+                                       covered.reshape(h, w, 4)[..., 3] > 0)
+        finally:
+            gbuffer.release()
 
     def visibility(self, composite: SoftComposite, raster: RasterSoft,
                    target: FrameTarget) -> np.ndarray:

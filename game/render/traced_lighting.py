@@ -34,8 +34,9 @@ from game.scene.geometry import PackedGeometry
 from game.scene.model import Scene
 from game.soft.accumulate import walker_boxes
 from game.soft.composite import SoftComposite
-from game.soft.methods import EXACT_HARD, TraceSettings, hard_light, is_raster
+from game.soft.methods import EXACT_HARD, EXACT_SOFT, TraceSettings, hard_light, is_raster
 from game.soft.raster import RasterSoft
+from game.soft.settle import ExactTrace
 from game.soft.tracer import SoftTracer, TraceResult
 from game.soft.upsample import FrameMotion, ReducedState, ReducedTrace, Upsampling
 
@@ -72,6 +73,9 @@ class TracedLighting:
         self._last_models: np.ndarray | None = None   # the walkers' poses at the last frame
         self._walker_bounds = self._bounds()
         self.last_soft: TraceSettings | None = None   # the last soft frame's settings
+        # Whether a still view of a raster method settles its pixels to the exact visibility
+        # (game/soft/settle.py).
+        self.settle = True
         # Called with the share of the frame's trace done, when set (a long headless run).
         self.progress: Callable[[float], None] | None = None
 
@@ -180,6 +184,15 @@ class TracedLighting:
                                         self._moved_walkers(models), soft, self.segment(),
                                         self._radiance(), view, key, draw_points)
 
+    def _exact(self, geom: PackedGeometry, models: np.ndarray) -> ExactTrace:
+        """The linear light's exact visibility at chosen points (``analytic``), with the
+        walkers at ``models``: what a still view settles its pixels to."""
+        def trace(points: np.ndarray, normals: np.ndarray) -> np.ndarray:
+            tracer = self._tracer(geom, EXACT_SOFT)
+            return tracer.trace_points(points, normals, models, EXACT_SOFT,
+                                       self.segment()).visibility
+        return trace
+
     def _moved_walkers(self, models: np.ndarray) -> np.ndarray:
         """The boxes the walkers moved through since the last soft frame (walker_boxes)."""
         boxes = walker_boxes(self._walker_bounds, self._last_models, models)
@@ -199,7 +212,8 @@ class TracedLighting:
         self._direct_frame = target.gbuffer == GBuffer.LEAN
         if self._direct_frame:
             return self.direct.composite(frame, self.composite, self.raster, target,
-                                         self._radiance(), read)
+                                         self._radiance(), read,
+                                         self._exact(geom, models) if self.settle else None)
         if soft is None:
             settings, light, soft_light, prefix = EXACT_HARD, hard_light(self.scene.light), None, \
                 "traced"

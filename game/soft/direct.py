@@ -46,6 +46,7 @@ from game.soft.block_values import (
 )
 from game.soft.composite import LOOKUPS, SoftComposite
 from game.soft.methods import TraceSettings
+from game.soft.settle import ExactTrace, StillSettle, Tier, block_pixels
 from game.soft.still_lookups import HISTORY_UNIT, StillLookups, refine_rounds
 from game.soft.tracer import TraceResult
 from game.soft.upsample import ReducedState, trace_size
@@ -53,6 +54,10 @@ from game.soft.upsample import ReducedState, trace_size
 BLOCKS_UNIT = blocks.TEXTURE_UNITS["soft_blocks"]
 POINTS_UNIT = blocks.TEXTURE_UNITS["soft_points"]
 MARKS_IMAGE = 0   # the image unit the shading pass marks the blocks on
+# A kept visibility further than this from 0 and 1 is in a penumbra: settled first.
+PARTLY_LIT = 0.01
+# Still frames between two draws of the settling's G-buffer, where walkers crossed the screen.
+REFRESH_FRAMES = 16
 
 
 class DirectRaster:
@@ -64,6 +69,12 @@ class DirectRaster:
         self.ctx = ctx
         self.divisor = divisor
         self.still = StillLookups(ctx)
+        self.settle = StillSettle(divisor)
+        # Blocks whose surfaces the settling's G-buffer still shows (no walker crossed them on
+        # screen since it was drawn); the still frame it was drawn in; whether the last batch
+        # found nothing to settle.
+        self._surfaces: np.ndarray | None = None
+        self._drawn_at, self._dry = 0, False
         self.size = self.cells = None
         self._textures: list = []
         self._values = self._in_sky = None   # this frame's values and its points in the sky
@@ -105,14 +116,20 @@ class DirectRaster:
         self._in_sky = np.isnan(vis)
         self._values = block_values(vis, np.zeros_like(self._in_sky))
         self._values[((self._values == LOOKUP) | (self._values == INTERPOLATE)) & kept] = CACHED
-        self.values.write(np.where(self._in_sky, SKY, self._values).astype(np.float32).tobytes())
+        self._forget_unsettled()
+        # A settled block reads what the view keeps, its point in the sky or not: the shading
+        # pass then neither marks it nor leaves it to the composite.
+        self._values[self.settle.settled_blocks(self.cells) & kept] = CACHED
+        sky = self._in_sky & (self._values != CACHED)
+        self.values.write(np.where(sky, SKY, self._values).astype(np.float32).tobytes())
         self.points_visibility.write(np.nan_to_num(vis, nan=0.0).tobytes())
         self.marks.write(bytes(self.cells[0] * self.cells[1]))
         refines = settings.method == "segment-maps"
         self.state = ReducedState(
             size=self.cells, divisor=self.divisor, traced=True,
             round=self.still.sets_held(settings.maps) if refines else 1,
-            rounds=refine_rounds(settings.maps) if refines else 1, phase=1, phases=1, full=True)
+            rounds=refine_rounds(settings.maps) if refines else 1, phase=1, phases=1, full=True,
+            settled=self.settle.share)
 
     def finish(self) -> Runs:
         """This frame's runs, once the shading pass marked the blocks whose point is in the sky
@@ -121,14 +138,72 @@ class DirectRaster:
         self.ctx.memory_barrier()
         w, h = self.cells
         covered = np.frombuffer(self.marks.read(), np.uint8).reshape(h, w) > 0
-        values = np.where(self._in_sky & covered, LOOKUP, self._values).astype(np.float32)
+        values = np.where(self._in_sky & covered & (self._values != CACHED), LOOKUP,
+                          self._values).astype(np.float32)
         self._values = values
         self.runs = block_runs(values, self.divisor, self.size)
         self.still.drawn(values == LOOKUP)
+        self.settle.forget_drawn(values == LOOKUP)
         self.runs.points = self.points_visibility
         self.runs.point_at = self.point_at
         self.runs.history = self.still.history
         return self.runs
+
+    def _forget_unsettled(self) -> None:
+        """A new view settles nothing yet. A walker unsettles the blocks it changed (their
+        visibility), and the blocks it crossed on screen lose the settling's surfaces too,
+        until the settling draws its G-buffer again."""
+        if self.still.frames == 0 or not self.settle.started:
+            self.settle.reset()
+            self._surfaces = None
+            return
+        self._surfaces &= ~self.still.seen
+        self.settle.forget_changed(self._surfaces & ~self.still.changed)
+
+    def settles(self, settings: TraceSettings) -> bool:
+        """Whether this frame settles pixels to the exact visibility (game/soft/settle.py): a
+        still view, once it has refined what it kept, until every pixel is settled."""
+        refines = settings.method == "segment-maps"
+        rounds = refine_rounds(settings.maps) if refines else 1
+        if not self.still.still or self.still.frames < rounds:
+            return False
+        return not self.settle.started or self.settle.share < 1.0
+
+    @property
+    def wants_gbuffer(self) -> bool:
+        """Whether the settling needs the view's G-buffer drawn: to start, or to settle the
+        blocks the walkers crossed on screen (once nothing else is left, at most every
+        :data:`REFRESH_FRAMES` frames)."""
+        return not self.settle.started or (
+            self._dry and self.still.frames - self._drawn_at >= REFRESH_FRAMES)
+
+    def start_settling(self, position: np.ndarray, normal: np.ndarray,
+                       covered: np.ndarray) -> None:
+        """Settle this view from its full G-buffer (GL rows: :meth:`StillSettle.start`): the
+        pixels the view keeps partly lit first, then the rest of the blocks that look the
+        light up or interpolate it, then the others. Drawn again, the G-buffer keeps what
+        was settled where no walker crossed the screen."""
+        looked_up = block_pixels(np.isin(self._values, (LOOKUP, INTERPOLATE, CACHED)),
+                                 self.divisor, self.size)
+        kept = self.still.read_kept()
+        partly_lit = looked_up & (kept > PARTLY_LIT) & (kept < 1.0 - PARTLY_LIT)
+        tiers = np.where(partly_lit, Tier.PARTLY_LIT,
+                         np.where(looked_up, Tier.LOOKED_UP, Tier.AGREED))
+        self.settle.start(position, normal, covered, tiers,
+                          keep=self._surfaces if self.settle.started else None)
+        self._surfaces = np.ones((self.cells[1], self.cells[0]), bool)
+        self._drawn_at, self._dry = self.still.frames, False
+
+    def settle_batch(self, trace: ExactTrace, frame_ms: float) -> None:
+        """Trace this frame's batch of pixels exactly (its size by ``frame_ms``, the rest of
+        the frame: :meth:`StillSettle.next_batch`), and keep what it gives."""
+        batch = self.settle.next_batch(self._surfaces, frame_ms)
+        self._dry = not len(batch)
+        if self._dry:
+            return
+        pixels, visibility = self.settle.settle(batch, trace)
+        self.still.write_pixels(pixels, visibility)
+        self.still.drawn(self.settle.settled_blocks(self.cells))
 
     def bind_shading(self, program, soft_light: np.ndarray, radiance: np.ndarray) -> None:
         """Set the shading pass's lean variant to light the frame through the blocks."""

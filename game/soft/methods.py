@@ -117,6 +117,8 @@ class TraceSettings:
 # Exact hard shadows: one ray per point toward the hard light through the grid (one sample
 # toward a point is exact). The ``traced`` hard-shadow method uses these.
 EXACT_HARD = TraceSettings(method="grid", samples=1)
+# The linear light's exact visibility: the hidden intervals of the segment, merged.
+EXACT_SOFT = TraceSettings(method="analytic")
 
 
 def hard_light(light: Light) -> tuple[int, np.ndarray, np.ndarray]:

@@ -100,6 +100,8 @@ class StillLookups:
         self._targets: list = []
         self._key: bytes | None = None
         self.valid: np.ndarray | None = None   # blocks whose kept visibility holds
+        self.changed: np.ndarray | None = None  # blocks a walker may have changed this frame
+        self.seen: np.ndarray | None = None     # ... of them, those it covers on screen
         self.frames = 0   # frames of this view before the present one
 
     def _resize(self, size: tuple[int, int], cells: tuple[int, int]) -> None:
@@ -109,10 +111,12 @@ class StillLookups:
         self.size, self.cells = size, cells
         ctx = self.ctx
         self.history = ctx.texture(size, 1, dtype="f4")   # each pixel's kept mean
+        self.history_framebuffer = ctx.framebuffer([self.history])   # to read rows of it
         self.sets = ctx.texture(size, 1, dtype="f4")      # the sets of maps the mean holds
         self.moved = ctx.texture(cells, 4)
         self.moved_framebuffer = ctx.framebuffer([self.moved])
-        self._targets = [self.moved_framebuffer, self.moved, self.history, self.sets]
+        self._targets = [self.moved_framebuffer, self.moved, self.history_framebuffer,
+                         self.history, self.sets]
         self._key = None
 
     def kept(self, key: bytes | None, size: tuple[int, int], divisor: int, points,
@@ -126,14 +130,41 @@ class StillLookups:
         if key is None or key != self._key or len(boxes) > MAX_BOXES:
             self._key = key
             self.valid = np.zeros((cells[1], cells[0]), bool)
+            self.changed = np.zeros_like(self.valid)
+            self.seen = np.zeros_like(self.valid)
             self.frames = 0
             return self.valid
         self.frames += 1
+        self.changed = np.zeros_like(self.valid)
+        self.seen = np.zeros_like(self.valid)
         if len(boxes):
-            changed = _grown(self._moved_points(points, boxes, light), REACH)
-            changed |= seen_boxes(boxes, view_proj, size, divisor, cells)
-            self.valid &= ~changed
+            self.seen = seen_boxes(boxes, view_proj, size, divisor, cells)
+            self.changed = _grown(self._moved_points(points, boxes, light), REACH) | self.seen
+            self.valid &= ~self.changed
         return self.valid
+
+    @property
+    def still(self) -> bool:
+        """Whether the present frame's view keeps anything (a caller named it)."""
+        return self._key is not None
+
+    def read_kept(self) -> np.ndarray:
+        """What the view keeps at each pixel, (H, W) in GL rows: meaningful only in the blocks
+        it kept or looked up."""
+        w, h = self.size
+        return np.frombuffer(self.history.read(), np.float32).reshape(h, w).copy()
+
+    def write_pixels(self, pixels: np.ndarray, visibility: np.ndarray) -> None:
+        """Keep ``visibility`` at the flat ``pixels`` (GL rows) from here: the rows they span
+        are read, changed there and written back."""
+        w = self.size[0]
+        rows = pixels // w
+        y0, y1 = int(rows.min()), int(rows.max()) + 1
+        viewport = (0, y0, w, y1 - y0)
+        band = np.frombuffer(self.history_framebuffer.read(viewport, components=1, dtype="f4"),
+                             np.float32).copy()
+        band[pixels - y0 * w] = visibility
+        self.history.write(band.tobytes(), viewport=viewport)
 
     def _moved_points(self, points, boxes: np.ndarray, light: tuple) -> np.ndarray:
         """The points (GL rows) whose light triangle a moved box may cross."""

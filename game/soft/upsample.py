@@ -123,6 +123,7 @@ class ReducedState:
     phase: int                    # pixels of each block traced so far in this round
     phases: int
     full: bool                    # every pixel has samples of its own
+    settled: float = 0.0          # share of the pixels traced exactly (game/soft/settle.py)
 
     @property
     def converged(self) -> bool:

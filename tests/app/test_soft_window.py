@@ -132,7 +132,9 @@ def test_the_overlay_counts_a_raster_methods_maps_and_the_points_a_still_view_re
     assert SoftFigures.of(frame, replace(state, round=2), maps).state == (
         "still: 16 of 32 points along the segment")
     refined = SoftFigures.of(frame, replace(state, round=4), maps)
-    assert refined.state.endswith("nothing drawn again")
+    assert refined.state == "still: 32 of 32 points along the segment; refined"
+    settling = SoftFigures.of(frame, replace(state, round=4, settled=0.25), maps)
+    assert settling.state.endswith("; refined; exact at 25% of pixels")
     pcss = SoftFigures.of(frame, replace(state, round=1, rounds=1), TraceSettings(method="pcss"))
     assert "looked up every frame" in pcss.state
     traced = SoftFigures.of(frame, state, TraceSettings(method="voxel-cache", samples=6))

@@ -137,15 +137,18 @@ def test_counting_a_soft_frames_map_records_keeps_its_picture(ctx, tiny):
         assert np.array_equal(a.image, b.image)
 
 
-def test_a_still_view_makes_no_gl_objects_after_its_first_refining_frame(renderer):
+def test_a_still_view_makes_no_gl_objects_after_it_starts_settling(renderer):
+    """The view's first frame, its refining ones and its first settling one make what they
+    need (the exact tracer on first use, kept); the frames after them make nothing."""
     settings = TraceSettings(method="segment-maps", maps=8)
     view = View.from_camera(renderer.scene.camera, SIZE)
     renderer.traced.reduce_soft(Upsampling(divisor=4), b"view", np.zeros(3))
-    for t in (0.0, 0.1):   # the view's first frame, and its first refining one
-        renderer.render(t, view, soft=settings)
-    objects = renderer.gl_objects()
     rounds = REFINE_POINTS // settings.maps
-    for t in np.linspace(0.2, 1.5, rounds + 2):   # the walkers walk; refining ends on the way
+    for t in np.linspace(0.0, 0.1, rounds + 1):
+        renderer.render(t, view, soft=settings)
+    assert renderer.traced.direct.blocks.settle.started
+    objects = renderer.gl_objects()
+    for t in np.linspace(0.2, 1.5, 6):   # the walkers walk
         renderer.render(t, view, soft=settings)
         assert renderer.gl_objects() == objects
 
@@ -181,6 +184,7 @@ def test_a_still_view_keeps_its_lookups_and_shows_what_a_fresh_window_would(ctx,
                                                                             monkeypatch):
     settings = TraceSettings(method="segment-maps", maps=8)
     monkeypatch.setattr(still_lookups, "REFINE_POINTS", settings.maps)   # keeping, no refining
+    renderer.traced.settle = False   # nor settling
     view = View.from_camera(renderer.scene.camera, SIZE)
     kept = _window_frames(renderer, view, settings, np.linspace(0.0, 1.5, 16))
     assert renderer.traced.direct.blocks.runs.blocks["cached"] > 0
@@ -197,6 +201,7 @@ def test_a_still_view_keeps_its_lookups_and_shows_what_a_fresh_window_would(ctx,
 def test_a_still_view_refines_toward_the_exact_visibility_and_then_stops(renderer):
     settings = TraceSettings(method="segment-maps", maps=8)
     view = View.from_camera(renderer.scene.camera, SIZE)
+    renderer.traced.settle = False   # the refining alone (tests/soft/test_settle.py)
     renderer.render(1.0, view)
     exact = renderer.trace(1.0, TraceSettings(method="analytic")).visibility
     covered = np.isfinite(exact)

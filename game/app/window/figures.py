@@ -80,13 +80,15 @@ class SoftFigures:
 
 def _raster_state(method: str, state: ReducedState, maps: int) -> str:
     """A raster method's picture is whole at once; segment-maps' still view refines it with
-    maps from more points of the segment (``state``'s rounds: sets of ``maps`` points)."""
+    maps from more points of the segment (``state``'s rounds: sets of ``maps`` points); then a
+    still view settles its pixels to the exact visibility (``state.settled`` of them)."""
+    exact = f"; exact at {100 * state.settled:.0f}% of pixels" if state.settled else ""
     if state.rounds <= 1:
-        return f"{method}: looked up every frame, whole at once"
+        return f"{method}: looked up every frame, whole at once" + exact
     if state.round <= 1:
         return f"moving: {maps} points along the segment, looked up this frame"
     held = f"{state.round * maps} of {state.rounds * maps} points along the segment"
-    return f"still: {held}" + ("; refined, nothing drawn again" if state.converged else "")
+    return f"still: {held}" + ("; refined" if state.converged else "") + exact
 
 
 @dataclass
