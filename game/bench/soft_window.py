@@ -11,7 +11,8 @@ frames start with its view's first) are timed by the CPU time of this process (w
 not count) and by wall time (noisy on a shared machine).
 
 ``shots``: the same window, no overlay and no FXAA (the picture is the renderer's), still
-(characters paused) after 0, 1 and 5 seconds of wall time, then walking after 1 and 5; each
+(characters paused) after 0, 1, 5 and 60 seconds of wall time (a still view settles to the
+exact picture as it goes: game/soft/settle.py), then walking after 1 and 5; each
 beside the ``analytic`` visibility of the same view and scene time, rendered full size by the
 same renderer, with the RMSE between them: of the soft visibility and of the pictures.
 
@@ -160,59 +161,65 @@ def _run_until(app: Walkaround, seconds: float, spent: float) -> float:
             return spent
 
 
+STILL_SHOTS = (0.0, 1.0, 5.0, 60.0)   # seconds of a still window's time at its pictures
+WALKING_SHOTS = (1.0, 5.0)
+
+
 def shots(scene_path: str, out: Path) -> dict:
-    """The still and walking pictures, each beside the analytic one. The seconds are the
-    window's own after its first frame: the first frame (which compiles the shaders) and the
-    analytic renders between the pictures are not counted."""
+    """The still and walking pictures, each beside the analytic one, each from a window of its
+    own (rendering the analytic picture starts the window's still view again). The seconds are
+    the window's own after its first frame, which compiles the shaders and is not counted."""
     out.mkdir(parents=True, exist_ok=True)
     rows = []
-    for walking in (False, True):
-        app = _window(scene_path, True)
-        try:
-            app.paused = not walking
-            app.scene_time = 3.0       # the walkers spread over the square
-            spent = 0.0
-            for seconds in ((0.0, 1.0, 5.0) if not walking else (1.0, 5.0)):
-                if walking and seconds == 1.0 and app.frames == 0:
-                    app.step(0.0)
-                if seconds == 0.0:   # the first frame (its shaders compiled), not counted
-                    app.step(0.0)
-                else:
-                    spent = _run_until(app, seconds, spent)
+    for walking, times in ((False, STILL_SHOTS), (True, WALKING_SHOTS)):
+        for seconds in times:
+            app = _window(scene_path, True)
+            try:
+                app.paused = not walking
+                app.scene_time = 3.0       # the walkers spread over the square
+                app.step(0.0)
+                spent = _run_until(app, seconds, 0.0) if seconds else 0.0
                 state = app.renderer.traced.reduced_state
                 name = f"{'walking' if walking else 'still'}_{seconds:.0f}s"
                 frames = app.frames
                 row = _compare(app, out, name)
                 rows.append({**row, "frames": frames, "seconds": round(spent, 2),
                              "soft_method": app.soft_settings.method, "round": state.round,
-                             "phase": state.phase, "phases": state.phases})
-        finally:
-            app.close()
+                             "phase": state.phase, "phases": state.phases,
+                             "settled": round(state.settled, 4)})
+            finally:
+                app.close()
     return {"size": list(SIZE), "shots": rows}
 
 
-def refine(scene_path: str, points: int, frames: int) -> dict:
-    """A still view's visibility against ``analytic`` after each of ``frames`` frames, its
-    refining ending at ``points`` points along the segment (its first frame compiles)."""
+def refine(scene_path: str, points: int, frames: int, every: int = 1) -> dict:
+    """A still view's visibility against ``analytic`` after every ``every``-th of ``frames``
+    frames and the last (pairs of frame and RMSE), its refining ending at ``points`` points
+    along the segment (its first frame compiles); each frame's milliseconds, and the share of
+    the pixels it has settled to the exact visibility (game/soft/settle.py)."""
     still_lookups.REFINE_POINTS = points
     app = _window(scene_path, True)
     try:
         app.paused = True
         app.scene_time = 3.0       # the walkers spread over the square, as in ``shots``
-        shown, ms = [], []
-        for _ in range(frames):
+        shown, ms, settled = {}, [], []
+        for k in range(frames):
             app.step(0.0)
-            shown.append(_visibility(app))
+            if k % every == 0 or k == frames - 1:
+                shown[k] = _visibility(app)
             ms.append(app.last_figures.ms)
-        _, exact = _analytic(app)
+            settled.append(round(app.renderer.traced.reduced_state.settled, 4))
+        _, exact = _analytic(app)   # last: it starts the window's still view again
     finally:
         app.close()
     covered = np.isfinite(exact)
     return {"size": list(SIZE), "soft_method": "segment-maps", "refine_points": points,
-            "rmse_visibility": [round(float(np.sqrt(np.mean((v[covered] - exact[covered]) ** 2))),
-                                      5) for v in shown],
+            "rmse_visibility": [[k, round(float(np.sqrt(np.mean(
+                (v[covered] - exact[covered]) ** 2))), 5)] for k, v in shown.items()],
             "total_ms": [round(m.get("total", 0.0), 1) for m in ms],
-            "refine_ms": [round(m.get("soft_refine", 0.0), 1) for m in ms]}
+            "refine_ms": [round(m.get("soft_refine", 0.0), 1) for m in ms],
+            "settle_ms": [round(m.get("soft_settle", 0.0), 1) for m in ms],
+            "settled": settled}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -230,17 +237,19 @@ def main(argv: list[str] | None = None) -> int:
                         help="fps: with the overlay and FXAA, as play opens the window")
     parser.add_argument("--points", type=int, default=still_lookups.REFINE_POINTS,
                         help="refine: the points a still view's refining ends at")
+    parser.add_argument("--every", type=int, default=1,
+                        help="refine: measure the visibility every this many frames")
     parser.add_argument("--out", type=Path, default=Path("docs/images"))
     args = parser.parse_args(argv)
-    if min(args.frames, args.points) < 1:
-        parser.error("--frames and --points must be at least 1")
+    if min(args.frames, args.points, args.every) < 1:
+        parser.error("--frames, --points and --every must be at least 1")
     if not -180.0 <= args.turn <= 180.0:   # NaN fails this too
         parser.error(f"--turn must be within -180 to 180 degrees, got {args.turn}")
     try:
         if args.mode == "fps":
             doc = fps(args.scene, args.soft, args.frames, args.turn, args.method, args.as_shown)
         elif args.mode == "refine":
-            doc = refine(args.scene, args.points, args.frames)
+            doc = refine(args.scene, args.points, args.frames, args.every)
         else:
             doc = shots(args.scene, args.out)
     except GameError as exc:

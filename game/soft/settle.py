@@ -38,15 +38,14 @@ from enum import IntEnum
 import numpy as np
 
 # Tracing a frame's batch may take this share of the rest of the frame (wall clock, around the
-# trace), so the still window's frame rate drops by a sixth while it settles, whatever the
-# device: a CPU rasteriser traces the exact visibility at tens of microseconds a pixel, a few
-# hundred pixels a frame at the window's size, and a GPU many times more. The window with soft
-# shadows is held to half the frame rate it has without them, and a still view already pays a
-# good part of that.
-SETTLE_SHARE = 0.2
+# trace), so the still window's frame rate drops by about a tenth while it settles, whatever the
+# device: a CPU rasteriser traces the exact visibility at tens of microseconds a pixel, a couple
+# of hundred pixels a frame at the window's size, and a GPU many times more. The window with
+# soft shadows is held to half the frame rate it has without them, and a still view already
+# pays most of that, so the settling takes a small share.
+SETTLE_SHARE = 0.1
 FIRST_BATCH = 256       # pixels of the first batch, before the pace is known
 MAX_BATCH = 1 << 16     # pixels of any batch (a fast GPU's pace would ask for more)
-LOOK_AHEAD = 4          # a batch scans this many times its size of the queue for pixels to take
 
 # (positions (P, 3), normals (P, 3)) -> exact visibility (P,)
 ExactTrace = Callable[[np.ndarray, np.ndarray], np.ndarray]
@@ -142,20 +141,14 @@ class StillSettle:
         budget = SETTLE_SHARE * frame_ms
         count = (FIRST_BATCH if self._pace_ms is None
                  else int(np.clip(budget / max(self._pace_ms, 1e-6), 1, MAX_BATCH)))
-        kept = kept.reshape(-1)
-        settled = self.settled.reshape(-1)
-        picked: list[np.ndarray] = []
-        at, need = self._cursor, count
-        while need and at < len(self._queue):
-            span = np.arange(at, min(at + LOOK_AHEAD * count, len(self._queue)))
-            waiting = ~settled[self._queue[span]]
-            if at == self._cursor:   # the cursor passes the settled head of the queue
-                self._cursor = at + (int(np.argmax(waiting)) if waiting.any() else len(span))
-            ready = span[waiting & kept[self._block[span]]][:need]
-            picked.append(ready)
-            need -= len(ready)
-            at = int(span[-1]) + 1
-        return np.concatenate(picked) if picked else np.zeros(0, np.int64)
+        at = self._cursor
+        waiting = ~self.settled.reshape(-1)[self._queue[at:]]
+        if not waiting.any():
+            self._cursor = len(self._queue)
+            return np.zeros(0, np.int64)
+        self._cursor = at + int(np.argmax(waiting))   # past the settled head of the queue
+        ready = waiting & kept.reshape(-1)[self._block[at:]]
+        return at + np.flatnonzero(ready)[:count]
 
     def settle(self, batch: np.ndarray, trace: ExactTrace) -> tuple[np.ndarray, np.ndarray]:
         """The flat pixels (GL rows) of ``batch`` (:meth:`next_batch`) and their exact
