@@ -198,6 +198,8 @@ class DirectRaster:
         """Trace this frame's batch of pixels exactly (its size by ``frame_ms``, the rest of
         the frame: :meth:`StillSettle.next_batch`), and keep what it gives."""
         batch = self.settle.next_batch(self._surfaces, frame_ms)
+        if batch is None:   # between batches
+            return
         self._dry = not len(batch)
         if self._dry:
             return

@@ -20,7 +20,7 @@ pixel is settled.
   settling starts: the positions and normals the tracer reads, as a full frame's trace reads
   them. They are kept on the CPU; the G-buffer is released.
 - **How many.** As many as :data:`SETTLE_SHARE` of the frame's own time holds, at the pace of
-  the last batch.
+  the last batch, a batch every :data:`SETTLE_EVERY` frames.
 - **Walkers.** A block a walker changes (:meth:`StillLookups.kept`) loses its settled pixels:
   it looks the light up again, and is settled again at the walkers' new poses. A block a
   walker crossed on screen may show another surface than the G-buffer did: it waits until
@@ -38,12 +38,16 @@ from enum import IntEnum
 import numpy as np
 
 # Tracing a frame's batch may take this share of the rest of the frame (wall clock, around the
-# trace), so the still window's frame rate drops by about a tenth while it settles, whatever the
-# device: a CPU rasteriser traces the exact visibility at tens of microseconds a pixel, a couple
-# of hundred pixels a frame at the window's size, and a GPU many times more. The window with
+# trace), so the still window's frame rate drops by about a twentieth while it settles, whatever
+# the device: a CPU rasteriser traces the exact visibility at tens of microseconds a pixel, a
+# hundred or so pixels a frame at the window's size, and a GPU many times more. The window with
 # soft shadows is held to half the frame rate it has without them, and a still view already
 # pays most of that, so the settling takes a small share.
-SETTLE_SHARE = 0.1
+SETTLE_SHARE = 0.05
+# A batch runs every this many frames, with their shares together: each batch also pays a cost
+# of its own (the walkers binned into the tracer's grid as they stand), which a batch a frame
+# paid more for than for its pixels where walkers walk.
+SETTLE_EVERY = 4
 FIRST_BATCH = 256       # pixels of the first batch, before the pace is known
 MAX_BATCH = 1 << 16     # pixels of any batch (a fast GPU's pace would ask for more)
 
@@ -80,6 +84,7 @@ class StillSettle:
         self._cursor = 0                         # no pixel before it in the queue waits
         self._total = self._done = None          # per block: pixels in the queue, settled
         self._pace_ms: float | None = None       # ms a pixel, by the last batch
+        self._saved = 0                          # frames since the last batch
 
     @property
     def started(self) -> bool:
@@ -89,7 +94,7 @@ class StillSettle:
         """Nothing settled: a new view, size or setting."""
         self.size = self.settled = self._queue = self._block = None
         self._points = self._normals = self._total = self._done = None
-        self._cursor = 0
+        self._cursor = self._saved = 0
 
     def start(self, position: np.ndarray, normal: np.ndarray, covered: np.ndarray,
               tiers: np.ndarray, keep: np.ndarray | None = None) -> None:
@@ -134,11 +139,16 @@ class StillSettle:
         if self.started and drawn.any():
             self.forget_changed(~drawn)
 
-    def next_batch(self, kept: np.ndarray, frame_ms: float) -> np.ndarray:
+    def next_batch(self, kept: np.ndarray, frame_ms: float) -> np.ndarray | None:
         """Positions in the queue of the pixels to settle this frame: unsettled ones of
         ``kept`` blocks (GL rows), in the queue's order, as many as :data:`SETTLE_SHARE` of
-        ``frame_ms`` (the rest of the frame) holds."""
-        budget = SETTLE_SHARE * frame_ms
+        ``frame_ms`` (the rest of the frame) holds over the frames since the last batch; None
+        in the frames between batches (:data:`SETTLE_EVERY`)."""
+        self._saved += 1
+        if self._pace_ms is not None and self._saved < SETTLE_EVERY:
+            return None
+        budget = SETTLE_SHARE * frame_ms * self._saved
+        self._saved = 0
         count = (FIRST_BATCH if self._pace_ms is None
                  else int(np.clip(budget / max(self._pace_ms, 1e-6), 1, MAX_BATCH)))
         at = self._cursor

@@ -71,13 +71,18 @@ def test_a_batch_takes_only_kept_blocks_and_its_pixels_come_back_in_order(monkey
     assert made.settled.sum() == 40
     done = made.settled_blocks(CELLS)
     assert done.sum() == 2 and not done[0, 0]   # 40 pixels: two whole blocks and a half
-    # The pace of that batch sizes the next, by the share of the frame it may take.
+    # The pace of that batch sizes the next, by the share of the frames since it that it may
+    # take; the frames between batches take none.
     pace = made._pace_ms
-    expected = int(np.clip(settle.SETTLE_SHARE * 10.0 / pace, 1, settle.MAX_BATCH))
+    for _ in range(settle.SETTLE_EVERY - 1):
+        assert made.next_batch(kept, frame_ms=10.0) is None
+    expected = int(np.clip(settle.SETTLE_SHARE * 10.0 * settle.SETTLE_EVERY / pace, 1,
+                           settle.MAX_BATCH))
     assert len(made.next_batch(kept, frame_ms=10.0)) == min(expected, SIZE[0] * SIZE[1] - 56)
 
 
-def test_a_changed_or_drawn_block_loses_what_it_settled():
+def test_a_changed_or_drawn_block_loses_what_it_settled(monkeypatch):
+    monkeypatch.setattr(settle, "SETTLE_EVERY", 1)
     made = started(np.full((SIZE[1], SIZE[0]), Tier.AGREED))
     made._pace_ms = 1e-3   # everything in one batch
     made.settle(made.next_batch(everywhere(), frame_ms=1e4), by_index)
@@ -125,6 +130,7 @@ def test_a_still_view_settles_to_the_exact_visibility_pixel_for_pixel(renderer, 
     assert max(settled[:rounds]) == 0.0 and settled[rounds] > 0.0
     assert errors[rounds] < 0.5 * errors[rounds - 1]   # the penumbrae went first
     monkeypatch.setattr(settle, "SETTLE_SHARE", 1e6)
+    monkeypatch.setattr(settle, "SETTLE_EVERY", 1)
     renderer.render(1.0, view, soft=settings)
     assert renderer.traced.direct.blocks.settle.share == 1.0
     frame = renderer.render(1.0, view, soft=settings)
@@ -140,6 +146,7 @@ def test_a_walker_unsettles_what_it_changes_and_it_settles_again(renderer, monke
     settled pixels; once the walkers stop, the view settles to the exact visibility of their
     last poses."""
     monkeypatch.setattr(settle, "SETTLE_SHARE", 1e6)
+    monkeypatch.setattr(settle, "SETTLE_EVERY", 1)
     monkeypatch.setattr(direct, "REFRESH_FRAMES", 1)
     settings = TraceSettings(method="pcss")
     view = View.from_camera(renderer.scene.camera, SIZE)
