@@ -197,7 +197,8 @@ class DirectRaster:
     def settle_batch(self, trace: ExactTrace, frame_ms: float) -> None:
         """Trace this frame's batch of pixels exactly (its size by ``frame_ms``, the rest of
         the frame: :meth:`StillSettle.next_batch`), and keep what it gives."""
-        batch = self.settle.next_batch(self._surfaces, frame_ms)
+        batch = self.settle.next_batch(self._surfaces, frame_ms,
+                                       static=not self.still.changed.any())
         if batch is None:   # between batches
             return
         self._dry = not len(batch)

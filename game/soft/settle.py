@@ -19,8 +19,9 @@ pixel is settled.
 - **Where from.** The scene drawn once more at the frame's size into a full G-buffer, when the
   settling starts: the positions and normals the tracer reads, as a full frame's trace reads
   them. They are kept on the CPU; the G-buffer is released.
-- **How many.** As many as :data:`SETTLE_SHARE` of the frame's own time holds, at the pace of
-  the last batch, a batch every :data:`SETTLE_EVERY` frames.
+- **How many.** As many as :data:`SETTLE_SHARE` of the frame's own time holds (more where
+  nothing on screen moves: :data:`STATIC_SHARE`), at the pace of the last batch, a batch every
+  :data:`SETTLE_EVERY` frames.
 - **Walkers.** A block a walker changes (:meth:`StillLookups.kept`) loses its settled pixels:
   it looks the light up again, and is settled again at the walkers' new poses. A block a
   walker crossed on screen may show another surface than the G-buffer did: it waits until
@@ -44,6 +45,9 @@ import numpy as np
 # soft shadows is held to half the frame rate it has without them, and a still view already
 # pays most of that, so the settling takes a small share.
 SETTLE_SHARE = 0.05
+# ... and this share where nothing on screen moved (no walker changed a block): the picture
+# does not change, so its frame rate shows nowhere but in how soon the window answers a key.
+STATIC_SHARE = 0.5
 # A batch runs every this many frames, with their shares together: each batch also pays a cost
 # of its own (the walkers binned into the tracer's grid as they stand), which a batch a frame
 # paid more for than for its pixels where walkers walk.
@@ -139,15 +143,17 @@ class StillSettle:
         if self.started and drawn.any():
             self.forget_changed(~drawn)
 
-    def next_batch(self, kept: np.ndarray, frame_ms: float) -> np.ndarray | None:
+    def next_batch(self, kept: np.ndarray, frame_ms: float, static: bool = False
+                   ) -> np.ndarray | None:
         """Positions in the queue of the pixels to settle this frame: unsettled ones of
         ``kept`` blocks (GL rows), in the queue's order, as many as :data:`SETTLE_SHARE` of
-        ``frame_ms`` (the rest of the frame) holds over the frames since the last batch; None
-        in the frames between batches (:data:`SETTLE_EVERY`)."""
+        ``frame_ms`` (the rest of the frame) holds over the frames since the last batch
+        (:data:`STATIC_SHARE` where nothing on screen moved, ``static``); None in the frames
+        between batches (:data:`SETTLE_EVERY`)."""
         self._saved += 1
         if self._pace_ms is not None and self._saved < SETTLE_EVERY:
             return None
-        budget = SETTLE_SHARE * frame_ms * self._saved
+        budget = (STATIC_SHARE if static else SETTLE_SHARE) * frame_ms * self._saved
         self._saved = 0
         count = (FIRST_BATCH if self._pace_ms is None
                  else int(np.clip(budget / max(self._pace_ms, 1e-6), 1, MAX_BATCH)))

@@ -71,14 +71,15 @@ def test_a_batch_takes_only_kept_blocks_and_its_pixels_come_back_in_order(monkey
     assert made.settled.sum() == 40
     done = made.settled_blocks(CELLS)
     assert done.sum() == 2 and not done[0, 0]   # 40 pixels: two whole blocks and a half
-    # The pace of that batch sizes the next, by the share of the frames since it that it may
-    # take; the frames between batches take none.
-    pace = made._pace_ms
-    for _ in range(settle.SETTLE_EVERY - 1):
-        assert made.next_batch(kept, frame_ms=10.0) is None
-    expected = int(np.clip(settle.SETTLE_SHARE * 10.0 * settle.SETTLE_EVERY / pace, 1,
-                           settle.MAX_BATCH))
-    assert len(made.next_batch(kept, frame_ms=10.0)) == min(expected, SIZE[0] * SIZE[1] - 56)
+    # The pace of the last batch sizes the next, by the share of the frames since it that it
+    # may take (a larger one where nothing on screen moved); the frames between take none.
+    for share, static in ((settle.SETTLE_SHARE, False), (settle.STATIC_SHARE, True)):
+        made._pace_ms = pace = 0.01 * share   # four frames of 10 ms: 4000 pixels
+        for _ in range(settle.SETTLE_EVERY - 1):
+            assert made.next_batch(kept, frame_ms=10.0, static=static) is None
+        expected = int(share * 10.0 * settle.SETTLE_EVERY / pace)
+        assert expected == 4000
+        assert len(made.next_batch(kept, frame_ms=10.0, static=static)) == expected
 
 
 def test_a_changed_or_drawn_block_loses_what_it_settled(monkeypatch):
@@ -130,6 +131,7 @@ def test_a_still_view_settles_to_the_exact_visibility_pixel_for_pixel(renderer, 
     assert max(settled[:rounds]) == 0.0 and settled[rounds] > 0.0
     assert errors[rounds] < 0.5 * errors[rounds - 1]   # the penumbrae went first
     monkeypatch.setattr(settle, "SETTLE_SHARE", 1e6)
+    monkeypatch.setattr(settle, "STATIC_SHARE", 1e6)
     monkeypatch.setattr(settle, "SETTLE_EVERY", 1)
     renderer.render(1.0, view, soft=settings)
     assert renderer.traced.direct.blocks.settle.share == 1.0
@@ -146,6 +148,7 @@ def test_a_walker_unsettles_what_it_changes_and_it_settles_again(renderer, monke
     settled pixels; once the walkers stop, the view settles to the exact visibility of their
     last poses."""
     monkeypatch.setattr(settle, "SETTLE_SHARE", 1e6)
+    monkeypatch.setattr(settle, "STATIC_SHARE", 1e6)
     monkeypatch.setattr(settle, "SETTLE_EVERY", 1)
     monkeypatch.setattr(direct, "REFRESH_FRAMES", 1)
     settings = TraceSettings(method="pcss")
