@@ -9,8 +9,8 @@
 # 2. Refining: a still view, characters paused, frame by frame, with its refining ending at 8
 #    (none), 16, 32 (the default) and 64 points along the segment: the visibility's RMSE against
 #    analytic after each frame, and each frame's milliseconds (docs/images/soft_window_refine.jsonl).
-# 3. Settling: the same still view with the default 32 points, for 2400 frames, as it settles
-#    toward the exact visibility: the RMSE every 200 frames, the share settled and each
+# 3. Settling: the same still view with the default 32 points, for 800 frames, as it settles
+#    to the exact visibility: the RMSE every 50 frames, the share settled and each
 #    frame's milliseconds (docs/images/soft_window_settle.json).
 # Run it from anywhere: `bash docs/soft_window.sh`.
 set -euo pipefail
@@ -24,5 +24,5 @@ for points in 8 16 32 64; do
     python -m game.bench.soft_window refine --points "$points" --frames 10 >> "$refine"
 done
 cat "$refine"
-python -m game.bench.soft_window refine --frames 2400 --every 200 > docs/images/soft_window_settle.json
+python -m game.bench.soft_window refine --frames 800 --every 50 > docs/images/soft_window_settle.json
 python -c "import json; d = json.load(open('docs/images/soft_window_settle.json')); print(d['rmse_visibility'], d['settled'][-1])"

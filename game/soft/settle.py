@@ -1,4 +1,4 @@
-"""A still view's soft shadows settled to the exact visibility, a batch of pixels a frame.
+"""A still view's soft shadows settled to the exact visibility, a batch of pixels at a time.
 
 A raster method's still view (game/soft/still_lookups.py) converges to the method's own limit:
 its maps' texels and bias, and the blocks whose points agree although a pixel between them
