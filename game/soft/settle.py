@@ -87,12 +87,17 @@ class StillSettle:
         self._points = self._normals = None      # (P, 3) each, in the queue's order
         self._cursor = 0                         # no pixel before it in the queue waits
         self._total = self._done = None          # per block: pixels in the queue, settled
-        self._pace_ms: float | None = None       # ms a pixel, by the last batch
+        self.pace_ms: float | None = None        # ms a pixel, by the last batch
         self._saved = 0                          # frames since the last batch
 
     @property
     def started(self) -> bool:
         return self.settled is not None
+
+    @property
+    def queue(self) -> np.ndarray | None:
+        """The flat pixels (GL rows) that show geometry, in the order they are settled."""
+        return self._queue
 
     def reset(self) -> None:
         """Nothing settled: a new view, size or setting."""
@@ -151,12 +156,12 @@ class StillSettle:
         (:data:`STATIC_SHARE` where nothing on screen moved, ``static``); None in the frames
         between batches (:data:`SETTLE_EVERY`)."""
         self._saved += 1
-        if self._pace_ms is not None and self._saved < SETTLE_EVERY:
+        if self.pace_ms is not None and self._saved < SETTLE_EVERY:
             return None
         budget = (STATIC_SHARE if static else SETTLE_SHARE) * frame_ms * self._saved
         self._saved = 0
-        count = (FIRST_BATCH if self._pace_ms is None
-                 else int(np.clip(budget / max(self._pace_ms, 1e-6), 1, MAX_BATCH)))
+        count = (FIRST_BATCH if self.pace_ms is None
+                 else int(np.clip(budget / max(self.pace_ms, 1e-6), 1, MAX_BATCH)))
         at = self._cursor
         waiting = ~self.settled.reshape(-1)[self._queue[at:]]
         if not waiting.any():
@@ -172,7 +177,7 @@ class StillSettle:
         start = time.perf_counter()
         visibility = np.asarray(trace(self._points[batch], self._normals[batch]), np.float32)
         if len(batch):
-            self._pace_ms = (time.perf_counter() - start) * 1e3 / len(batch)
+            self.pace_ms = (time.perf_counter() - start) * 1e3 / len(batch)
         pixels = self._queue[batch]
         self.settled.reshape(-1)[pixels] = True
         self._done += np.bincount(self._block[batch], minlength=len(self._done))

@@ -26,6 +26,9 @@ starts its own mean with them and is kept from then on. After :data:`REFINE_POIN
 all, the view stops refining: the mean over that many points stands for the whole segment as
 closely as the maps' texels allow. A block a walker changes later looks the light up again from
 the K points alone, until the view changes.
+
+**Settling.** After refining, a still view writes the exact visibility of its pixels over what
+it kept, a batch at a time (game/soft/settle.py, :meth:`StillLookups.write_pixels`).
 """
 
 from __future__ import annotations

@@ -45,7 +45,7 @@ def test_the_queue_takes_the_penumbra_first_then_block_by_block():
     covered = np.ones_like(tiers, bool)
     covered[0, :] = False   # the sky
     made = started(tiers, covered)
-    order = made._queue
+    order = made.queue
     assert len(order) == covered.sum()
     ranks = tiers.reshape(-1)[order]
     assert np.all(np.diff(ranks) >= 0)
@@ -74,7 +74,7 @@ def test_a_batch_takes_only_kept_blocks_and_its_pixels_come_back_in_order(monkey
     # The pace of the last batch sizes the next, by the share of the frames since it that it
     # may take (a larger one where nothing on screen moved); the frames between take none.
     for share, static in ((settle.SETTLE_SHARE, False), (settle.STATIC_SHARE, True)):
-        made._pace_ms = pace = 0.01 * share   # four frames of 10 ms: 4000 pixels
+        made.pace_ms = pace = 0.01 * share   # four frames of 10 ms: 4000 pixels
         for _ in range(settle.SETTLE_EVERY - 1):
             assert made.next_batch(kept, frame_ms=10.0, static=static) is None
         expected = int(share * 10.0 * settle.SETTLE_EVERY / pace)
@@ -85,7 +85,7 @@ def test_a_batch_takes_only_kept_blocks_and_its_pixels_come_back_in_order(monkey
 def test_a_changed_or_drawn_block_loses_what_it_settled(monkeypatch):
     monkeypatch.setattr(settle, "SETTLE_EVERY", 1)
     made = started(np.full((SIZE[1], SIZE[0]), Tier.AGREED))
-    made._pace_ms = 1e-3   # everything in one batch
+    made.pace_ms = 1e-3   # everything in one batch
     made.settle(made.next_batch(everywhere(), frame_ms=1e4), by_index)
     assert made.share == 1.0 and made.settled_blocks(CELLS).all()
     changed = everywhere()
