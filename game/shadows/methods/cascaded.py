@@ -83,6 +83,12 @@ def fit_cascade(centre_l: np.ndarray, radius: float, z_lo: float, z_hi: float,
                        np.array([np.nan]))[0]
 
 
+def _figure(x: float, digits: int = 2) -> str:
+    """``digits`` significant figures, never in e-notation: a huge scene's texels are metres
+    wide and its receivers kilometres away."""
+    return f"{x:.{digits}g}" if x < 10 ** digits else f"{x:.0f}"
+
+
 class CascadedShadows(ShadowMethod):
     """Cascaded shadow maps for a directional light, all re-rendered every frame.
 
@@ -175,11 +181,11 @@ class CascadedShadows(ShadowMethod):
         empty = ("cascade 0, which ends" if first == 1
                  else f"cascades 0-{first - 1}, which end")
         texels = sorted(record.fit.texel * 100.0 for record in maps[first:])
-        width = (f"{texels[0]:.2g} cm" if len(texels) == 1 or texels[-1] < texels[0] * 1.05
-                 else f"{texels[0]:.2g}-{texels[-1]:.2g} cm")
-        return (f"csm: nothing in view is nearer than {nearest:.3g} m, so {empty} at "
-                f"{splits[first]:.3g} m, hold no receiver, and its shadows take texels {width} "
-                "wide: the finer cascades are spent on the space before it")
+        width = (f"{_figure(texels[0])} cm" if texels[-1] < texels[0] * 1.05
+                 else f"{_figure(texels[0])}-{_figure(texels[-1])} cm")
+        return (f"csm: nothing in view is nearer than {_figure(nearest, 3)} m, so {empty} at "
+                f"{_figure(splits[first], 3)} m, hold no receiver, and its shadows take texels "
+                f"{width} wide: the finer cascades are spent on the space before it")
 
     def plan(self, models: np.ndarray, view=None) -> ShadowPlan:
         if view is None:
