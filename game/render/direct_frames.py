@@ -105,7 +105,7 @@ class DirectFrames:
                                           self._models)
                 self.blocks.refine(composite, raster, target, self._clip_to_world,
                                    self.settings, maps, refining[1])
-        elif exact is not None and self.blocks.settles(self.settings):
+        elif exact is not None and self.blocks.settles:
             with self.timer.measure(SETTLE):
                 if self.blocks.wants_gbuffer:
                     self._start_settling(target.size)

@@ -160,12 +160,12 @@ class DirectRaster:
         self._surfaces &= ~self.still.seen
         self.settle.forget_changed(self._surfaces & ~self.still.changed)
 
-    def settles(self, settings: TraceSettings) -> bool:
+    @property
+    def settles(self) -> bool:
         """Whether this frame settles pixels to the exact visibility (game/soft/settle.py): a
-        still view, once it has refined what it kept, until every pixel is settled."""
-        refines = settings.method == "segment-maps"
-        rounds = refine_rounds(settings.maps) if refines else 1
-        if not self.still.still or self.still.frames < rounds:
+        still view, once it has refined what it kept (this frame's :attr:`state` says how
+        many rounds that takes), until every pixel is settled."""
+        if not self.still.keeps_view or self.still.frames < self.state.rounds:
             return False
         return not self.settle.started or self.settle.share < 1.0
 

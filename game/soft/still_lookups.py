@@ -147,7 +147,7 @@ class StillLookups:
         return self.valid
 
     @property
-    def still(self) -> bool:
+    def keeps_view(self) -> bool:
         """Whether the present frame's view keeps anything (a caller named it)."""
         return self._key is not None
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 
+from game.render.renderer import Renderer
 from tests.soft.tracer_helpers import Points
 
 
@@ -20,3 +21,12 @@ def points_tracer(ctx):
         p.release()
 
 
+
+
+@pytest.fixture
+def renderer(ctx, tiny, request):
+    """A renderer of tiny.toml with the full G-buffer, at the size the test module names
+    (``SIZE``)."""
+    made = Renderer(ctx, tiny, request.module.SIZE, gbuffer=True)
+    yield made
+    made.release()

@@ -80,13 +80,6 @@ def test_a_frame_with_no_block_to_draw_has_no_runs():
     assert runs.blocks["skipped"] == 20
 
 
-@pytest.fixture
-def renderer(ctx, tiny):
-    made = Renderer(ctx, tiny, SIZE, gbuffer=True)
-    yield made
-    made.release()
-
-
 @pytest.mark.parametrize("method", ["segment-maps", "pcss"])
 def test_the_window_composite_matches_the_lookup_at_every_pixel(renderer, method):
     settings = TraceSettings(method=method, maps=8)

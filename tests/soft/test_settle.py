@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from game.render.renderer import Renderer, View
+from game.render.renderer import View
 from game.soft import direct, settle
 from game.soft.methods import TraceSettings
 from game.soft.settle import StillSettle, Tier
@@ -100,13 +100,6 @@ def test_a_changed_or_drawn_block_loses_what_it_settled(monkeypatch):
     again = made.next_batch(everywhere(), frame_ms=1e4)
     pixels, _ = made.settle(again, by_index)
     assert len(pixels) == 24 and made.share == 1.0
-
-
-@pytest.fixture
-def renderer(ctx, tiny):
-    made = Renderer(ctx, tiny, SIZE, gbuffer=True)
-    yield made
-    made.release()
 
 
 @pytest.mark.parametrize("method", ["segment-maps", "pcss"])
