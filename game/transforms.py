@@ -77,6 +77,44 @@ def ortho_many(left: np.ndarray, right: np.ndarray, bottom: np.ndarray, top: np.
     return m
 
 
+def look_at_many(eyes: np.ndarray, targets: np.ndarray) -> np.ndarray:
+    """(n, 4, 4) world-to-view matrices, one per row of ``eyes`` and ``targets``, each as
+    :func:`look_at` makes it with its own :func:`up_for` (pyrr's arithmetic, with numpy: a
+    frame plans a map from each of many points of a light)."""
+    eyes = np.asarray(eyes, float)
+    forward = np.asarray(targets, float) - eyes
+    forward = forward / np.sqrt(np.sum(forward ** 2, axis=-1))[:, None]
+    d = forward / np.linalg.norm(forward, axis=1)[:, None]
+    up = np.where((np.abs(d @ WORLD_UP) < UP_PARALLEL_COS)[:, None], WORLD_UP,
+                  np.where((d[:, 1] < 0)[:, None], [0.0, 0.0, -1.0], [0.0, 0.0, 1.0]))
+    side = np.cross(forward, up)
+    side = side / np.sqrt(np.sum(side ** 2, axis=-1))[:, None]
+    up = np.cross(side, forward)
+    up = up / np.sqrt(np.sum(up ** 2, axis=-1))[:, None]
+    m = np.zeros((len(eyes), 4, 4))
+    m[:, 0, :3], m[:, 1, :3], m[:, 2, :3] = side, up, -forward
+    m[:, 0, 3] = -np.sum(side * eyes, axis=1)
+    m[:, 1, 3] = -np.sum(up * eyes, axis=1)
+    m[:, 2, 3] = np.sum(forward * eyes, axis=1)
+    m[:, 3, 3] = 1.0
+    return m
+
+
+def frustum_many(left: np.ndarray, right: np.ndarray, bottom: np.ndarray, top: np.ndarray,
+                 near: np.ndarray, far: np.ndarray) -> np.ndarray:
+    """(n, 4, 4) off-centre perspective projections, one per element of the bounds, each as
+    :func:`frustum` makes it (pyrr's arithmetic, with numpy)."""
+    m = np.zeros((len(left), 4, 4))
+    m[:, 0, 0] = 2.0 * near / (right - left)
+    m[:, 1, 1] = 2.0 * near / (top - bottom)
+    m[:, 0, 2] = (right + left) / (right - left)
+    m[:, 1, 2] = (top + bottom) / (top - bottom)
+    m[:, 2, 2] = -(far + near) / (far - near)
+    m[:, 2, 3] = -2.0 * far * near / (far - near)
+    m[:, 3, 2] = -1.0
+    return m
+
+
 def translation(t: np.ndarray) -> np.ndarray:
     """4x4 translation."""
     m = np.eye(4)

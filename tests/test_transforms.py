@@ -45,6 +45,25 @@ def test_ortho_many_equals_pyrr_one_by_one():
         assert np.allclose(many[k], one, rtol=1e-12, atol=1e-12)
 
 
+def test_look_at_many_and_frustum_many_equal_one_by_one():
+    rng = np.random.default_rng(9)
+    eyes = rng.uniform(-20, 20, (20, 3))
+    targets = eyes + rng.normal(size=(20, 3))
+    targets[0] = eyes[0] + [0.0, -2.0, 0.0]      # straight down and straight up: another up
+    targets[1] = eyes[1] + [0.0, 3.0, 0.0]
+    many = tf.look_at_many(eyes, targets)
+    for k in range(20):
+        assert np.allclose(many[k], tf.look_at(eyes[k], targets[k]), rtol=1e-12, atol=1e-12)
+    lo = rng.uniform(-3, -0.1, (20, 2))
+    hi = rng.uniform(0.1, 3, (20, 2))
+    near = rng.uniform(0.01, 2, 20)
+    far = near + rng.uniform(1, 100, 20)
+    many = tf.frustum_many(lo[:, 0], hi[:, 0], lo[:, 1], hi[:, 1], near, far)
+    for k in range(20):
+        one = tf.frustum(lo[k, 0], hi[k, 0], lo[k, 1], hi[k, 1], near[k], far[k])
+        assert np.allclose(many[k], one, rtol=1e-12, atol=1e-12)
+
+
 def test_light_rotation_z_points_to_the_light_even_when_vertical():
     for direction in ([-0.4, -1.0, -0.3], [0.0, -1.0, 0.0], [0.0, 1.0, 0.0], [1.0, 0, 0]):
         d = np.array(direction) / np.linalg.norm(direction)

@@ -98,6 +98,9 @@ class LightMaps:
         self._dirty: list[list[tuple[int, int, int, int]] | None] = [None] * self.count
         self._walker_sizes = [len(geom.triangles[geom.character_object(i)])
                               for i in range(geom.n_characters)]
+        self._walker_closed = np.array([bool(geom.closed[geom.character_object(i)])
+                                        for i in range(geom.n_characters)], bool)
+        self.closed_triangles = 0   # the walkers' triangles first in the buffer, back-face culled
 
     def gl_objects(self) -> int:
         """The depth array's texture and framebuffers, the program (and its shaders), the
@@ -138,12 +141,13 @@ class LightMaps:
         return counts
 
     def draw_walkers(self, frusta: list[MapFrustum], models: np.ndarray,
-                     counts: MapCounts) -> None:
+                     counts: MapCounts, cull: bool = True) -> None:
         """Draw the walkers at their poses ``models`` over the statics' depth into the walkers'
-        layers, through the same frusta, and add them to ``counts``."""
+        layers, through the same frusta, and add them to ``counts``; with ``cull``, the closed
+        walkers' back faces culled (:meth:`_upload_characters`: the same depth)."""
         if not self.dynamic:
             return
-        tris = self._upload_characters(models)
+        tris = self._upload_characters(models, cull)
         corners = _box_corners(tris, self._walker_sizes)
         res = self.resolution
         for k, frustum in enumerate(frusta):
@@ -152,12 +156,19 @@ class LightMaps:
         self.ctx.enable(moderngl.DEPTH_TEST)
         self.ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
         if self.dynamic_triangles:
+            closed, rest = self.closed_triangles, self.dynamic_triangles - self.closed_triangles
             for k, frustum in enumerate(frusta):
                 fb = self.array.framebuffers[self.count + k]
                 fb.use()
                 fb.viewport = (0, 0, res, res)
                 self.program["u_view_proj"].write(transforms.gl_bytes(frustum.view_proj))
-                self.dynamic_vao.render(moderngl.TRIANGLES, vertices=3 * self.dynamic_triangles)
+                if closed:
+                    self.ctx.enable(moderngl.CULL_FACE)
+                    self.dynamic_vao.render(moderngl.TRIANGLES, vertices=3 * closed)
+                    self.ctx.disable(moderngl.CULL_FACE)
+                if rest:
+                    self.dynamic_vao.render(moderngl.TRIANGLES, vertices=3 * rest,
+                                            first=3 * closed)
         self.ctx.detect_framebuffer(0).use()
         counts.dynamic_rendered = self.count
         counts.triangles_to_maps += self.count * self.dynamic_triangles
@@ -177,10 +188,26 @@ class LightMaps:
                                       tex, GL.GL_TEXTURE_2D_ARRAY, 0, x0, y0, self.count + k,
                                       x1 - x0, y1 - y0, 1)
 
-    def _upload_characters(self, models: np.ndarray) -> np.ndarray:
-        """Put the walkers' triangles at ``models`` in their buffer; returns them."""
+    def _upload_characters(self, models: np.ndarray, cull: bool) -> np.ndarray:
+        """Put the walkers' triangles at ``models`` in their buffer, those of closed walkers
+        first (:attr:`closed_triangles`); returns them, walker by walker as the scene lists them.
+
+        A closed, outward-wound walker's depth from any point is that of its faces turned toward
+        the point (a ray into a closed volume enters it through one), so its back faces are
+        culled: half its triangles are not rasterised. A pose that mirrors a walker turns its
+        winding inside out; it is drawn whole."""
         tris = np.ascontiguousarray(character_triangles(self.geom, models), np.float32)
-        data = tris.tobytes() if len(tris) else np.zeros(9, np.float32).tobytes()
+        poses = np.asarray(models)[:len(self._walker_sizes), :3, :3]
+        culled = self._walker_closed & (np.linalg.det(poses) > 0.0) & cull
+        ends = np.cumsum(self._walker_sizes)
+        parts = [(slice(e - n, e), c)
+                 for e, n, c in zip(ends, self._walker_sizes, culled, strict=True)]
+        first = [part for part, c in parts if c]
+        ordered = (np.concatenate([tris[part] for part in first]
+                                  + [tris[part] for part, c in parts if not c])
+                   if len(tris) else tris)
+        self.closed_triangles = int(sum(part.stop - part.start for part in first))
+        data = ordered.tobytes() if len(tris) else np.zeros(9, np.float32).tobytes()
         if self.dynamic_vbo is None or self.dynamic_vbo.size != len(data):
             if self.dynamic_vbo is not None:
                 self._objects.remove(self.dynamic_vao)

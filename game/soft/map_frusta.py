@@ -76,13 +76,14 @@ def receiver_cells(positions: np.ndarray, covered: np.ndarray, cell: float) -> n
     points = _covered_points(positions, covered)
     if not len(points):
         return box_corners(np.zeros(3), np.ones(3))
-    cells = np.floor(points.astype(np.float64) / cell).astype(np.int64)
-    lo = cells.min(axis=0)
-    span = cells.max(axis=0) - lo + 2  # room for the far corners too
+    # Axis by axis (3, N): numpy reduces the rows of an (N, 3) array many times slower.
+    cells = np.floor(points.T.astype(np.float64) / cell).astype(np.int64)
+    lo = cells.min(axis=1)
+    span = cells.max(axis=1) - lo + 2  # room for the far corners too
     # One integer per cell: np.unique on integers is a sort, where on rows it is many times
     # slower; neighbouring pixels mostly share a cell, so repeats in a row go before the sort.
-    d = cells - lo
-    keys = (d[:, 0] * span[1] + d[:, 1]) * span[2] + d[:, 2]
+    d = cells - lo[:, None]
+    keys = (d[0] * span[1] + d[1]) * span[2] + d[2]
     keys = np.unique(keys[np.r_[True, keys[1:] != keys[:-1]]])
     offsets = box_corners(np.zeros(3), np.ones(3)).astype(np.int64)
     keys = np.unique((keys[:, None] + (offsets * np.array([span[1] * span[2], span[2], 1])
@@ -98,38 +99,48 @@ def box_corners(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     return np.where(pick, hi, lo)
 
 
-def _distance_to_box(p: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> float:
-    return float(np.linalg.norm(np.maximum(np.maximum(lo - p, p - hi), 0.0)))
+def _distance_to_box(points: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Each point's (n, 3) distance to the box, 0 inside it."""
+    return np.linalg.norm(np.maximum(np.maximum(lo - points, points - hi), 0.0), axis=1)
 
 
-def _axis(eye: np.ndarray, corners: np.ndarray) -> np.ndarray:
-    """Where a map from ``eye`` looks: the axis of a narrow cone around the directions to the
-    corners (Ritter's bounding sphere, "An Efficient Bounding Sphere", 1990, on the unit sphere),
-    so the widest corner is as near the axis as it can be; the direction to the corners' centre
-    would leave a light above one side of a wide floor looking past the floor's near edge."""
-    to = corners - eye
-    length = np.linalg.norm(to, axis=1)
-    to = to[length > 1e-9] / length[length > 1e-9, None]
-    if not len(to):
-        return -transforms.WORLD_UP
-    axis = to.sum(axis=0)
-    axis = axis / np.linalg.norm(axis) if np.linalg.norm(axis) > 1e-9 else to[0]
-    angle = 0.0
+def _axes(eyes: np.ndarray, corners: np.ndarray) -> np.ndarray:
+    """Where a map from each of ``eyes`` (n, 3) looks: the axis of a narrow cone around the
+    directions to the corners (Ritter's bounding sphere, "An Efficient Bounding Sphere", 1990,
+    on the unit sphere), so the widest corner is as near the axis as it can be; the direction to
+    the corners' centre would leave a light above one side of a wide floor looking past the
+    floor's near edge. Every eye's cone grows in the same passes, each until it holds all."""
+    to = corners[None] - eyes[:, None]                               # (n, m, 3)
+    length = np.linalg.norm(to, axis=2)
+    ok = length > 1e-9                      # a corner at the eye has no direction
+    to = np.where(ok[..., None], to / np.where(ok, length, 1.0)[..., None], 0.0)
+    rows = np.arange(len(eyes))
+    axis = to.sum(axis=1)
+    norm = np.linalg.norm(axis, axis=1)
+    first = to[rows, np.argmax(ok, axis=1)]
+    axis = np.where((norm > 1e-9)[:, None], axis / np.where(norm > 1e-9, norm, 1.0)[:, None],
+                    first)
+    angle = np.zeros(len(eyes))
+    growing = ok.any(axis=1)
     for _ in range(CONE_PASSES):
-        cos = np.clip(to @ axis, -1.0, 1.0)
-        far = int(np.argmin(cos))
-        widest = float(np.arccos(cos[far]))
-        if widest <= angle:
-            break
+        cos = np.where(ok, np.clip((to @ axis[:, :, None])[..., 0], -1.0, 1.0), 2.0)
+        far = np.argmin(cos, axis=1)
+        nearest = cos[rows, far]
+        widest = np.arccos(np.minimum(nearest, 1.0))
+        growing &= widest > angle
         # Grow the cone just enough to hold the farthest direction, turning its axis toward it.
-        turn = (widest - angle) / 2
-        angle = (widest + angle) / 2
-        side = to[far] - cos[far] * axis
-        if np.linalg.norm(side) < 1e-12:
+        side = to[rows, far] - nearest[:, None] * axis
+        side_norm = np.linalg.norm(side, axis=1)
+        growing &= side_norm >= 1e-12
+        if not growing.any():
             break
-        side = side / np.linalg.norm(side)
-        axis = np.cos(turn) * axis + np.sin(turn) * side
-    return axis / np.linalg.norm(axis)
+        turn = (widest - angle) / 2
+        side = side / np.where(growing, side_norm, 1.0)[:, None]
+        turned = np.cos(turn)[:, None] * axis + np.sin(turn)[:, None] * side
+        axis = np.where(growing[:, None], turned, axis)
+        angle = np.where(growing, (widest + angle) / 2, angle)
+    axis = np.where(ok.any(axis=1)[:, None], axis, -transforms.WORLD_UP)
+    return axis / np.linalg.norm(axis, axis=1)[:, None]
 
 
 def fit(eye: np.ndarray, corners: np.ndarray, casters: tuple[np.ndarray, np.ndarray],
@@ -137,34 +148,42 @@ def fit(eye: np.ndarray, corners: np.ndarray, casters: tuple[np.ndarray, np.ndar
     """The tightest perspective map from ``eye`` around the receivers' hull ``corners`` (M, 3),
     with its near plane no farther than the casters' box (no caster between a receiver and the
     eye is clipped)."""
-    eye = np.asarray(eye, np.float64)
-    view = transforms.look_at(eye, eye + _axis(eye, corners))
-    local = transforms.transform_points(view, corners)
-    depth = -local[:, 2]
-    far = max(float(depth.max()), 1e-3) * FAR_MARGIN
-    if (depth > far * NEAR_SHARE).all():
-        tx, ty = local[:, 0] / depth, local[:, 1] / depth
-        left, right = max(tx.min(), -MAX_TAN), min(tx.max(), MAX_TAN)
-        bottom, top = max(ty.min(), -MAX_TAN), min(ty.max(), MAX_TAN)
-    else:  # the receivers reach beside or behind the eye: as wide as a map may look
-        left = bottom = -MAX_TAN
-        right = top = MAX_TAN
-    pad = EDGE_TEXELS / resolution
-    grow_x, grow_y = (right - left) * pad, (top - bottom) * pad
-    left, right, bottom, top = left - grow_x, right + grow_x, bottom - grow_y, top + grow_y
-    # A point at distance d from the eye inside the frustum is at depth d * cos(angle) or more.
-    widest = max(abs(left), abs(right)) ** 2 + max(abs(bottom), abs(top)) ** 2
-    nearest = _distance_to_box(eye, *casters) / np.sqrt(1.0 + widest)
-    near = min(max(nearest, far * NEAR_SHARE), far * 0.5)
-    proj = transforms.frustum(left * near, right * near, bottom * near, top * near, near, far)
-    return MapFrustum(eye=eye, view_proj=proj @ view, near=near, far=far,
-                      texel=max(right - left, top - bottom) / resolution)
+    return plan(np.asarray(eye, np.float64)[None], corners, casters, resolution)[0]
 
 
 def plan(points: np.ndarray, corners: np.ndarray, casters: tuple[np.ndarray, np.ndarray],
          resolution: int) -> list[MapFrustum]:
-    """One frustum per light point (rows of ``points``), each around the same receivers."""
-    return [fit(p, corners, casters, resolution) for p in points]
+    """One frustum per light point (rows of ``points``), each the tightest perspective map from
+    it around the same receivers' hull ``corners`` (M, 3), with its near plane no farther than
+    the casters' box (no caster between a receiver and the eye is clipped). All points at once:
+    a frame plans a map from each of many points of the segment."""
+    eyes = np.asarray(points, np.float64).reshape(-1, 3)
+    corners = np.asarray(corners, np.float64)
+    views = transforms.look_at_many(eyes, eyes + _axes(eyes, corners))
+    local = corners @ np.swapaxes(views[:, :3, :3], 1, 2) + views[:, None, :3, 3]
+    depth = -local[..., 2]
+    far = np.maximum(depth.max(axis=1), 1e-3) * FAR_MARGIN
+    # Where the receivers reach beside or behind the eye, the map is as wide as a map may look.
+    ahead = (depth > (far * NEAR_SHARE)[:, None]).all(axis=1)
+    safe = np.where(ahead[:, None], depth, 1.0)
+    tx, ty = local[..., 0] / safe, local[..., 1] / safe
+    left = np.where(ahead, np.maximum(tx.min(axis=1), -MAX_TAN), -MAX_TAN)
+    right = np.where(ahead, np.minimum(tx.max(axis=1), MAX_TAN), MAX_TAN)
+    bottom = np.where(ahead, np.maximum(ty.min(axis=1), -MAX_TAN), -MAX_TAN)
+    top = np.where(ahead, np.minimum(ty.max(axis=1), MAX_TAN), MAX_TAN)
+    pad = EDGE_TEXELS / resolution
+    grow_x, grow_y = (right - left) * pad, (top - bottom) * pad
+    left, right, bottom, top = left - grow_x, right + grow_x, bottom - grow_y, top + grow_y
+    # A point at distance d from the eye inside the frustum is at depth d * cos(angle) or more.
+    widest = np.maximum(abs(left), abs(right)) ** 2 + np.maximum(abs(bottom), abs(top)) ** 2
+    nearest = _distance_to_box(eyes, *casters) / np.sqrt(1.0 + widest)
+    near = np.minimum(np.maximum(nearest, far * NEAR_SHARE), far * 0.5)
+    proj = transforms.frustum_many(left * near, right * near, bottom * near, top * near, near,
+                                   far)
+    texel = np.maximum(right - left, top - bottom) / resolution
+    view_proj = proj @ views
+    return [MapFrustum(eye=eyes[k], view_proj=view_proj[k], near=float(near[k]),
+                       far=float(far[k]), texel=float(texel[k])) for k in range(len(eyes))]
 
 
 def frusta_key(frusta: list[MapFrustum], resolution: int) -> bytes:

@@ -115,6 +115,7 @@ class RasterSoft:
         self.bias = bias
         self.pcss = pcss
         self.cache_statics = True  # False draws the statics' maps every frame (to measure)
+        self.cull_walkers = True   # False draws the closed walkers' back faces too (to measure)
         self.casters = scene_bounds(geom, scene)
         self.snap = float(np.linalg.norm(self.casters[1] - self.casters[0])) / SNAP_CELLS
         self.reach = character_reach(geom, scene)
@@ -132,6 +133,9 @@ class RasterSoft:
         self._plan_memo: tuple = (None, None, None)
         # What the whole scene's plan was made for, its frusta and their corners.
         self._whole: tuple = (None, None, None)
+        # The receivers' snapped corners (and the points and resolution) the last plan around
+        # them was made for, and that plan: a turning camera often keeps the same cells.
+        self._seen: tuple = (None, None)
 
     # -- ownership -------------------------------------------------------------------------------
     def gl_objects(self) -> int:
@@ -152,6 +156,7 @@ class RasterSoft:
             self._refine = None
         self.last = None
         self._plan_memo = self._whole = (None, None, None)
+        self._seen = (None, None)
         for program, vao in self._programs.values():
             vao.release()
             program.release()
@@ -235,7 +240,7 @@ class RasterSoft:
                 maps = self._light_maps(len(frusta), settings.map_resolution)
                 counts = maps.draw_statics(frusta, self.cache_statics)
             with timer.measure("build_dynamic"):
-                maps.draw_walkers(frusta, models, counts)
+                maps.draw_walkers(frusta, models, counts, self.cull_walkers)
             self.last = (maps, frusta, a, b)
             with timer.measure("trace"):
                 visibility = self._lookup(settings, textures, size)
@@ -262,7 +267,11 @@ class RasterSoft:
         still = covered & (positions[..., 3] < self.geom.first_character)
         corners = np.vstack([receiver_cells(positions, still, self.snap), self.reach])
         points = light_points(settings.method, a, b, settings)
-        seen = plan(points, corners, self.casters, settings.map_resolution)
+        key = (corners.tobytes(), np.asarray(points, np.float64).tobytes(),
+               settings.map_resolution)
+        if self._seen[0] != key:
+            self._seen = (key, plan(points, corners, self.casters, settings.map_resolution))
+        seen = self._seen[1]
         if not view_free:
             return seen, corners
         whole = self._whole_plan(points, settings.map_resolution)
@@ -295,7 +304,7 @@ class RasterSoft:
             maps = self._refine = LightMaps(self.ctx, self.geom, len(frusta),
                                             settings.map_resolution)
         counts = maps.draw_statics(moved, True)
-        maps.draw_walkers(moved, models, counts)
+        maps.draw_walkers(moved, models, counts, self.cull_walkers)
         return (maps, moved, a, b)
 
     def _lookup(self, settings: TraceSettings, textures, size: tuple[int, int]) -> np.ndarray:

@@ -9,8 +9,8 @@ import pytest
 
 from game.gpu import resources
 from game.render.renderer import Renderer, View
-from game.scene import parse_scene
-from game.soft.map_frusta import box_corners, fit, receiver_bounds
+from game.scene import load_scene, parse_scene
+from game.soft.map_frusta import EDGE_TEXELS, MAX_TAN, box_corners, fit, plan, receiver_bounds
 from game.soft.methods import RASTER_METHODS, TraceSettings, is_raster
 from tests.soft.tracer_helpers import rmse, scene_text
 
@@ -144,6 +144,71 @@ def test_a_maps_frustum_holds_every_receiver_corner():
         corners = np.c_[box_corners(lo, hi), np.ones(8)] @ frustum.view_proj.T
         assert (corners[:, 3] > 0).all()
         assert (np.abs(corners[:, :3]) <= corners[:, 3:] * (1 + 1e-9)).all(), eye
+
+
+def test_a_plan_of_many_points_gives_each_the_map_it_gets_alone():
+    # Eyes above the receivers, inside their hull (the map as wide as a map may look), on one
+    # of their corners and far to the side: planned together, each keeps its own frustum.
+    lo, hi = np.array([-10.0, 0.0, -8.0]), np.array([10.0, 3.0, 8.0])
+    corners = box_corners(lo, hi)
+    casters = (lo - 1.0, hi + 1.0)
+    eyes = np.array([[0.0, 9.0, 0.0], [1.0, 1.5, -2.0], hi, [-40.0, 5.0, 30.0]])
+    together = plan(eyes, corners, casters, 512)
+    for eye, frustum in zip(eyes, together, strict=True):
+        alone = fit(eye, corners, casters, 512)
+        np.testing.assert_allclose(frustum.view_proj, alone.view_proj, rtol=1e-12, atol=1e-12)
+        assert (frustum.near, frustum.far, frustum.texel) == pytest.approx(
+            (alone.near, alone.far, alone.texel), rel=1e-12)
+    widest = 2 * MAX_TAN * (1 + 2 * EDGE_TEXELS / 512) / 512   # inside the hull
+    assert together[1].texel == pytest.approx(widest)
+    assert widest > 1.5 * together[0].texel
+
+
+# A floor and one walker standing still: a sheet of one quad 1.5 m up, its faces turned down,
+# away from the bar of light above it. It is an open mesh: culled as a closed walker's back
+# faces are, it would cast no shadow.
+SHEET = """
+[camera]
+position = [0.0, 6.0, 10.0]
+target = [0.0, 0.0, 0.0]
+[light]
+kind = "directional"
+direction = [-0.4, -1.0, -0.3]
+[linear_light]
+a = [-2.0, 8.0, 1.0]
+b = [2.0, 8.0, 1.0]
+[[floor]]
+shape = "box"
+size = [30.0, 0.2, 30.0]
+position = [0.0, -0.1, 0.0]
+[[character]]
+shape = "mesh"
+file = "sheet.obj"
+path = [[0.0, 1.5, 0.0]]
+"""
+SHEET_OBJ = "v -0.75 0 -0.75\nv 0.75 0 -0.75\nv 0.75 0 0.75\nv -0.75 0 0.75\nf 1 2 3\nf 1 3 4\n"
+
+
+@pytest.mark.parametrize("walker", ["closed capsule", "open sheet"])
+def test_culling_the_closed_walkers_back_faces_leaves_the_visibility_as_it_was(
+        ctx, tiny, tmp_path, walker):
+    scene = tiny
+    if walker == "open sheet":
+        (tmp_path / "sheet.obj").write_text(SHEET_OBJ)
+        (tmp_path / "scene.toml").write_text(SHEET)
+        scene = load_scene(tmp_path / "scene.toml")
+    r = Renderer(ctx, scene, SIZE, gbuffer=True)
+    settings = TraceSettings(method="segment-maps", maps=4)
+    try:
+        r.render(1.3, View.from_camera(scene.camera, SIZE))
+        culled = r.trace(1.3, settings)           # closed walkers culled: the default
+        r.traced.raster.cull_walkers = False
+        whole = r.trace(1.3, settings)
+    finally:
+        r.release()
+    np.testing.assert_array_equal(culled.visibility, whole.visibility)
+    shadowed = np.isfinite(whole.visibility) & (whole.visibility < 0.5)
+    assert shadowed.sum() >= 10   # the sheet's shadow, on a floor nothing else shadows
 
 
 def test_receiver_bounds_skip_uncovered_pixels():
