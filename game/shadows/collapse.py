@@ -208,6 +208,15 @@ def overlapping(record: MapRecord, boxes: np.ndarray) -> np.ndarray:
     return behind | (hit & (hi[:, 2] >= -1.0))
 
 
+def _cutting(planes: np.ndarray, box: np.ndarray) -> np.ndarray:
+    """The half-spaces of ``planes`` (k, 4) that cut the box (6,): a half-space that holds all
+    of the box's corners holds all of its part that the others keep, so it changes nothing, and
+    the vertices to try grow with the cube of the planes."""
+    corners = np.array([[box[x], box[y], box[z], 1.0] for x in (0, 3) for y in (1, 4)
+                        for z in (2, 5)])
+    return planes[(corners @ planes.T < 0.0).any(axis=0)]
+
+
 class ViewDepths:
     """The receivers' least view depths within the view frustum, then per map within its
     region: each box is clipped to a map's region only while it could still be the nearest."""
@@ -242,11 +251,12 @@ class ViewDepths:
         visible = visible[overlapping(record, self.receivers.boxes[visible])]
         region = region_planes(record)
         best, point = np.inf, None
+        bounds = np.concatenate([self.frustum, region])
         for r in visible[np.argsort(self.depths[visible], kind="stable")]:
             if self.depths[r] >= best:
                 break
-            planes = np.concatenate([box_planes(self.receivers.boxes[r:r + 1])[0],
-                                     self.frustum, region])[None]
+            box = self.receivers.boxes[r]
+            planes = np.concatenate([box_planes(box[None])[0], _cutting(bounds, box)])[None]
             depth, where = nearest_vertices(planes, self.depth_row)
             if depth[0] < best:
                 best, point = float(depth[0]), where[0]

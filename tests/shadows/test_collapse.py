@@ -73,6 +73,29 @@ def test_nearest_receiver_is_where_the_view_meets_the_floor():
     assert point[1] == pytest.approx(0.0, abs=1e-9)
 
 
+def test_the_nearest_receiver_in_a_map_is_what_every_plane_together_gives():
+    """The nearest receiver drops the view's and the map's planes that hold a whole box; with
+    every plane kept, each box in turn, the least depth is the same."""
+    rng = np.random.default_rng(4)
+    lo = rng.uniform(-12.0, 12.0, (40, 3)) * [1.0, 0.2, 1.0]
+    boxes = np.concatenate([lo, lo + rng.uniform(0.2, 6.0, (40, 3))], axis=1)
+    receivers = collapse.Receivers(boxes, np.arange(40))
+    record = down_map(0.02, 512)
+    for eye, target in (([0, 6, 14], [0, 0, 0]), ([9, 2, 3], [-4, 1, -6]),
+                        ([-3, 20, -2], [1, 0, 1])):
+        view = camera(eye, target)
+        depths = collapse.ViewDepths(receivers, view)
+        frustum = collapse.clip_planes(view.proj @ view.view)
+        planes = np.concatenate([collapse.box_planes(boxes),
+                                 np.broadcast_to(np.concatenate(
+                                     [frustum, collapse.region_planes(record)]),
+                                     (40, 5 + len(frustum), 4))], axis=1)
+        every, _ = collapse.nearest_vertices(planes, -np.asarray(view.view[2], float))
+        depth, _ = depths.nearest(record)
+        assert np.isfinite(depth)
+        assert depth == pytest.approx(every.min(), rel=1e-9)
+
+
 def test_a_map_away_from_the_view_is_not_judged():
     """Receivers out of the map's rectangle do not count: a map 100 m behind the camera has
     no receiver in view."""
