@@ -84,9 +84,8 @@ def look_at_many(eyes: np.ndarray, targets: np.ndarray) -> np.ndarray:
     eyes = np.asarray(eyes, float)
     forward = np.asarray(targets, float) - eyes
     forward = forward / np.sqrt(np.sum(forward ** 2, axis=-1))[:, None]
-    d = forward / np.linalg.norm(forward, axis=1)[:, None]
-    up = np.where((np.abs(d @ WORLD_UP) < UP_PARALLEL_COS)[:, None], WORLD_UP,
-                  np.where((d[:, 1] < 0)[:, None], [0.0, 0.0, -1.0], [0.0, 0.0, 1.0]))
+    up = np.where((np.abs(forward @ WORLD_UP) < UP_PARALLEL_COS)[:, None], WORLD_UP,
+                  np.where((forward[:, 1] < 0)[:, None], [0.0, 0.0, -1.0], [0.0, 0.0, 1.0]))
     side = np.cross(forward, up)
     side = side / np.sqrt(np.sum(side ** 2, axis=-1))[:, None]
     up = np.cross(side, forward)

@@ -100,7 +100,7 @@ class LightMaps:
                               for i in range(geom.n_characters)]
         self._walker_closed = np.array([bool(geom.closed[geom.character_object(i)])
                                         for i in range(geom.n_characters)], bool)
-        self.closed_triangles = 0   # the walkers' triangles first in the buffer, back-face culled
+        self.closed_triangles = 0   # the walkers' first triangles, drawn back-face culled
 
     def gl_objects(self) -> int:
         """The depth array's texture and framebuffers, the program (and its shaders), the

@@ -125,11 +125,11 @@ def _axes(eyes: np.ndarray, corners: np.ndarray) -> np.ndarray:
     for _ in range(CONE_PASSES):
         cos = np.where(ok, np.clip((to @ axis[:, :, None])[..., 0], -1.0, 1.0), 2.0)
         far = np.argmin(cos, axis=1)
-        nearest = cos[rows, far]
-        widest = np.arccos(np.minimum(nearest, 1.0))
+        cos_far = cos[rows, far]
+        widest = np.arccos(np.minimum(cos_far, 1.0))
         growing &= widest > angle
         # Grow the cone just enough to hold the farthest direction, turning its axis toward it.
-        side = to[rows, far] - nearest[:, None] * axis
+        side = to[rows, far] - cos_far[:, None] * axis
         side_norm = np.linalg.norm(side, axis=1)
         growing &= side_norm >= 1e-12
         if not growing.any():
