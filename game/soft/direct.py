@@ -196,13 +196,19 @@ class DirectRaster:
 
     def settle_batch(self, trace: ExactTrace, frame_ms: float) -> None:
         """Trace this frame's batch of pixels exactly (its size by ``frame_ms``, the rest of
-        the frame: :meth:`StillSettle.next_batch`), and keep what it gives."""
-        batch = self.settle.next_batch(self._surfaces, frame_ms,
-                                       static=not self.still.changed.any())
+        the frame: :meth:`StillSettle.next_batch`), and keep what it gives. The blocks a
+        walker changed this frame wait: a walker that walks on changes them again in the next,
+        and a batch spent on them would settle nothing that stays."""
+        changed = self.still.changed
+        batch = self.settle.next_batch(self._surfaces & ~changed, frame_ms,
+                                       static=not changed.any())
         if batch is None:   # between batches
             return
-        self._dry = not len(batch)
-        if self._dry:
+        # With nothing to settle now, the G-buffer is drawn again only where a block waits
+        # that it no longer shows (a walker crossed it on screen).
+        self._dry = not len(batch) and bool(
+            (self.settle.waiting_blocks(self.cells) & ~self._surfaces).any())
+        if not len(batch):
             return
         pixels, visibility = self.settle.settle(batch, trace)
         self.still.write_pixels(pixels, visibility)

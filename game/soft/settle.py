@@ -23,9 +23,11 @@ pixel is settled.
   nothing on screen moves: :data:`STATIC_SHARE`), at the pace of the last batch, a batch every
   :data:`SETTLE_EVERY` frames.
 - **Walkers.** A block a walker changes (:meth:`StillLookups.kept`) loses its settled pixels:
-  it looks the light up again, and is settled again at the walkers' new poses. A block a
-  walker crossed on screen may show another surface than the G-buffer did: it waits until
-  nothing else is left, and the G-buffer is drawn again.
+  it looks the light up again, and is settled again at the walkers' new poses once a frame
+  goes by in which no walker changes it (a walker that walks on would change it again, so
+  the batches go to what stays). A block a walker crossed on screen may show another surface
+  than the G-buffer did: it waits until nothing else is left, and the G-buffer is drawn
+  again.
 
 Everything starts again with the view.
 """
@@ -182,6 +184,14 @@ class StillSettle:
         self.settled.reshape(-1)[pixels] = True
         self._done += np.bincount(self._block[batch], minlength=len(self._done))
         return pixels, visibility
+
+    def waiting_blocks(self, cells: tuple[int, int]) -> np.ndarray:
+        """Per block (GL rows), whether it shows geometry and some pixel of it that does is
+        not settled."""
+        w, h = cells
+        if not self.started:
+            return np.zeros((h, w), bool)
+        return ((self._total > 0) & (self._done < self._total)).reshape(h, w)
 
     def settled_blocks(self, cells: tuple[int, int]) -> np.ndarray:
         """Per block (GL rows), whether it shows geometry and every pixel of it that does is

@@ -92,6 +92,7 @@ def test_a_changed_or_drawn_block_loses_what_it_settled(monkeypatch):
     changed[3, 5] = False
     made.forget_changed(changed)
     assert made.settled_blocks(CELLS).sum() == CELLS[0] * CELLS[1] - 1
+    assert np.array_equal(made.waiting_blocks(CELLS), ~changed)
     assert not made.settled[12:16, 20:24].any() and made.settled.sum() == SIZE[0] * SIZE[1] - 16
     drawn = ~everywhere()
     drawn[13, 0] = True   # the last row of blocks holds two rows of pixels
@@ -138,8 +139,8 @@ def test_a_still_view_settles_to_the_exact_visibility_pixel_for_pixel(renderer, 
 
 def test_a_walker_unsettles_what_it_changes_and_it_settles_again(renderer, monkeypatch):
     """The walkers walk: the blocks a walker changes look the light up again and lose their
-    settled pixels; once the walkers stop, the view settles to the exact visibility of their
-    last poses."""
+    settled pixels, and wait while it changes them; once the walkers stop, the view settles
+    to the exact visibility of their last poses."""
     monkeypatch.setattr(settle, "SETTLE_SHARE", 1e6)
     monkeypatch.setattr(settle, "STATIC_SHARE", 1e6)
     monkeypatch.setattr(settle, "SETTLE_EVERY", 1)
@@ -152,12 +153,12 @@ def test_a_walker_unsettles_what_it_changes_and_it_settles_again(renderer, monke
     blocks = renderer.traced.direct.blocks
     assert blocks.settle.share == 1.0
     renderer.render(0.3, view, soft=settings)   # the walkers moved
-    # What they changed in light is settled again at once; what they crossed on screen
-    # waits for the G-buffer, drawn again once nothing else is left.
-    assert 0.0 < blocks.settle.share < 1.0
-    renderer.render(0.3, view, soft=settings)
-    assert blocks.settle.share < 1.0
-    renderer.render(0.3, view, soft=settings)
+    # What they changed waits for a frame in which they change it no more; what they crossed
+    # on screen waits for the G-buffer, drawn again once nothing else is left.
+    changed = blocks.still.changed
+    assert changed.any() and 0.0 < blocks.settle.share < 1.0
+    assert not (blocks.settle.settled_blocks(blocks.cells) & changed).any()
+    renderer.render(0.3, view, soft=settings)   # they stand: everything settles
     assert blocks.settle.share == 1.0
     shown = renderer.traced.window_visibility(renderer.target)
     renderer.render(0.3, view)
