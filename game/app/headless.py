@@ -41,15 +41,17 @@ class HeadlessRun:
         return self.out / f"frame_{k:04d}"
 
     def prepare(self) -> None:
-        """Make the output folder, and clear the temp files that killed runs left in it (and
-        beside the stats file)."""
-        self.out.mkdir(parents=True, exist_ok=True)
-        outputs.remove_stale_temps(self.out)
+        """Clear the temp files that killed runs left in the output folder (and beside the
+        stats file). The folder itself is made with the first frame's files: a run that fails
+        before it (a frame too large for the GL, maps too many) leaves no empty folder."""
+        if self.out.is_dir():
+            outputs.remove_stale_temps(self.out)
         if self.stats is not None:
             outputs.remove_stale_temps(self.stats.parent)
 
     def write_frame(self, k: int, t: float, frame: Frame, scene: Scene, view: View) -> None:
         """Frame k's PNG and, with ``dump``, its NPZ and GLB: all of them or none."""
+        self.out.mkdir(parents=True, exist_ok=True)
         stem = self.frame_stem(k)
         with outputs.together():
             outputs.write_png(stem.with_suffix(".png"), frame.image)

@@ -62,6 +62,24 @@ def local_results(tasks: Sequence[AccuracyTask], workers: int) -> Iterator[dict]
         pool.shutdown(wait=True, cancel_futures=True)
 
 
+def address_problem(address: str) -> str | None:
+    """Why ``address`` is no scheduler's address, in one line; None where Dask can read it (or
+    is missing: :func:`connect` says so). An address is checked before a client is made: a
+    client that fails to start tries to close itself at exit, for tens of seconds, with a
+    traceback."""
+    try:
+        from distributed.comm.addressing import get_address_host_port
+    except ImportError:
+        return None
+    try:
+        _, port = get_address_host_port(address)
+    except ValueError as exc:
+        return f"--cluster {address!r}: not a scheduler's address such as tcp://HOST:PORT ({exc})"
+    if not 0 < port < 65536:
+        return f"--cluster {address}: port {port} is not in 1..65535"
+    return None
+
+
 def connect(address: str):
     """A Dask client of the scheduler at ``address``; one line where Dask is missing or the
     scheduler cannot be reached."""
@@ -69,6 +87,9 @@ def connect(address: str):
         from distributed import Client
     except ImportError:
         raise GameError(f"--cluster needs Dask distributed: {CLUSTER_HINT}") from None
+    problem = address_problem(address)
+    if problem is not None:
+        raise GameError(problem)
     try:
         return Client(address, timeout=CONNECT_TIMEOUT_S, set_as_default=False)
     except (OSError, TimeoutError, ValueError, TypeError) as exc:

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import argparse
 import difflib
-from pathlib import Path
 
 from game.cli.bench_arguments import add_bench_parser
 from game.cli.scenes_arguments import add_scenes_parser
@@ -23,6 +22,7 @@ from game.cli.values import (  # the value types, also for the modules that impo
     frame_rate,
     in_range,
     map_side,
+    path_value,
     positive,
     positive_int,
     scene_time,
@@ -40,9 +40,9 @@ from game.soft.grid import STRUCTURES
 from game.soft.methods import TraceSettings
 
 __all__ = ["DEFAULT_OUT", "MAX_SCENE_TIME", "MAX_SIZE", "ArgumentError", "Parser", "at_most",
-           "bias_texels", "build_parser", "finite", "frame_rate", "in_range", "map_side",
-           "positive", "positive_int", "scene_time", "shadow_settings", "size_value",
-           "trace_settings", "unit", "whole"]
+           "bias_texels", "build_parser", "check_as_flag", "finite", "frame_rate", "in_range",
+           "map_side", "path_value", "positive", "positive_int", "scene_time",
+           "shadow_settings", "size_value", "trace_settings", "unit", "whole"]
 
 CLOCK_HELP = "timing clock (auto: CPU around glFinish on llvmpipe, GPU queries elsewhere)"
 
@@ -173,6 +173,21 @@ def _add_shadow_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--clock", choices=CLOCKS, default="auto", help=CLOCK_HELP)
 
 
+def check_as_flag(command: str, key: str, value) -> None:
+    """Take ``value`` of the setting ``key`` as ``command``'s flag of the same name would
+    (``--param`` of bench names the settings that capture's flags set): an ArgumentError with
+    that flag's message where it refuses the value, as it would at parse time."""
+    flag = "--" + key.replace("_", "-")
+    parser = build_parser()._command_parser(command)
+    action = next((a for a in parser._actions if flag in a.option_strings), None)
+    if action is None or action.type is None or isinstance(value, bool):
+        return
+    try:
+        action.type(str(value))
+    except argparse.ArgumentTypeError as exc:
+        raise ArgumentError(f"{key}: {exc}") from None
+
+
 def shadow_settings(args) -> ShadowSettings:
     return ShadowSettings(
         method=args.method, clumping=args.clumping, clump_count=args.clumps,
@@ -200,9 +215,9 @@ def _add_play_parser(sub) -> None:
                     "F12 screenshot, Esc quits. See docs/window.md.")
     play.add_argument("scene", nargs="?", help="scene file (default: the built-in scene)")
     play.add_argument("--frames", type=positive_int, help="quit by itself after N frames")
-    play.add_argument("--screenshot", type=Path, metavar="FILE",
+    play.add_argument("--screenshot", type=path_value, metavar="FILE",
                       help="save the last frame as the window shows it, overlay included")
-    play.add_argument("--stats", type=Path, metavar="FILE",
+    play.add_argument("--stats", type=path_value, metavar="FILE",
                       help="write per-frame stats JSON and the frame rate")
     play.add_argument("--size", type=size_value, default=(960, 540), metavar="WxH",
                       help="window size in pixels")
@@ -249,10 +264,11 @@ def _add_frame_options(parser, dump_help: str) -> None:
                         help="scene time of the first frame, in seconds (within +-1e9)")
     parser.add_argument("--fps", type=frame_rate, default=30.0, metavar="F",
                         help="frames per scene second: frame k is at T + k/F (1e-3..1e6)")
-    parser.add_argument("--out", type=Path, default=None, metavar="DIR",
+    parser.add_argument("--out", type=path_value, default=None, metavar="DIR",
                         help=f"output folder (default: {DEFAULT_OUT}/<scene name>/)")
     parser.add_argument("--dump", action="store_true", help=dump_help)
-    parser.add_argument("--stats", type=Path, metavar="FILE", help="write per-frame stats JSON")
+    parser.add_argument("--stats", type=path_value, metavar="FILE",
+                        help="write per-frame stats JSON")
 
 
 def _add_trace_parser(sub) -> None:
@@ -326,10 +342,11 @@ def build_parser() -> argparse.ArgumentParser:
     add_scenes_parser(sub)
 
     verify = sub.add_parser("verify", help="shadow error of dumped frames against Embree")
-    verify.add_argument("dumps", type=Path, metavar="DIR", help="a capture or trace --dump folder")
+    verify.add_argument("dumps", type=path_value, metavar="DIR",
+                        help="a capture or trace --dump folder")
     verify.add_argument("scene", nargs="?", help="the scene captured (default: the one the dumps "
                         "record); a different scene is refused")
-    verify.add_argument("--out", type=Path, metavar="FILE", help="write the errors as JSON")
+    verify.add_argument("--out", type=path_value, metavar="FILE", help="write the errors as JSON")
     verify.add_argument("--images", action="store_true",
                         help="picture where the method and Embree disagree, beside each frame")
     return parser

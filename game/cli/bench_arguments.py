@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from game.cli.values import positive_int, size_value, whole
+from game.cli.values import path_value, positive_int, size_value, whole
 from game.gpu.timing import CLOCKS
 
 SUITES = ("gpu", "cache", "accuracy", "window")
@@ -59,7 +59,7 @@ def add_bench_parser(sub) -> None:
     bench.add_argument("--quick", action="store_true",
                        help="the short sweep (default scene, a small town, stability scenes), "
                             "or the GPU suite made small")
-    bench.add_argument("--out", type=Path, default=None, metavar="DIR",
+    bench.add_argument("--out", type=path_value, default=None, metavar="DIR",
                        help="output folder (default: bench, or bench_gpu, bench_cache, "
                             "bench_accuracy, bench_window for --suite gpu, cache, accuracy, "
                             "window)")
@@ -88,7 +88,7 @@ def add_bench_parser(sub) -> None:
                             "single_resolution, clump_count, clumping, ...) with every method "
                             "that reads it; repeatable; replaces the built-in parameter grid")
     bench.add_argument("--list", action="store_true", help="print the runs and exit")
-    bench.add_argument("--report", type=Path, nargs="?", const=Path("."), default=None,
+    bench.add_argument("--report", type=path_value, nargs="?", const=Path("."), default=None,
                        metavar="ROOT",
                        help="measure nothing: write ROOT/docs/results.md and the figure table "
                             "of ROOT/README.md from the recorded runs in ROOT/docs/runs/*/ "

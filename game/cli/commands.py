@@ -11,7 +11,7 @@ import os
 import zipfile
 from pathlib import Path
 
-from game.cli.arguments import shadow_settings, trace_settings
+from game.cli.arguments import check_as_flag, shadow_settings, trace_settings
 from game.cli.checks import check_file as _check_file
 from game.cli.checks import check_out as _check_out
 from game.cli.checks import command_line as _command_line
@@ -133,7 +133,9 @@ def cmd_bench(args) -> int:
     for text in args.param:
         try:
             key, swept = runs.parse_param(text)
-        except ValueError as exc:
+            for value in swept:
+                check_as_flag("capture", key, value)
+        except (ValueError, ArgumentError) as exc:
             raise ArgumentError(f"--param {exc}") from None
         params[key] = tuple(dict.fromkeys(params.get(key, ()) + swept))
         readers = [m for m in methods or registry.MAP_METHODS

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from game.cli.bench_arguments import MAX_SEED
-from game.cli.values import whole
+from game.cli.values import path_value, whole
 
 DEFAULT_SCENES_OUT = Path("scenes")  # a random scene goes to DEFAULT_SCENES_OUT/random_<seed>/
 
@@ -26,5 +26,5 @@ def add_scenes_parser(sub) -> None:
                     "(python assets/fetch_real.py).")
     random.add_argument("--seed", type=whole(0, MAX_SEED), required=True, metavar="N",
                         help="the number the scene is drawn from: one number, one scene")
-    random.add_argument("--out", type=Path, default=None, metavar="DIR",
+    random.add_argument("--out", type=path_value, default=None, metavar="DIR",
                         help=f"output folder (default: {DEFAULT_SCENES_OUT}/random_<seed>/)")

@@ -67,6 +67,12 @@ def accuracy_suite(args) -> int:
     if args.workers > 1 and args.cluster is not None:
         raise ArgumentError("--workers and --cluster: give one (the cluster's scheduler spreads "
                             "the runs over its own workers)")
+    if args.cluster is not None:
+        from game.bench.accuracy_pool import address_problem
+
+        problem = address_problem(args.cluster)
+        if problem is not None:
+            raise ArgumentError(problem)
     out = args.out or ACCURACY_OUT
     check_out(out)
     suite_module.check_outputs(out)

@@ -20,6 +20,14 @@ class ArgumentError(GameError):
     """A bad command-line value."""
 
 
+def path_value(text: str) -> Path:
+    """A file or folder to write or read: not empty (``Path("")`` is the current folder, which
+    a user who typed nothing there did not mean)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty path; name a file or folder")
+    return Path(text)
+
+
 def size_value(text: str) -> tuple[int, int]:
     parts = text.lower().split("x")
     try:

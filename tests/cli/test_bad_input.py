@@ -187,3 +187,47 @@ def test_bad_command_line_values(capsys, tmp_path, args, flag):
     assert code == 2
     assert len(lines) == 1 and flag in lines[0], lines
     assert re.match(r"^error: ", lines[0])
+
+
+@pytest.mark.parametrize("args", [
+    ["capture", "--size", "16x9", "--out", ""],
+    ["trace", "--size", "16x9", "--out", " "],
+    ["capture", "--size", "16x9", "--stats", ""],
+    ["scenes", "random", "--seed", "1", "--out", ""],
+    ["verify", ""],
+])
+def test_an_empty_path_is_refused_not_taken_for_the_current_folder(capsys, tmp_path,
+                                                                    monkeypatch, args):
+    monkeypatch.chdir(tmp_path)
+    code, lines = run_main(capsys, *args)
+    assert code == 2 and len(lines) == 1 and "an empty path" in lines[0], lines
+    assert not any(tmp_path.iterdir())
+
+
+def test_a_run_that_fails_before_its_first_frame_leaves_no_folder(capsys, tmp_path):
+    out = tmp_path / "made" / "here"
+    code, lines = run_main(capsys, "trace", "--size", "16384x16384", "--out", out)
+    assert code == 1 and len(lines) == 1 and "GPU memory" in lines[0], lines
+    assert not (tmp_path / "made").exists()
+
+
+@pytest.mark.parametrize("address", ["notanaddress", "tcp://127.0.0.1:99999", ""])
+def test_a_cluster_address_dask_cannot_read_is_one_line_at_once(capsys, tmp_path, address):
+    pytest.importorskip("distributed")
+    code, lines = run_main(capsys, "bench", "--suite", "accuracy", "--seeds", "1",
+                           "--cluster", address, "--out", tmp_path / "out")
+    assert code == 2 and len(lines) == 1 and "--cluster" in lines[0], lines
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize(("param", "fragment"), [
+    ("clump_resolution=1", "16..1000000"),
+    ("clump_resolution=512,999999999999", "16..1000000"),
+    ("single_resolution=3", "single_resolution"),
+])
+def test_bench_param_values_meet_the_bounds_of_captures_flags(capsys, tmp_path, param,
+                                                              fragment):
+    code, lines = run_main(capsys, "bench", "--scenes", "default", "--param", param, "--list",
+                           "--out", tmp_path / "out")
+    assert code == 2 and len(lines) == 1 and fragment in lines[0], lines
+    assert lines[0].startswith("error: --param ")

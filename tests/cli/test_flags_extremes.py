@@ -12,7 +12,6 @@ import argparse
 import math
 import re
 import warnings
-from pathlib import Path
 
 import pytest
 
@@ -39,7 +38,7 @@ RUN = ("capture", "trace")
 def _numeric_flags(command: str) -> list[tuple[str, argparse.Action]]:
     parser = arguments.build_parser()._command_parser(command)
     return [(a.option_strings[-1], a) for a in parser._actions
-            if a.option_strings and a.type is not None and a.type is not Path
+            if a.option_strings and a.type not in (None, arguments.path_value)
             and a.option_strings[-1].startswith("--")]
 
 
