@@ -118,6 +118,21 @@ def _alive(pid: int) -> bool:
     return True
 
 
+def write_problem(folder: Path) -> str | None:
+    """Why no file can be made in ``folder`` (an existing folder), in a few words; None where
+    one can. A hidden temp file of :data:`TEMP_NAME`'s form is made there and removed at once:
+    the permission bits say nothing to root, and a folder of the kernel's (/proc, /sys) takes
+    no file whatever its bits say."""
+    tmp = folder / f".probe.{os.getpid()}.{secrets.token_hex(4)}.tmp"
+    try:
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+    except OSError as error:
+        return error.strerror or type(error).__name__
+    os.close(fd)
+    tmp.unlink(missing_ok=True)
+    return None
+
+
 def remove_stale_temps(folder: Path) -> int:
     """Remove the temp files of this program's runs that died in ``folder`` (SIGKILL, power
     loss): only names of :data:`TEMP_NAME`'s form whose process is gone. Returns how many."""

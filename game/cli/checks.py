@@ -8,6 +8,7 @@ import shlex
 import sys
 from pathlib import Path
 
+from game.app import outputs
 from game.cli.values import ArgumentError
 from game.errors import printable
 
@@ -33,6 +34,10 @@ def check_out(path: Path | None, flag: str = "--out") -> None:
     existing = next((p for p in (path, *path.parents) if p.exists()), Path("."))
     if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
         raise ArgumentError(f"{flag} {path}: cannot make or write a folder in {existing}")
+    problem = outputs.write_problem(existing)
+    if problem is not None:
+        raise ArgumentError(f"{flag} {path}: cannot make or write a folder in {existing} "
+                            f"({problem})")
 
 
 def check_file(flag: str, path: Path | None) -> None:
@@ -46,5 +51,7 @@ def check_file(flag: str, path: Path | None) -> None:
     folder = path.parent
     if not folder.is_dir():
         raise ArgumentError(f"{flag} {path}: folder {folder} does not exist")
-    if not os.access(folder, os.W_OK | os.X_OK):
-        raise ArgumentError(f"{flag} {path}: cannot write in {folder}")
+    problem = (outputs.write_problem(folder) if os.access(folder, os.W_OK | os.X_OK)
+               else "no permission")
+    if problem is not None:
+        raise ArgumentError(f"{flag} {path}: cannot write in {folder} ({problem})")

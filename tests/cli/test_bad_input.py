@@ -231,3 +231,14 @@ def test_bench_param_values_meet_the_bounds_of_captures_flags(capsys, tmp_path, 
                            "--out", tmp_path / "out")
     assert code == 2 and len(lines) == 1 and fragment in lines[0], lines
     assert lines[0].startswith("error: --param ")
+
+
+@pytest.mark.skipif(not Path("/proc/version").is_file(), reason="a Linux /proc")
+@pytest.mark.parametrize("flags", [["--stats", "/proc/version"], ["--out", "/proc/new_folder"]])
+def test_an_output_where_no_file_can_be_made_is_refused_before_any_work(capsys, tmp_path, flags):
+    """The kernel's folders take no file whatever their permission bits say (and root passes
+    every permission check): the check makes a file there, as the run would."""
+    args = ["--out", tmp_path / "out", *flags] if flags[0] == "--stats" else flags
+    code, lines = run_main(capsys, "capture", "--size", "16x9", *args)
+    assert code == 2 and len(lines) == 1 and "/proc" in lines[0], lines
+    assert not (tmp_path / "out").exists()
