@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import difflib
+import re
 
 from game.cli.bench_arguments import add_bench_parser
 from game.cli.scenes_arguments import add_scenes_parser
@@ -67,6 +68,9 @@ class HelpFormatter(argparse.HelpFormatter):
         return f"{text} ({notes})" if text and notes else text or notes
 
 
+LONG_WORD = re.compile(r"\S{81,}")
+
+
 class Parser(argparse.ArgumentParser):
     """argparse that reports a bad argument in one line instead of usage plus message, shows
     defaults in ``--help``, and suggests the nearest flag for a mistyped one."""
@@ -79,6 +83,9 @@ class Parser(argparse.ArgumentParser):
         if message.endswith("expected one argument"):
             # argparse reads a value such as -5x10 as an option and reports the value missing.
             message += " (write a value that starts with '-' as --option=VALUE)"
+        # A value thousands of characters long is shown by its ends: the line stays a line.
+        message = LONG_WORD.sub(lambda m: f"{m[0][:24]}...{m[0][-8:]} ({len(m[0])} characters)",
+                                message)
         raise ArgumentError(f"{self.prog}: {message}")
 
     def parse_args(self, args=None, namespace=None):

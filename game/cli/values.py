@@ -39,11 +39,19 @@ def size_value(text: str) -> tuple[int, int]:
     return w, h
 
 
-def positive_int(text: str) -> int:
+def _int(text: str) -> int:
+    """``int(text)``, with a number too long for Python to read said so."""
     try:
-        value = int(text)
+        return int(text)
     except ValueError:
+        if text.strip().lstrip("+-").isdigit():
+            raise argparse.ArgumentTypeError(f"a whole number of {len(text.strip())} digits is "
+                                             "too long to read") from None
         raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+
+
+def positive_int(text: str) -> int:
+    value = _int(text)
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
     return value
@@ -98,10 +106,7 @@ def in_range(low: float, high: float, shown: bool = False):
 def whole(low: int, high: int):
     """A whole number from ``low`` to ``high``; the bounds end its help."""
     def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+        value = _int(text)
         if not low <= value <= high:
             raise argparse.ArgumentTypeError(f"must be {low}..{high}, got {text!r}")
         return value

@@ -193,7 +193,8 @@ def _parse_linear_light(ctx: Context, data: Any) -> LinearLight:
     table.check_keys(LINEAR_LIGHT_KEYS)
     a, b = table.vec3("a"), table.vec3("b")
     if np.allclose(a, b):
-        table.fail("b", "the segment has zero length (a == b)")
+        table.fail("b", f"the segment is {float(np.linalg.norm(b - a)):.3g} m long; a light "
+                        "segment needs a and b apart")
     return LinearLight(a=a, b=b)
 
 

@@ -242,3 +242,12 @@ def test_an_output_where_no_file_can_be_made_is_refused_before_any_work(capsys, 
     code, lines = run_main(capsys, "capture", "--size", "16x9", *args)
     assert code == 2 and len(lines) == 1 and "/proc" in lines[0], lines
     assert not (tmp_path / "out").exists()
+
+
+def test_a_value_thousands_of_characters_long_stays_a_short_line(capsys):
+    digits = "9" * 5001
+    code, lines = run_main(capsys, "capture", "--size", f"{digits}x9")
+    assert code == 2 and len(lines) == 1 and len(lines[0]) < 200, lines
+    assert "(5003 characters)" in lines[0]
+    code, lines = run_main(capsys, "scenes", "random", "--seed", digits)
+    assert code == 2 and len(lines) == 1 and "5001 digits is too long to read" in lines[0], lines
