@@ -124,12 +124,13 @@ def write_problem(folder: Path) -> str | None:
     the permission bits say nothing to root, and a folder of the kernel's (/proc, /sys) takes
     no file whatever its bits say."""
     tmp = folder / f".probe.{os.getpid()}.{secrets.token_hex(4)}.tmp"
-    try:
-        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
-    except OSError as error:
-        return error.strerror or type(error).__name__
-    os.close(fd)
-    tmp.unlink(missing_ok=True)
+    with interrupts.deferred():   # made and removed whole, as a write is
+        try:
+            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+        except OSError as error:
+            return error.strerror or type(error).__name__
+        os.close(fd)
+        tmp.unlink(missing_ok=True)
     return None
 
 

@@ -68,7 +68,7 @@ class HelpFormatter(argparse.HelpFormatter):
         return f"{text} ({notes})" if text and notes else text or notes
 
 
-LONG_WORD = re.compile(r"\S{81,}")
+LONG_WORD = re.compile(r"\S{201,}")  # longer than any path a user types
 
 
 class Parser(argparse.ArgumentParser):
