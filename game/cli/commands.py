@@ -86,6 +86,27 @@ def cmd_trace(args) -> int:
     return 0
 
 
+def _bench_params(texts: list[str], methods: list[str] | None) -> dict[str, tuple]:
+    """The values of each ``--param KEY=V1,V2`` (``texts``), each within the bounds of
+    ``capture``'s flag of the same name, and read by one of ``methods`` (None: any)."""
+    from game.bench import runs
+
+    params: dict[str, tuple] = {}
+    for text in texts:
+        try:
+            key, swept = runs.parse_param(text)
+            for value in swept:
+                check_as_flag("capture", key, value)
+        except (ValueError, ArgumentError) as exc:
+            raise ArgumentError(f"--param {exc}") from None
+        params[key] = tuple(dict.fromkeys(params.get(key, ()) + swept))
+        readers = [m for m in methods or registry.MAP_METHODS
+                   if key in registry.METHODS[m].parameters]
+        if not readers:
+            raise ArgumentError(f"--param {key}: no selected method reads it")
+    return params
+
+
 def cmd_bench(args) -> int:
     from game.bench import runner as bench
     from game.bench import runs
@@ -129,19 +150,7 @@ def cmd_bench(args) -> int:
         else:
             raise ArgumentError(f"--scenes: {entry!r} matches no scene and is no scene file; "
                                 f"built-in: {', '.join(keys)}")
-    params = {}
-    for text in args.param:
-        try:
-            key, swept = runs.parse_param(text)
-            for value in swept:
-                check_as_flag("capture", key, value)
-        except (ValueError, ArgumentError) as exc:
-            raise ArgumentError(f"--param {exc}") from None
-        params[key] = tuple(dict.fromkeys(params.get(key, ()) + swept))
-        readers = [m for m in methods or registry.MAP_METHODS
-                   if key in registry.METHODS[m].parameters]
-        if not readers:
-            raise ArgumentError(f"--param {key}: no selected method reads it")
+    params = _bench_params(args.param, methods)
     # What the bench tells along the way goes to standard output: standard error holds only
     # what went wrong, so that a stopped or failed bench says so in one line there.
     opts = runs.BenchOptions(
