@@ -132,13 +132,18 @@ def _analytic(app: Walkaround) -> tuple[np.ndarray, np.ndarray]:
     return frame.image, frame.soft.visibility
 
 
+def _rmse(visibility: np.ndarray, exact: np.ndarray) -> float:
+    """The RMSE of ``visibility`` against ``exact`` where ``exact`` shows geometry."""
+    covered = np.isfinite(exact)
+    return float(np.sqrt(np.mean((visibility[covered] - exact[covered]) ** 2)))
+
+
 def _compare(app: Walkaround, out: Path, name: str) -> dict:
     """Save the window's picture and, beside it, the analytic one; the RMSEs between them."""
     window = app.read_screen(app.renderer.size)
     vis = _visibility(app)
     image, exact = _analytic(app)
-    covered = np.isfinite(exact)
-    vis_rmse = float(np.sqrt(np.mean((vis[covered] - exact[covered]) ** 2)))
+    vis_rmse = _rmse(vis, exact)
     diff = (window.astype(np.float64) - image.astype(np.float64)) / 255.0
     image_rmse = float(np.sqrt(np.mean(diff ** 2)))
     outputs.write_png(out / f"soft_window_{name}.png", window)
@@ -212,10 +217,8 @@ def refine(scene_path: str, points: int, frames: int, every: int = 1) -> dict:
         _, exact = _analytic(app)   # last: it starts the window's still view again
     finally:
         app.close()
-    covered = np.isfinite(exact)
     return {"size": list(SIZE), "soft_method": "segment-maps", "refine_points": points,
-            "rmse_visibility": [[k, round(float(np.sqrt(np.mean(
-                (v[covered] - exact[covered]) ** 2))), 5)] for k, v in shown.items()],
+            "rmse_visibility": [[k, round(_rmse(v, exact), 5)] for k, v in shown.items()],
             "total_ms": [round(m.get("total", 0.0), 1) for m in ms],
             "refine_ms": [round(m.get("soft_refine", 0.0), 1) for m in ms],
             "settle_ms": [round(m.get("soft_settle", 0.0), 1) for m in ms],

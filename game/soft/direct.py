@@ -142,8 +142,9 @@ class DirectRaster:
                           self._values).astype(np.float32)
         self._values = values
         self.runs = block_runs(values, self.divisor, self.size)
-        self.still.drawn(values == LOOKUP)
-        self.settle.forget_drawn(values == LOOKUP)
+        looked_up = values == LOOKUP
+        self.still.drawn(looked_up)
+        self.settle.forget_drawn(looked_up)
         self.runs.points = self.points_visibility
         self.runs.point_at = self.point_at
         self.runs.history = self.still.history

@@ -167,25 +167,8 @@ def test_a_plan_of_many_points_gives_each_the_map_it_gets_alone():
 # A floor and one walker standing still: a sheet of one quad 1.5 m up, its faces turned down,
 # away from the bar of light above it. It is an open mesh: culled as a closed walker's back
 # faces are, it would cast no shadow.
-SHEET = """
-[camera]
-position = [0.0, 6.0, 10.0]
-target = [0.0, 0.0, 0.0]
-[light]
-kind = "directional"
-direction = [-0.4, -1.0, -0.3]
-[linear_light]
-a = [-2.0, 8.0, 1.0]
-b = [2.0, 8.0, 1.0]
-[[floor]]
-shape = "box"
-size = [30.0, 0.2, 30.0]
-position = [0.0, -0.1, 0.0]
-[[character]]
-shape = "mesh"
-file = "sheet.obj"
-path = [[0.0, 1.5, 0.0]]
-"""
+SHEET = scene_text([], [-2.0, 8.0, 1.0], [2.0, 8.0, 1.0]) + (
+    '[[character]]\nshape = "mesh"\nfile = "sheet.obj"\npath = [[0.0, 1.5, 0.0]]\n')
 SHEET_OBJ = "v -0.75 0 -0.75\nv 0.75 0 -0.75\nv 0.75 0 0.75\nv -0.75 0 0.75\nf 1 2 3\nf 1 3 4\n"
 
 
