@@ -20,6 +20,27 @@
 
 uniform sampler2DArrayShadow u_shadow_maps;
 
+// The map records the lookup reads, as texels (game/render/map_records.py): a fragment's maps
+// differ from its neighbours', and llvmpipe reads a uniform-block member at a per-lane index
+// one lane and one float at a time, where a texel fetch reads four floats per lane at once.
+uniform sampler2D u_map_records;
+
+// What the lookup needs of map i, fetched once per map it considers.
+struct MapRef {
+    int i;
+    float near, inv_depth_range, texel, uv_scale;
+    vec2 uv_offset;
+    int layer, kind, flags;
+};
+
+MapRef map_ref(int i) {
+    vec4 a = texelFetch(u_map_records, ivec2(RECORD_DEPTH, i), 0);
+    vec4 b = texelFetch(u_map_records, ivec2(RECORD_LAYER, i), 0);
+    int code = int(b.w);
+    return MapRef(i, a.x, a.y, a.z, a.w, b.xy, int(b.z), code / RECORD_FLAG_CODES,
+                  code % RECORD_FLAG_CODES);
+}
+
 // COUNT_PIXELS (a #define) counts, per map, the pixels that read it within a texel of one of its
 // shadow edges, where its texels' size moves the shadow: view-sized maps are sized by them
 // (game/shadows/view_budget.py).
@@ -44,8 +65,8 @@ int g_candidates = 0;
 // listed after the clump maps: every clump map holds the long faces that cross it, so a fallback
 // map is read only where no clump map held the fragment (its coarse texels would only add error).
 
-bool decided(int i, int sampled_before, int sampled) {
-    return sampled > sampled_before && u_maps[i].kind == KIND_CASCADE;
+bool decided(MapRef m, int sampled_before, int sampled) {
+    return sampled > sampled_before && m.kind == KIND_CASCADE;
 }
 
 #if DEPTH_BOUNDS
@@ -59,8 +80,8 @@ uniform usampler2DArray u_shadow_bounds;
 // texel it would read), 0 shadowed (farther than every one), -1 not settled, where the texels
 // must be read. The texels read are those within `reach` of the one at uv (1 with PCF's 3 x 3
 // taps), all in its block or not settled.
-float settled(int i, vec2 uv, float depth, int reach) {
-    if ((u_maps[i].flags & MAP_BOUNDED) == 0) {
+float settled(MapRef m, vec2 uv, float depth, int reach) {
+    if ((m.flags & MAP_BOUNDED) == 0) {
         return -1.0;
     }
     ivec2 size = textureSize(u_shadow_maps, 0).xy;
@@ -70,30 +91,30 @@ float settled(int i, vec2 uv, float depth, int reach) {
         || any(greaterThanEqual(inner, ivec2(BOUNDS_BLOCK - reach)))) {
         return -1.0;
     }
-    uvec2 q = texelFetch(u_shadow_bounds, ivec3(t / BOUNDS_BLOCK, u_maps[i].layer), 0).rg;
+    uvec2 q = texelFetch(u_shadow_bounds, ivec3(t / BOUNDS_BLOCK, m.layer), 0).rg;
     vec2 b = bounds_range(q, vec2(inner) - BOUNDS_CENTRE, float(reach));
     return depth <= b.x ? 1.0 : (depth > b.y ? 0.0 : -1.0);
 }
 #endif
 
-// Depth compare (or 3x3 PCF) in map i at uv in [0, 1] over the map, whose square is the share
+// Depth compare (or 3x3 PCF) in map m at uv in [0, 1] over the map, whose square is the share
 // uv_scale of its layer from uv_offset (character maps share layers).
-float lookup(int i, vec2 uv, float depth) {
-    float layer = float(u_maps[i].layer);
-    vec2 offset = u_maps[i].uv_offset;
-    uv = offset + uv * u_maps[i].uv_scale;
+float lookup(MapRef m, vec2 uv, float depth) {
+    float layer = float(m.layer);
+    vec2 offset = m.uv_offset;
+    uv = offset + uv * m.uv_scale;
 #if COUNT_PIXELS
     // The 2 x 2 texels around uv, kept inside the map's own square: near its border they would
     // read the next square's, another map's depths, and find an edge all along the border.
     vec2 texel = 1.0 / vec2(textureSize(u_shadow_maps, 0).xy);
-    vec2 inside = clamp(uv, offset + texel, offset + vec2(u_maps[i].uv_scale) - texel);
+    vec2 inside = clamp(uv, offset + texel, offset + vec2(m.uv_scale) - texel);
     vec4 taps = textureGather(u_shadow_maps, vec3(inside, layer), depth);
     g_on_edge = any(notEqual(taps, taps.xxxx));
 #endif
 #if DEPTH_BOUNDS
     // Where the bounds settle it, the texels are still read (a lane masked off is paid for in
     // full on llvmpipe), but all at one place, which stays in the cache.
-    float known = settled(i, uv, depth, PCF);
+    float known = settled(m, uv, depth, PCF);
     if (known >= 0.0) {
         uv = vec2(0.0);
         layer = 0.0;
@@ -115,7 +136,7 @@ float lookup(int i, vec2 uv, float depth) {
     // the middle one again, and the gather's a is read in place of its a + 1.
     vec2 size = vec2(textureSize(u_shadow_maps, 0).xy);
     vec2 first = floor(offset * size + 0.5);
-    vec2 last = first + floor(vec2(u_maps[i].uv_scale) * size + 0.5) - 1.0;
+    vec2 last = first + floor(vec2(m.uv_scale) * size + 0.5) - 1.0;
     vec2 t = clamp(floor(uv * size), first, last);
     vec2 a0 = max(t - 1.0, first), a2 = min(t + 1.0, last);
     bvec2 next = greaterThan(a2, t);   // the third index is t + 1, not t again
@@ -138,59 +159,63 @@ vec2 bias_offsets(float texel, float sin_t, float tan_t) {
     return vec2(u_frame.normal_bias * sin_t, u_frame.depth_bias + u_frame.slope_bias * tan_t) * texel;
 }
 
-// Whether map i may hold the receiver's own surface. The bias is there so that a surface does
+// Whether map m may hold the receiver's own surface. The bias is there so that a surface does
 // not shadow itself through its own depth texels; in a map it is not drawn into, a receiver
 // is compared unbiased, and its contact shadows stay whole. Floors are in no map, a character
 // only in its own map or in a map of everything, a static in no character map.
-bool holds_receiver(LightRecord light, int i, int object) {
-    int kind = u_maps[i].kind;
+bool holds_receiver(LightRecord light, MapRef m, int object) {
+    int kind = m.kind;
     if (object < u_frame.floor_count) {
         return false;
     }
     if (object >= u_frame.first_character) {
         return kind == KIND_CHARACTER
-            ? u_character_maps[light.first_character_map + object - u_frame.first_character] == i
+            ? u_character_maps[light.first_character_map + object - u_frame.first_character] == m.i
             : kind == KIND_ALL || kind == KIND_CASCADE;
     }
     return kind != KIND_CHARACTER;
 }
 
-// Visibility of p in orthographic map i (directional light); 1.0 outside the map's rectangle or
+// Visibility of p in orthographic map m (directional light); 1.0 outside the map's rectangle or
 // nearer the light than its caster, with `sampled` false. Works in the common light space:
 // lp and ln are p and its normal there, where light-space +z points at the light.
-float sample_ortho(int i, vec3 lp, vec3 ln, float sin_t, float tan_t, float biased,
+float sample_ortho(MapRef m, vec3 lp, vec3 ln, float sin_t, float tan_t, float biased,
                    out bool sampled) {
     sampled = false;
-    vec2 offset = bias_offsets(u_maps[i].texel, sin_t, tan_t) * biased;
+    vec2 offset = bias_offsets(m.texel, sin_t, tan_t) * biased;
     vec3 q = lp + ln * offset.x + vec3(0.0, 0.0, offset.y);
-    vec4 b = u_maps[i].bounds;
+    vec4 b = texelFetch(u_map_records, ivec2(RECORD_BOUNDS, m.i), 0);
     vec2 uv = (q.xy - b.xy) / (b.zw - b.xy);
     // Depth in [0, 1] as the orthographic projection stores it: distance along -z from near.
-    float depth = (-q.z - u_maps[i].near) * u_maps[i].inv_depth_range;
+    float depth = (-q.z - m.near) * m.inv_depth_range;
     if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0))) || depth < 0.0) {
         return 1.0;
     }
     sampled = true;
     // Beyond the caster's far side the fragment is shadowed wherever the caster covers the texel.
-    return lookup(i, uv, min(depth, 1.0));
+    return lookup(m, uv, min(depth, 1.0));
 }
 
-// Visibility of p in perspective map i (spot and point lights), as sample_ortho.
-float sample_perspective(int i, vec3 p, vec3 n, vec3 l, float sin_t, float tan_t, float biased,
-                         out bool sampled) {
+// Visibility of p in perspective map m (spot and point lights), as sample_ortho.
+float sample_perspective(MapRef m, vec3 p, vec3 n, vec3 l, float sin_t, float tan_t,
+                         float biased, out bool sampled) {
     sampled = false;
-    vec4 clip = u_maps[i].view_proj * vec4(p, 1.0);
+    mat4 view_proj = mat4(texelFetch(u_map_records, ivec2(RECORD_VIEW_PROJ, m.i), 0),
+                          texelFetch(u_map_records, ivec2(RECORD_VIEW_PROJ + 1, m.i), 0),
+                          texelFetch(u_map_records, ivec2(RECORD_VIEW_PROJ + 2, m.i), 0),
+                          texelFetch(u_map_records, ivec2(RECORD_VIEW_PROJ + 3, m.i), 0));
+    vec4 clip = view_proj * vec4(p, 1.0);
     if (clip.w <= 0.0) {
         return 1.0;   // behind the map's eye
     }
-    vec2 offset = bias_offsets(u_maps[i].texel * clip.w, sin_t, tan_t) * biased;
-    clip = u_maps[i].view_proj * vec4(p + n * offset.x + l * offset.y, 1.0);
+    vec2 offset = bias_offsets(m.texel * clip.w, sin_t, tan_t) * biased;
+    clip = view_proj * vec4(p + n * offset.x + l * offset.y, 1.0);
     vec3 ndc = clip.xyz / clip.w;
     if (clip.w <= 0.0 || any(greaterThan(abs(ndc.xy), vec2(1.0))) || ndc.z < -1.0) {
         return 1.0;
     }
     sampled = true;
-    return lookup(i, ndc.xy * 0.5 + 0.5, min(ndc.z * 0.5 + 0.5, 1.0));
+    return lookup(m, ndc.xy * 0.5 + 0.5, min(ndc.z * 0.5 + 0.5, 1.0));
 }
 
 // Octahedral coordinates of a direction, in [-1, 1]^2: the light-space of point and spot grids.
@@ -211,32 +236,32 @@ struct Receiver {
     float sin_t, tan_t; // of the angle between n and l
 };
 
-void consider(LightRecord light, int i, Receiver r, inout float vis, inout int sampled,
+void consider(LightRecord light, MapRef m, Receiver r, inout float vis, inout int sampled,
               inout int used, inout int held) {
 #if COUNT_CANDIDATES
     g_candidates += 1;
 #endif
-    if (u_maps[i].kind == KIND_FALLBACK && held > 0) {
+    if (m.kind == KIND_FALLBACK && held > 0) {
         return;
     }
     bool read;
-    float biased = holds_receiver(light, i, r.object) ? 1.0 : 0.0;
+    float biased = holds_receiver(light, m, r.object) ? 1.0 : 0.0;
     float v;
     if (KIND_OF(light) == LIGHT_DIRECTIONAL) {
-        v = sample_ortho(i, r.lp, r.ln, r.sin_t, r.tan_t, biased, read);
+        v = sample_ortho(m, r.lp, r.ln, r.sin_t, r.tan_t, biased, read);
     } else {
-        v = sample_perspective(i, r.p, r.n, r.l, r.sin_t, r.tan_t, biased, read);
+        v = sample_perspective(m, r.p, r.n, r.l, r.sin_t, r.tan_t, biased, read);
     }
     if (read) {
 #if COUNT_PIXELS
         if (g_on_edge) {
-            atomicAdd(u_map_pixels[i], 1u);
+            atomicAdd(u_map_pixels[m.i], 1u);
         }
 #endif
         sampled += 1;
-        held += u_maps[i].kind == KIND_CLUMP ? 1 : 0;
+        held += m.kind == KIND_CLUMP ? 1 : 0;
         if (used < 0 || v < vis) {
-            used = i;
+            used = m.i;
         }
         vis = min(vis, v);
     }
@@ -287,8 +312,9 @@ float shadow_visibility(LightRecord light, vec3 p, vec3 n, int object, inout int
             int i = listed ? u_grid[k] : k;
             if (i >= 0) {
                 int before = sampled;
-                consider(light, i, r, vis, sampled, used, held);
-                if (decided(i, before, sampled)) {
+                MapRef m = map_ref(i);
+                consider(light, m, r, vis, sampled, used, held);
+                if (decided(m, before, sampled)) {
                     break;
                 }
             }

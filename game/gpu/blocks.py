@@ -48,6 +48,7 @@ MIN_GL_BINDINGS = {"uniform": 36, "buffer": 8}  # GL_MAX_*_BUFFER_BINDINGS of an
 TEXTURE_UNITS = {
     "shadow_maps": 0,        # the depth array (shading pass)
     "shadow_bounds": 11,     # its cached maps' depth bounds (shading pass)
+    "map_records": 15,       # the map records as the lookup reads them (game/render/map_records.py)
     "trace_position": 1,     # the G-buffer, read by the tracer and the soft composite
     "trace_normal": 2,
     "trace_colour": 3,

@@ -16,6 +16,7 @@ from game import transforms
 from game.gpu import blocks, depth_bounds
 from game.gpu.blocks import FRAME_DTYPE, LIGHT_DTYPE, MAP_DTYPE
 from game.render.frame import View
+from game.render.map_records import RECORD_DEFINES, MapRecords
 from game.scene.geometry import PackedGeometry, srgb_to_linear
 from game.scene.model import Light
 from game.shadows.light_kinds import kind_of
@@ -42,7 +43,7 @@ def shader_defines(ctx) -> dict:
          "KIND_CASCADE": KIND_CASCADE, "KIND_CLUMP": KIND_CLUMP, "KIND_FALLBACK": KIND_FALLBACK,
          "KIND_CHARACTER": KIND_CHARACTER, "KIND_ALL": KIND_ALL,
          "MAP_FRESH": blocks.MAP_FRESH, "MAP_BOUNDED": blocks.MAP_BOUNDED,
-         "BOUNDS_BLOCK": depth_bounds.BLOCK}
+         "BOUNDS_BLOCK": depth_bounds.BLOCK, **RECORD_DEFINES}
     d.update({f"DEBUG_{name.upper().replace('-', '_')}": value
               for name, value in blocks.DEBUG_VIEWS.items() if name != "none"})
     d.update({f"LIGHT_{kind.upper()}": value for kind, value in blocks.LIGHT_KINDS.items()})
@@ -80,6 +81,7 @@ class FrameBlocks:
         self.n_lights = n_lights
         self.character_maps = ctx.buffer(reserve=4 * max(1, n_characters * n_lights))
         self.pixels = ctx.buffer(reserve=4 * self.max_maps)  # per map: pixels near its edges
+        self.records = MapRecords(ctx, self.max_maps)  # the maps again, for the lookup
         self._frame_data = np.zeros(1, FRAME_DTYPE)
 
     def upload(self, plan: ShadowPlan, bounded: list[bool], spans: list[LightSpan],
@@ -101,7 +103,9 @@ class FrameBlocks:
                         for obj in rec.objects:  # a shared map holds several
                             character_maps[k, obj - geom.first_character] = index
             self.character_maps.write(character_maps.tobytes())
-        self.maps.write(self._maps(plan, bounded).tobytes())
+        records = self._maps(plan, bounded)
+        self.maps.write(records.tobytes())
+        self.records.write(records)
         data, bases = join_grids(grids, spans)
         tile_base = len(data)
         tiles_x, tiles = tile_lights(lights, view, tile_base, enabled)
@@ -166,6 +170,7 @@ class FrameBlocks:
         self.grid.bind_to_storage_buffer(b["MapGrid"])
         self.models.bind_to_storage_buffer(b["Models"])
         self.character_maps.bind_to_storage_buffer(b["CharacterMaps"])
+        self.records.bind()
 
     def count_pixels(self) -> None:
         """Zero the per-map counts of pixels near shadow edges and bind them for the next draw
@@ -190,12 +195,13 @@ class FrameBlocks:
             buffer.write(bytes(size))
 
     def gl_objects(self) -> int:
-        return 7
+        return 8
 
     def release(self) -> None:
         for buffer in (self.frame, self.maps, self.lights, self.grid, self.models,
                        self.character_maps, self.pixels):
             buffer.release()
+        self.records.release()
 
 
 TILE_PIXELS = 16  # a screen tile's side: a multiple of the 4 x 4 pixels llvmpipe shades at once

@@ -26,6 +26,7 @@ from game.soft.block_values import BLOCK_DEFINES
 
 SHADOW_UNIT = blocks.TEXTURE_UNITS["shadow_maps"]
 BOUNDS_UNIT = blocks.TEXTURE_UNITS["shadow_bounds"]
+RECORDS_UNIT = blocks.TEXTURE_UNITS["map_records"]
 
 
 class Variant(NamedTuple):
@@ -160,6 +161,7 @@ class ShadingPass:
         if not variant.unlit:
             maps.array.bind(SHADOW_UNIT)
             prog["u_shadow_maps"].value = SHADOW_UNIT
+            prog["u_map_records"].value = RECORDS_UNIT
         if variant.depth_bounds:
             maps.bounds.bind(BOUNDS_UNIT)
             prog["u_shadow_bounds"].value = BOUNDS_UNIT

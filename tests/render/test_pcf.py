@@ -11,6 +11,7 @@ import pytest
 from game.gpu import blocks, glsl
 from game.gpu.depth_array import DepthArray
 from game.render.frame_blocks import shader_defines
+from game.render.map_records import MapRecords
 from game.shadows.plan import KIND_CLUMP
 
 SIDE = 16        # texels per side of the array's layers
@@ -27,7 +28,7 @@ layout(std430, binding = 7) buffer Probes { vec4 probes[]; };  // map, u, v, dep
 void main() {
     uint k = gl_GlobalInvocationID.x;
     vec4 p = probes[k];
-    probes[k] = vec4(lookup(int(p.x), p.yz, p.w));
+    probes[k] = vec4(lookup(map_ref(int(p.x)), p.yz, p.w));
 }
 """
 
@@ -68,8 +69,10 @@ def probe(ctx):
     try:
         program = ctx.compute_shader(glsl.preprocess(PROBE_SHADER, defines, name="pcf probe"))
         held.append(program)
-        records = ctx.buffer(maps.tobytes())
+        records = MapRecords(ctx, len(maps))
         held.append(records)
+        records.write(maps)
+        records.bind()
         GL.glBindTexture(GL.GL_TEXTURE_2D_ARRAY, array.texture)
         GL.glTexSubImage3D(GL.GL_TEXTURE_2D_ARRAY, 0, 0, 0, 0, SIDE, SIDE, 2,
                            GL.GL_DEPTH_COMPONENT, GL.GL_FLOAT, depths.tobytes())
@@ -78,7 +81,8 @@ def probe(ctx):
         # moderngl 5.13 sets a compute shader's shadow sampler wrongly: set it through GL.
         GL.glProgramUniform1i(program.glo, GL.glGetUniformLocation(program.glo, "u_shadow_maps"),
                               UNIT)
-        records.bind_to_uniform_block(blocks.BINDINGS["ShadowMaps"])
+        GL.glProgramUniform1i(program.glo, GL.glGetUniformLocation(program.glo, "u_map_records"),
+                              blocks.TEXTURE_UNITS["map_records"])
 
         def run(points: np.ndarray) -> np.ndarray:
             buffer = ctx.buffer(points.astype(np.float32).tobytes())
