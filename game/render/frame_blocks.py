@@ -2,7 +2,9 @@
 
 The uniform blocks Frame, ShadowMaps and Lights and the storage buffers MapGrid, Models and
 CharacterMaps (declared in game/gpu/blocks.py) are written once per frame and bound once; the
-shadow-map pass, the culling pass, the shading pass and the soft composite all read them.
+shadow-map pass, the culling pass, the shading pass and the soft composite all read them. The
+map records are written a second time, as a texture the shading pass's lookup reads
+(game/render/map_records.py).
 """
 
 from __future__ import annotations
@@ -68,7 +70,8 @@ def ambient_share(lights: list[Light]) -> float:
 
 
 class FrameBlocks:
-    """The frame's uniform and storage buffers. Owns them; they grow in place."""
+    """The frame's uniform and storage buffers and the map records' texture. Owns them; the
+    buffers grow in place."""
 
     def __init__(self, ctx, n_characters: int, n_lights: int = 1):
         self._ctx = ctx
@@ -103,9 +106,9 @@ class FrameBlocks:
                         for obj in rec.objects:  # a shared map holds several
                             character_maps[k, obj - geom.first_character] = index
             self.character_maps.write(character_maps.tobytes())
-        records = self._maps(plan, bounded)
-        self.maps.write(records.tobytes())
-        self.records.write(records)
+        block = self._maps(plan, bounded)
+        self.maps.write(block.tobytes())
+        self.records.write(block)
         data, bases = join_grids(grids, spans)
         tile_base = len(data)
         tiles_x, tiles = tile_lights(lights, view, tile_base, enabled)
@@ -170,7 +173,6 @@ class FrameBlocks:
         self.grid.bind_to_storage_buffer(b["MapGrid"])
         self.models.bind_to_storage_buffer(b["Models"])
         self.character_maps.bind_to_storage_buffer(b["CharacterMaps"])
-        self.records.bind()
 
     def count_pixels(self) -> None:
         """Zero the per-map counts of pixels near shadow edges and bind them for the next draw

@@ -1,18 +1,19 @@
 """The map records as the shading pass's lookup reads them: one row of RGBA32F texels per map.
 
-The same records are in the ShadowMaps uniform block, which the map passes read with one map
-index for a whole draw. The lookup reads them at the map each fragment found in its grid cell,
+The same records are in the ShadowMaps uniform block, which the map passes read at the draw's
+or the vertex's map. The lookup reads them at the map each fragment found in its grid cell,
 which differs from lane to lane, and llvmpipe reads a uniform-block member at a per-lane index
-one float and one lane at a time: thirteen such reads per map considered cost a fragment more
-than its depth read. A texel fetch reads four floats per lane at once, so the lookup fetches
-two texels per map, then the rectangle (orthographic) or the matrix (perspective) it needs
-(shaders/shadow.glsl; docs/design/shading-variants.md).
+one float and one lane at a time, thirteen times per orthographic map considered. A texel
+fetch reads four floats per lane at once, so the lookup fetches two texels per map, then the
+rectangle (orthographic) or the matrix (perspective) it needs (shaders/shadow.glsl;
+docs/design/shading-variants.md).
 
 :class:`MapRecords` owns its texture; its owner, the frame's blocks, releases it.
 """
 
 from __future__ import annotations
 
+import moderngl
 import numpy as np
 
 from game.gpu import blocks
@@ -51,14 +52,14 @@ class MapRecords:
 
     def __init__(self, ctx, max_maps: int):
         self.texture = ctx.texture((RECORD_TEXELS, max_maps), 4, dtype="f4")
-        self.texture.filter = (0x2600, 0x2600)  # GL_NEAREST: read with texelFetch only
+        self.texture.filter = (moderngl.NEAREST, moderngl.NEAREST)  # read with texelFetch
 
     def write(self, block: np.ndarray) -> None:
         rows = record_rows(block)
         self.texture.write(rows.tobytes(), viewport=(0, 0, RECORD_TEXELS, len(rows)))
 
-    def bind(self) -> None:
-        self.texture.use(blocks.TEXTURE_UNITS["map_records"])
+    def bind(self, unit: int) -> None:
+        self.texture.use(unit)
 
     def release(self) -> None:
         self.texture.release()

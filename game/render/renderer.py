@@ -80,7 +80,8 @@ class Renderer(SceneEdits):
             self.shadow_pass = ShadowMapPass(ctx, self.buffers, defines)
             if TriangleCuller.fits(len(self.buffers.layout.indices)):
                 self.culler = TriangleCuller(ctx, defines, self.buffers)
-            self.shading = ShadingPass(ctx, self.buffers, defines, depth_first)
+            self.shading = ShadingPass(ctx, self.buffers, defines, self.blocks.records,
+                                       depth_first)
             self.traced = TracedLighting(ctx, defines, scene, self.timer)
             self._set_method(settings or ShadowSettings())
             self.target = FrameTarget(ctx, size, self._gbuffer_needed())

@@ -19,6 +19,7 @@ from OpenGL import GL
 from game.gpu import blocks, glsl, resources
 from game.render.cull import TriangleCuller
 from game.render.depth_first import DepthFirst, DepthFirstChoice
+from game.render.map_records import MapRecords
 from game.render.scene_buffers import SceneBuffers
 from game.render.shadow_pass import ShadowMapPass
 from game.render.target import FrameTarget, GBuffer
@@ -65,10 +66,11 @@ class ShadingPass:
     """Draws the scene into a :class:`FrameTarget`. Owns its programs and vertex arrays: each
     made on first use and kept, so that switching back and forth makes no new objects."""
 
-    def __init__(self, ctx, buffers: SceneBuffers, defines: dict,
+    def __init__(self, ctx, buffers: SceneBuffers, defines: dict, records: MapRecords,
                  depth_first: DepthFirst = DepthFirst.AUTO):
         self.ctx = ctx
         self.buffers = buffers
+        self.records = records  # the frame's blocks own them; the lookup reads them
         self.defines = defines
         self.depth_first = DepthFirstChoice(depth_first)
         self._programs: dict[Variant, tuple] = {}
@@ -161,6 +163,9 @@ class ShadingPass:
         if not variant.unlit:
             maps.array.bind(SHADOW_UNIT)
             prog["u_shadow_maps"].value = SHADOW_UNIT
+            # Bound here, not with the frame's blocks: moderngl makes and writes textures
+            # through its own unit, which is 15 where a GL has only 16.
+            self.records.bind(RECORDS_UNIT)
             prog["u_map_records"].value = RECORDS_UNIT
         if variant.depth_bounds:
             maps.bounds.bind(BOUNDS_UNIT)

@@ -72,7 +72,7 @@ def probe(ctx):
         records = MapRecords(ctx, len(maps))
         held.append(records)
         records.write(maps)
-        records.bind()
+        records.bind(blocks.TEXTURE_UNITS["map_records"])
         GL.glBindTexture(GL.GL_TEXTURE_2D_ARRAY, array.texture)
         GL.glTexSubImage3D(GL.GL_TEXTURE_2D_ARRAY, 0, 0, 0, 0, SIDE, SIDE, 2,
                            GL.GL_DEPTH_COMPONENT, GL.GL_FLOAT, depths.tobytes())
