@@ -25,11 +25,16 @@ def gl_bytes(m: np.ndarray) -> bytes:
 
 def up_for(direction: np.ndarray) -> np.ndarray:
     """An up vector that is never parallel to ``direction``."""
-    d = np.asarray(direction, float)
-    d = d / np.linalg.norm(d)
-    if abs(d @ WORLD_UP) < UP_PARALLEL_COS:
-        return WORLD_UP
-    return np.array([0.0, 0.0, -1.0]) if d[1] < 0 else np.array([0.0, 0.0, 1.0])
+    return ups_for(np.asarray(direction, float)[None])[0]
+
+
+def ups_for(directions: np.ndarray) -> np.ndarray:
+    """(n, 3) up vectors, each never parallel to its row of ``directions``: the world's up, or
+    near it the horizontal axis on the side the direction leans."""
+    d = np.asarray(directions, float)
+    d = d / np.linalg.norm(d, axis=-1)[:, None]
+    side = np.where((d[:, 1] < 0)[:, None], [0.0, 0.0, -1.0], [0.0, 0.0, 1.0])
+    return np.where((np.abs(d @ WORLD_UP) < UP_PARALLEL_COS)[:, None], WORLD_UP, side)
 
 
 def look_at(eye: np.ndarray, target: np.ndarray, up: np.ndarray | None = None) -> np.ndarray:
@@ -84,9 +89,7 @@ def look_at_many(eyes: np.ndarray, targets: np.ndarray) -> np.ndarray:
     eyes = np.asarray(eyes, float)
     forward = np.asarray(targets, float) - eyes
     forward = forward / np.sqrt(np.sum(forward ** 2, axis=-1))[:, None]
-    up = np.where((np.abs(forward @ WORLD_UP) < UP_PARALLEL_COS)[:, None], WORLD_UP,
-                  np.where((forward[:, 1] < 0)[:, None], [0.0, 0.0, -1.0], [0.0, 0.0, 1.0]))
-    side = np.cross(forward, up)
+    side = np.cross(forward, ups_for(forward))
     side = side / np.sqrt(np.sum(side ** 2, axis=-1))[:, None]
     up = np.cross(side, forward)
     up = up / np.sqrt(np.sum(up ** 2, axis=-1))[:, None]

@@ -128,7 +128,7 @@ void main() {
     colour = o.shadowed == 0 ? vec3(0.25) : heat(float(o.shadowed - 1) / 3.0);
 #elif DEBUG_VIEW == DEBUG_CACHE
     // The map that decided the pixel: red re-rendered this frame, green from the cache.
-    bool fresh = (u_maps[max(o.used, 0)].flags & MAP_FRESH) != 0;
+    bool fresh = (map_ref(max(o.used, 0)).flags & MAP_FRESH) != 0;
     vec3 state = fresh ? vec3(0.9, 0.3, 0.25) : vec3(0.3, 0.8, 0.35);
     colour = (o.used < 0 ? vec3(0.5) : state) * (0.55 + 0.45 * o.shown);
 #endif
