@@ -33,6 +33,30 @@ struct MapRef {
     int layer, kind, flags;
 };
 
+// The rectangle and the matrix, read inside the branch on the light's kind. With several lights
+// the kind is read, not a #define, so both sides run for every candidate, and there the block's
+// members cost less than five texel fetches (docs/design/shading-variants.md).
+#if MANY_LIGHTS
+vec4 record_bounds(int i) {
+    return u_maps[i].bounds;
+}
+
+mat4 record_view_proj(int i) {
+    return u_maps[i].view_proj;
+}
+#else
+vec4 record_bounds(int i) {
+    return texelFetch(u_map_records, ivec2(RECORD_BOUNDS, i), 0);
+}
+
+mat4 record_view_proj(int i) {
+    return mat4(texelFetch(u_map_records, ivec2(RECORD_VIEW_PROJ, i), 0),
+                texelFetch(u_map_records, ivec2(RECORD_VIEW_PROJ + 1, i), 0),
+                texelFetch(u_map_records, ivec2(RECORD_VIEW_PROJ + 2, i), 0),
+                texelFetch(u_map_records, ivec2(RECORD_VIEW_PROJ + 3, i), 0));
+}
+#endif
+
 MapRef map_ref(int i) {
     vec4 a = texelFetch(u_map_records, ivec2(RECORD_DEPTH, i), 0);
     vec4 b = texelFetch(u_map_records, ivec2(RECORD_LAYER, i), 0);
@@ -184,7 +208,7 @@ float sample_ortho(MapRef m, vec3 lp, vec3 ln, float sin_t, float tan_t, float b
     sampled = false;
     vec2 offset = bias_offsets(m.texel, sin_t, tan_t) * biased;
     vec3 q = lp + ln * offset.x + vec3(0.0, 0.0, offset.y);
-    vec4 b = texelFetch(u_map_records, ivec2(RECORD_BOUNDS, m.i), 0);
+    vec4 b = record_bounds(m.i);
     vec2 uv = (q.xy - b.xy) / (b.zw - b.xy);
     // Depth in [0, 1] as the orthographic projection stores it: distance along -z from near.
     float depth = (-q.z - m.near) * m.inv_depth_range;
@@ -200,10 +224,7 @@ float sample_ortho(MapRef m, vec3 lp, vec3 ln, float sin_t, float tan_t, float b
 float sample_perspective(MapRef m, vec3 p, vec3 n, vec3 l, float sin_t, float tan_t,
                          float biased, out bool sampled) {
     sampled = false;
-    mat4 view_proj = mat4(texelFetch(u_map_records, ivec2(RECORD_VIEW_PROJ, m.i), 0),
-                          texelFetch(u_map_records, ivec2(RECORD_VIEW_PROJ + 1, m.i), 0),
-                          texelFetch(u_map_records, ivec2(RECORD_VIEW_PROJ + 2, m.i), 0),
-                          texelFetch(u_map_records, ivec2(RECORD_VIEW_PROJ + 3, m.i), 0));
+    mat4 view_proj = record_view_proj(m.i);
     vec4 clip = view_proj * vec4(p, 1.0);
     if (clip.w <= 0.0) {
         return 1.0;   // behind the map's eye
