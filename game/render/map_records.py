@@ -6,8 +6,8 @@ which differs from lane to lane, and llvmpipe reads a uniform-block member at a 
 one float and one lane at a time, thirteen times per orthographic map considered. A texel
 fetch reads four floats per lane at once, so the lookup fetches two texels per map, then the
 rectangle (orthographic) or the matrix (perspective) it needs (shaders/shadow.glsl;
-docs/design/shading-variants.md). A program for several lights, which runs both, reads those
-two from the block instead.
+docs/design/shading-variants.md). A program for several lights runs both samplers for every
+map, and there those two reads cost less from the block, so it reads them there.
 
 :class:`MapRecords` owns its texture; its owner, the frame's blocks, releases it.
 """
