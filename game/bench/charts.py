@@ -128,8 +128,10 @@ def pareto_figure(plt, rows: list[dict], scene: str) -> Figure | None:
     ax.step([row_number(r, "total_ms_median") for r in front],
             [100 * row_number(r, "error") for r in front], where="post", color="#444444",
             linewidth=1, linestyle="--", label="Pareto front", zorder=2)
+    shown = {r["method"] for r in pts}
     for m, c in COLOURS.items():
-        ax.scatter([], [], color=c, marker=MARKERS[m], label=m)
+        if m in shown:
+            ax.scatter([], [], color=c, marker=MARKERS[m], label=m)
     ax.set_xscale("log")
     plain_log_ticks(ax.xaxis)
     ax.set_xlabel("per-frame total, ms (median after warm-up, log scale)")

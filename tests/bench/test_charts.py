@@ -86,6 +86,13 @@ def test_the_pareto_title_names_scene_size_and_points_and_the_axes_their_units()
     assert "ms" in ax.get_xlabel() and "%" in ax.get_ylabel()
 
 
+def test_the_pareto_legend_names_only_the_methods_the_run_measured():
+    rows = [r for r in courtyard([8.0, 11.0, 14.0, 18.0]) if r["method"] in ("clumped", "single")]
+    ax = charts.pareto_figure(plt, rows, "courtyard").axes[0]
+    names = {t.get_text() for t in ax.get_legend().get_texts()}
+    assert names == {"clumped", "single", "Pareto front"}, names
+
+
 def test_a_scaling_chart_with_one_x_value_is_not_written(tmp_path):
     rows = courtyard([8.0, 12.0, 16.0, 19.0]) + town("town_2x2", 60_000, 16, 20.0)
     notes = []
