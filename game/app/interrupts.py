@@ -68,6 +68,11 @@ def _on_signal(signum, frame) -> None:
     global _pending, _signal
     if _finished:  # the run is over and exits with its own status
         return
+    if _pending:
+        # A second signal while the first unwinds (its stats being written, the run's last
+        # line): raised there, it cut that short and escaped as a traceback. The first one
+        # ends the run; a long loop whose step swallowed it raises it at its next check.
+        return
     _pending = True
     _signal = signal.Signals(signum)
     if not _deferring and not _unsafe(frame):

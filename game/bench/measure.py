@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from game import transforms
-from game.app import dumps, outputs
+from game.app import dumps, interrupts, outputs
 from game.bench.runs import (
     ERROR_SPACING_S,
     FLICKER_DEG,
@@ -336,6 +336,8 @@ def interleaved_timings(ctx, scene: Scene, specs: list[RunSpec], opts: BenchOpti
                 except FAILURES as exc:
                     timings[spec].append(exc)
             for _ in range(opts.warmup + opts.frames):
+                # A signal that came inside GL code is only recorded: raise it here.
+                interrupts.check()
                 for spec, timing in list(running.items()):
                     try:
                         timing.frame()

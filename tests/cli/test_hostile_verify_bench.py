@@ -179,6 +179,27 @@ def test_an_interrupted_bench_prints_one_line(tmp_path, sig, status, line):
     assert proc.returncode == status and err.strip().splitlines() == [line], repr(err)
 
 
+def test_a_bench_repeating_its_runs_stops_at_ctrl_c(tmp_path):
+    """The repetitions' frames are drawn in turns, inside GL code, where a signal is only
+    recorded: the loop must raise it at its next frame, not run every repetition first."""
+    out = tmp_path / "b"
+    proc = subprocess.Popen([sys.executable, "-m", "game", "bench", *BENCH, "--methods", "single",
+                             "--repeat", "100000", "--no-progress", "--out", str(out)],
+                            cwd=ROOT, preexec_fn=stoppable, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while not (out / "run.json").exists():  # the runs have started
+        assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
+        time.sleep(0.02)
+    time.sleep(2.0)  # into the repetitions
+    proc.send_signal(signal.SIGINT)
+    try:
+        _, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert proc.returncode == 130 and err.strip().splitlines() == ["interrupted"], repr(err)
+
+
 # -- bench: output paths, checked before any work --------------------------------------------
 
 def _folder(path: Path) -> None:
