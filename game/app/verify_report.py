@@ -20,6 +20,26 @@ from game.reference import error_picture
 from game.reference.hard import MIN_NDOTL
 from game.reference.score import score_dump_lights
 from game.reference.soft_score import OFF_BY, dump_holds_soft, score_soft_dump
+from game.scene.mesh_files import regular_file
+
+
+def check_dump_files(folder: Path, frames: list[Path]) -> None:
+    """Every dump and its geometry a regular file of ``folder`` itself, before any is read: a
+    FIFO would block the read for good, and a link out of the folder would read a file that
+    was never given."""
+    root = folder.resolve()
+    for npz in frames:
+        for path in (npz, npz.with_suffix(".glb")):
+            if not (path.exists() or path.is_symlink()):
+                continue  # a missing geometry file is named when its frame is scored
+            if not path.resolve().is_relative_to(root):
+                raise GameError(f"{path}: links out of the dump folder; verify reads only the "
+                                "folder's own files")
+            regular_file(path, str(path), _refuse)
+
+
+def _refuse(line: str):
+    raise GameError(line)
 
 
 def picture_paths(frames: list[Path], scene) -> list[Path]:

@@ -328,6 +328,7 @@ def cmd_verify(args) -> int:
     if not frames:
         raise ArgumentError(f"{args.dumps}: no frame_*.npz dumps (capture with --dump)")
     _check_file("--out", args.out)
+    verify_report.check_dump_files(args.dumps, frames)
     try:
         scene = _scene_of_dumps(args.dumps, frames, args.scene)
         if args.images:  # every picture's path, before any work

@@ -160,6 +160,23 @@ def test_a_failed_bench_run_fails_the_bench_after_the_others(capsys, tmp_path, m
     assert code == 1 and len(lines) == 1 and "1 of 2 runs failed" in lines[0], lines
 
 
+@pytest.mark.parametrize("make", ["fifo", "link out"])
+def test_verify_reads_only_the_dump_folders_own_regular_files(capsys, tmp_path, make):
+    """A FIFO named like a dump blocked verify for good; a link named like one was read
+    wherever it pointed."""
+    folder = tmp_path / "dumps"
+    folder.mkdir()
+    outside = tmp_path / "elsewhere.npz"
+    outside.write_bytes(b"not a dump")
+    if make == "fifo":
+        os.mkfifo(folder / "frame_0000.npz")
+    else:
+        (folder / "frame_0000.npz").symlink_to(outside)
+    code, lines = run_main(capsys, "verify", folder)
+    assert code == 1 and len(lines) == 1 and "frame_0000.npz" in lines[0], lines
+    assert ("FIFO" in lines[0]) if make == "fifo" else ("out of the dump folder" in lines[0])
+
+
 # -- bench: signals --------------------------------------------------------------------------
 
 @pytest.mark.parametrize("sig, status, line", [(signal.SIGINT, 130, "interrupted"),
