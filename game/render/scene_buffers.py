@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from game.errors import SceneError
 from game.scene import geometry
 from game.scene.model import Scene
 
@@ -20,6 +21,9 @@ class SceneBuffers:
     def __init__(self, ctx, scene: Scene):
         self.ctx = ctx
         self.geom = geometry.pack(scene)
+        if not len(self.geom.positions):  # GL makes no empty buffer, and there is no picture
+            raise SceneError(f"{scene.source or scene.name}: the scene has nothing to draw: give "
+                             "it a [[floor]], a [[static]], a [[character]] or a [generate] town")
         self.layout = geometry.layout(self.geom)
         self.vbo = ctx.buffer(self._vertices())
         self.surface = ctx.buffer(self._surface())

@@ -61,6 +61,21 @@ def test_verify_of_a_damaged_npz_is_one_line(capsys, tmp_path, damage):
     assert code == 1 and len(lines) == 1 and "cannot read the dumps" in lines[0], lines
 
 
+@pytest.mark.parametrize("command", ["capture", "bench"])
+def test_a_scene_with_nothing_to_draw_is_one_line_and_writes_nothing(capsys, tmp_path, command):
+    """A camera and a light alone parse (the format asks for no object), but GL makes no
+    empty buffer: that was an internal error."""
+    scene = tmp_path / "empty.toml"
+    scene.write_text('[camera]\nposition = [0.0, 1.0, 0.0]\ntarget = [0.0, 0.0, 1.0]\n'
+                     '[light]\nkind = "directional"\ndirection = [0.0, -1.0, 0.0]\n')
+    out = tmp_path / "out"
+    args = ([scene] if command == "capture" else ["--scenes", scene, "--methods", "single",
+                                                  "--frames", "1", "--no-progress"])
+    code, lines = run_main(capsys, command, *args, "--size", "32x18", "--out", out)
+    assert code == 1 and len(lines) == 1 and "nothing to draw" in lines[0], lines
+    assert not out.exists() or command == "bench"
+
+
 # -- sizes past the limits -------------------------------------------------------------------
 
 def test_a_generated_town_past_the_triangle_limit_is_refused_at_once(capsys, tmp_path):
