@@ -74,6 +74,8 @@ def _parse_json(raw: bytes) -> dict:
         document = json.loads(text)
     except (json.JSONDecodeError, RecursionError) as error:
         raise GltfError(f"its JSON is not valid ({error})") from None
+    except ValueError:  # an integer of more digits than Python converts
+        raise GltfError("its JSON holds a number too long to read") from None
     if not isinstance(document, dict):
         raise GltfError("its JSON is not an object")
     return document

@@ -331,6 +331,9 @@ def _joined(pieces: list[trimesh.Trimesh], relative: str, fail: Callable[[str], 
         f = np.asarray(piece.faces)
         if f.min() < 0 or f.max() >= len(piece.vertices):
             fail(f"face indices out of range in {relative}")
+    for piece in pieces:
+        if np.asarray(piece.vertices).ndim != 2 or np.asarray(piece.vertices).shape[1] != 3:
+            fail(f"vertices without three coordinates (x, y, z) in {relative}")
     offsets = np.cumsum([0] + [len(p.vertices) for p in pieces])
     vertices = np.concatenate([np.asarray(p.vertices, dtype=np.float64) for p in pieces])
     faces = np.concatenate([np.asarray(p.faces, dtype=np.int64) + offset

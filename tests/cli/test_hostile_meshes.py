@@ -161,6 +161,24 @@ def test_a_glb_whose_json_nests_too_deep(capsys, tmp_path):
                        "nests deeper")
 
 
+def test_a_gltf_holding_a_number_too_long_to_read(capsys, tmp_path):
+    """Python refuses to read an integer of more than 4,300 digits: that was an internal error."""
+    folder = tmp_path / "scene"
+    folder.mkdir()
+    (folder / "level.gltf").write_text('{"asset": {"version": "2.0"}, "accessors": '
+                                       '[{"count": ' + "9" * 5000 + "}]}")
+    expect_scene_error(capsys, folder, mesh_scene(folder, "level.gltf"), None, "static[2].file",
+                       "too long to read")
+
+
+def test_an_obj_whose_vertices_have_two_coordinates(capsys, tmp_path):
+    folder = tmp_path / "scene"
+    folder.mkdir()
+    (folder / "flat.obj").write_text("v 0 0\nv 1 0\nv 0 1\nf 1 2 3\n")
+    expect_scene_error(capsys, folder, mesh_scene(folder, "flat.obj"), None, "static[2].file",
+                       "three coordinates")
+
+
 def test_a_glb_accessor_without_data_declaring_millions_of_elements(capsys, tmp_path):
     folder = tmp_path / "scene"
     folder.mkdir()
