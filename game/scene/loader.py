@@ -89,13 +89,13 @@ def _shape_mesh(table: Table, extra_keys: Iterable[str], budget: DrawBudget) -> 
                  for k in ALL_SHAPE_KEYS if k not in own}
     table.check_keys([*extra_keys, *own], misplaced)
     if shape == "box":
-        return box_mesh(table.vec3("size", positive=True))
+        return box_mesh(table.lengths("size"))
     if shape == "sphere":
-        return sphere_mesh(table.number("radius", positive=True))
+        return sphere_mesh(table.length("radius"))
     if shape == "mesh":
         return _mesh_file(table, budget)
-    radius = table.number("radius", positive=True)
-    height = table.number("height", positive=True)
+    radius = table.length("radius")
+    height = table.length("height")
     if shape == "cylinder":
         return cylinder_mesh(radius, height)
     if shape == "cone":

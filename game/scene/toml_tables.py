@@ -21,6 +21,9 @@ from game.errors import SceneError
 # The largest magnitude of any number in a scene: positions, sizes and scales in metres, speeds
 # in metres per second. Beyond it, float32 positions lose centimetres and products overflow.
 MAX_MAGNITUDE = 1e6
+# The least size or scale of a shape: float32 (what the GPU holds) keeps nothing smaller apart
+# from zero at a metre, and a shape collapsed to a point has no normals.
+MIN_LENGTH = 1e-6
 
 # Hints for keys that are common mistakes, where a close-match suggestion would mislead.
 KEY_HINTS = {
@@ -215,7 +218,20 @@ class Table:
         """A positive number or three positive numbers, as a (3,) array; default 1."""
         value = self.data.get(key, 1.0)
         if is_number(value):
-            return np.full(3, self._check_number(key, value, positive=True))
+            return self._at_least(key, np.full(3, self._check_number(key, value, positive=True)))
         if isinstance(value, list):
-            return self._check_vec3(key, value, positive=True)
+            return self._at_least(key, self._check_vec3(key, value, positive=True))
         self.fail(key, f"must be a number or a list of 3 numbers, got {describe(value)}")
+
+    def length(self, key: str) -> float:
+        """A shape's radius or height: a number of at least MIN_LENGTH metres."""
+        return float(self._at_least(key, np.array([self.number(key, positive=True)]))[0])
+
+    def lengths(self, key: str) -> np.ndarray:
+        """A shape's three sizes: numbers of at least MIN_LENGTH metres, as a (3,) array."""
+        return self._at_least(key, self.vec3(key, positive=True))
+
+    def _at_least(self, key: str, values: np.ndarray) -> np.ndarray:
+        if float(values.min()) < MIN_LENGTH:
+            self.fail(key, f"must be at least {MIN_LENGTH:g}, got {float(values.min()):.3g}")
+        return values
