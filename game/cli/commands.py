@@ -135,6 +135,9 @@ def cmd_bench(args) -> int:
         if value is not None and value < 0:
             raise ArgumentError(f"--{name.replace('_', '-')}: must be zero or more, got {value}")
         values[name] = (short if quick else full) if value is None else value
+    for flag, value in (("--scenes", args.scenes), ("--methods", args.methods)):
+        if value is not None and not value.strip():  # else the whole default sweep ran
+            raise ArgumentError(f"{flag}: empty; leave the flag out for the default sweep")
     methods = args.methods.split(",") if args.methods else None
     for m in methods or []:
         if m not in registry.MAP_METHODS:

@@ -233,6 +233,15 @@ def test_bench_param_values_meet_the_bounds_of_captures_flags(capsys, tmp_path, 
     assert lines[0].startswith("error: --param ")
 
 
+@pytest.mark.parametrize("flag", ["--scenes", "--methods"])
+@pytest.mark.parametrize("value", ["", " "])
+def test_an_empty_bench_selection_is_refused_not_read_as_the_whole_sweep(capsys, tmp_path, flag,
+                                                                         value):
+    code, lines = run_main(capsys, "bench", flag, value, "--out", tmp_path / "out")
+    assert code == 2 and len(lines) == 1 and lines[0].startswith(f"error: {flag}: empty"), lines
+    assert not (tmp_path / "out").exists()
+
+
 @pytest.mark.skipif(not Path("/proc/version").is_file(), reason="a Linux /proc")
 @pytest.mark.parametrize("flags", [["--stats", "/proc/version"], ["--out", "/proc/new_folder"]])
 def test_an_output_where_no_file_can_be_made_is_refused_before_any_work(capsys, tmp_path, flags):
