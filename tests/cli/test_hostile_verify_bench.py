@@ -19,7 +19,7 @@ import pytest
 
 from game import cli
 from tests.cli.cli_helpers import assert_one_line_error, run, run_main
-from tests.helpers import ROOT, stoppable
+from tests.helpers import PLAZA, ROOT, stoppable
 from tests.helpers import TINY as TINY_PATH
 
 pytest.importorskip("matplotlib", reason="bench charts need matplotlib (pip install .[bench])")
@@ -175,6 +175,17 @@ def test_verify_reads_only_the_dump_folders_own_regular_files(capsys, tmp_path, 
     code, lines = run_main(capsys, "verify", folder)
     assert code == 1 and len(lines) == 1 and "frame_0000.npz" in lines[0], lines
     assert ("FIFO" in lines[0]) if make == "fifo" else ("out of the dump folder" in lines[0])
+
+
+def test_verify_refuses_a_geometry_file_of_another_scene(capsys, tmp_path):
+    """Beside another scene's geometry the frame scored a confident wrong error, exit 0."""
+    for name in ("tiny", "other"):
+        code, _ = run_main(capsys, "capture", TINY_PATH if name == "tiny" else PLAZA, "--size",
+                           "64x36", "--frames", "1", "--dump", "--out", tmp_path / name)
+        assert code == 0
+    shutil.copy(tmp_path / "other" / "frame_0000.glb", tmp_path / "tiny" / "frame_0000.glb")
+    code, lines = run_main(capsys, "verify", tmp_path / "tiny")
+    assert code == 1 and len(lines) == 1 and "do not lie on the geometry" in lines[0], lines
 
 
 # -- bench: signals --------------------------------------------------------------------------
