@@ -13,7 +13,8 @@ interrupt while a file is written (game/app/outputs.py), raising it once the fil
 SIGTERM and SIGHUP take the same path, as KeyboardInterrupt: a run stopped by ``kill`` or a
 closed terminal cleans up exactly as one stopped with Ctrl-C. While the main thread is inside a
 GL library, or while a module is being imported, the interrupt is never raised (see
-:func:`_unsafe`), only recorded.
+:func:`_unsafe`), only recorded. Once one is raised the run is unwinding, and a further signal is
+only recorded too: raised in the clean-up, it cut the stats' write short.
 
 The exception raised is :class:`Interrupted`, a KeyboardInterrupt of its own type: CPython
 remembers a plain KeyboardInterrupt that escaped code run by ``exec`` of a string (dataclasses
@@ -29,6 +30,7 @@ import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
+from typing import NoReturn
 
 _pending = False
 _signal = signal.SIGINT   # the signal that stopped the run
@@ -37,6 +39,7 @@ STOP_SIGNALS = (signal.SIGTERM, signal.SIGHUP)
 
 
 _finished = False
+_raised = False   # an Interrupted has been raised: the run is unwinding
 # Libraries whose C code calls back into Python (moderngl builds its uniform and attribute
 # objects that way; PyOpenGL and glfw go through ctypes; imgui through its bindings). An
 # exception raised in such a callback is not checked by the C code around it: Ctrl-C raised
@@ -68,26 +71,29 @@ def _on_signal(signum, frame) -> None:
     global _pending, _signal
     if _finished:  # the run is over and exits with its own status
         return
-    if _pending:
-        # A second signal while the first unwinds (its stats being written, the run's last
-        # line): raised there, it cut that short and escaped as a traceback. The first one
-        # ends the run; a long loop whose step swallowed it raises it at its next check.
-        return
     _pending = True
     _signal = signal.Signals(signum)
-    if not _deferring and not _unsafe(frame):
-        raise Interrupted
+    # Once one is raised, the run is unwinding (its stats being written, its last line): a
+    # second one raised there would cut that short and escape as a traceback.
+    if not _raised and not _deferring and not _unsafe(frame):
+        _raise()
+
+
+def _raise() -> NoReturn:
+    global _raised
+    _raised = True
+    raise Interrupted
 
 
 def install() -> None:
     """Take over SIGINT where Python's default handler has it, and SIGTERM and SIGHUP where
     they are at their defaults (not where they are ignored, as for background jobs or under
     nohup; and only from the main thread, where handlers can be set)."""
-    global _finished, _pending, _signal, _deferring
+    global _finished, _pending, _signal, _deferring, _raised
     if threading.current_thread() is not threading.main_thread():
         return
     # A new run: nothing of an earlier one in this process is pending.
-    _finished, _pending, _signal, _deferring = False, False, signal.SIGINT, 0
+    _finished, _pending, _signal, _deferring, _raised = False, False, signal.SIGINT, 0, False
     for sig in (signal.SIGINT, *STOP_SIGNALS):
         current = signal.getsignal(sig)
         default = signal.default_int_handler if sig == signal.SIGINT else signal.SIG_DFL
@@ -121,7 +127,7 @@ def pending() -> bool:
 def check() -> None:
     """Raise KeyboardInterrupt if Ctrl-C came, even if something swallowed it since."""
     if _pending and not _deferring:
-        raise Interrupted
+        _raise()
 
 
 @contextmanager

@@ -32,7 +32,11 @@ def check_dump_files(folder: Path, frames: list[Path]) -> None:
         for path in (npz, npz.with_suffix(".glb")):
             if not (path.exists() or path.is_symlink()):
                 continue  # a missing geometry file is named when its frame is scored
-            if not path.resolve().is_relative_to(root):
+            try:
+                full = path.resolve()
+            except (OSError, RuntimeError) as error:  # RuntimeError: a symlink loop
+                raise GameError(f"{path}: cannot follow it ({error})") from None
+            if not full.is_relative_to(root):
                 raise GameError(f"{path}: links out of the dump folder; verify reads only the "
                                 "folder's own files")
             regular_file(path, str(path), _refuse)

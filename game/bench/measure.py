@@ -138,6 +138,7 @@ def _score(ctx, scene: Scene, spec: RunSpec, opts: BenchOptions, tmp: Path) -> d
         errors, mis, shadowed, either = [], 0, 0, 0
         per_light = [[0, 0] for _ in scene.lights]  # misclassified, shadowed either
         for j in range(opts.error_frames):
+            interrupts.check()
             t = j * ERROR_SPACING_S
             view = orbit_view(scene, opts.size, 10.0 * j)
             frame = renderer.render(t, view)
@@ -165,6 +166,7 @@ def _score(ctx, scene: Scene, spec: RunSpec, opts: BenchOptions, tmp: Path) -> d
         mesh = None
         t0 = 0.5
         for j in range(opts.flicker_frames):
+            interrupts.check()
             view = orbit_view(scene, opts.size, FLICKER_DEG * j)
             frame = renderer.render(t0, view)
             g = frame.gbuffer
@@ -261,6 +263,7 @@ def measure_timing(ctx, scene: Scene, spec: RunSpec, opts: BenchOptions) -> dict
     timing = Timing(ctx, scene, spec, opts)
     try:
         for _ in range(timing.frames):
+            interrupts.check()  # a signal inside GL code is only recorded
             timing.frame()
     except BaseException:
         timing.release()

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from game.app import dumps, outputs
+from game.app import dumps, interrupts, outputs
 from game.bench.rows import write_table
 from game.bench.soft_charts import write_chart, write_counter_chart, write_rays_chart
 from game.errors import GameError
@@ -80,7 +80,10 @@ def sweep(ctx, scene, size: tuple[int, int], samples=SAMPLES, methods=SAMPLED_ME
         def timed(settings: TraceSettings):
             """The last run, and the median ms of the pass and of the frame (all of the
             method's work but the statics' one-off build: grid or maps)."""
-            runs = [renderer.trace(0.0, settings) for _ in range(repeats)]
+            runs = []
+            for _ in range(repeats):
+                interrupts.check()  # a signal inside GL code is only recorded
+                runs.append(renderer.trace(0.0, settings))
             return runs[-1], (float(np.median([r.ms["trace"] for r in runs])),
                               float(np.median([r.ms["total"] - r.ms.get("build_static", 0.0)
                                                for r in runs])))
@@ -137,6 +140,7 @@ def _embree_side(scene, g: dict, covered: np.ndarray, diagonal: float, size: tup
         t = sr.tracer_samples(index, n)
         times = []
         for _ in range(repeats):
+            interrupts.check()
             occluder.seconds, occluder.rays = 0.0, 0
             sr.segment_visibility(occluder, origins, normals, light.a, light.b, t)
             times.append(occluder.seconds * 1e3)

@@ -351,6 +351,8 @@ def parse_scene(text: str, source: Path | None = None, base_dir: Path | None = N
             raise SceneError(f"{ctx.label}:{line}: light: a scene has either one [light] table "
                              "or a [[light]] array, not both") from None
         raise SceneError(f"{ctx.label}:{line}: TOML syntax error: {message}") from None
+    except ValueError:  # an integer of more digits than Python converts
+        raise SceneError(f"{ctx.label}:1: a number too long to read") from None
 
     for key in data:
         if key not in TOP_LEVEL_KEYS:

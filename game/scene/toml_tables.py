@@ -21,8 +21,8 @@ from game.errors import SceneError
 # The largest magnitude of any number in a scene: positions, sizes and scales in metres, speeds
 # in metres per second. Beyond it, float32 positions lose centimetres and products overflow.
 MAX_MAGNITUDE = 1e6
-# The least size or scale of a shape: float32 (what the GPU holds) keeps nothing smaller apart
-# from zero at a metre, and a shape collapsed to a point has no normals.
+# The least size or scale of a shape, a micrometre: far below any shadow's texel, and far above
+# the sizes at which float64 underflows and the shape's normals come out NaN.
 MIN_LENGTH = 1e-6
 
 # Hints for keys that are common mistakes, where a close-match suggestion would mislead.

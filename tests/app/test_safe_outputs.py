@@ -201,6 +201,14 @@ import half_made
 assert half_made.WHOLE
 interrupts.check()
 """,
+    # Recorded inside GL code, then pressed again outside it: the second is raised at once, so
+    # a loop without a check still stops.
+    "again after gl": """
+code = compile("ctrl_c()", "/site-packages/moderngl/__init__.py", "exec")
+exec(code, {"ctrl_c": ctrl_c})
+ctrl_c()
+print("not stopped")
+""",
     # A second Ctrl-C while the first unwinds (the stats being written): recorded, not raised
     # there, where it cut the clean-up short and escaped as a traceback.
     "twice": """
@@ -241,6 +249,7 @@ def test_ctrl_c_is_never_lost_nor_turned_into_an_error(case):
     else:  # the bare snippet ends on the uncaught exception
         assert result.returncode == 1, result.stderr
         assert result.stderr.strip().splitlines()[-1] == "game.app.interrupts.Interrupted"
+    assert "not stopped" not in result.stdout
     if case == "deferred":  # raised as the block ended, not inside it
         assert "in deferred" in result.stderr and "done.append" not in result.stderr
     if case in ("inside gl", "inside an import"):  # raised at the next check, not inside

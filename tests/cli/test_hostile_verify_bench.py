@@ -160,21 +160,27 @@ def test_a_failed_bench_run_fails_the_bench_after_the_others(capsys, tmp_path, m
     assert code == 1 and len(lines) == 1 and "1 of 2 runs failed" in lines[0], lines
 
 
-@pytest.mark.parametrize("make", ["fifo", "link out"])
-def test_verify_reads_only_the_dump_folders_own_regular_files(capsys, tmp_path, make):
+@pytest.mark.parametrize(("make", "said"), [("fifo", "FIFO"),
+                                            ("link out", "out of the dump folder"),
+                                            ("link loop", "cannot follow")])
+def test_verify_reads_only_the_dump_folders_own_regular_files(capsys, tmp_path, make, said):
     """A FIFO named like a dump blocked verify for good; a link named like one was read
     wherever it pointed."""
     folder = tmp_path / "dumps"
     folder.mkdir()
     outside = tmp_path / "elsewhere.npz"
     outside.write_bytes(b"not a dump")
+    dump = folder / "frame_0000.npz"
     if make == "fifo":
-        os.mkfifo(folder / "frame_0000.npz")
+        os.mkfifo(dump)
+    elif make == "link out":
+        dump.symlink_to(outside)
     else:
-        (folder / "frame_0000.npz").symlink_to(outside)
+        (folder / "loop").symlink_to(dump)
+        dump.symlink_to(folder / "loop")
     code, lines = run_main(capsys, "verify", folder)
     assert code == 1 and len(lines) == 1 and "frame_0000.npz" in lines[0], lines
-    assert ("FIFO" in lines[0]) if make == "fifo" else ("out of the dump folder" in lines[0])
+    assert said in lines[0], lines
 
 
 def test_verify_refuses_a_geometry_file_of_another_scene(capsys, tmp_path):
@@ -183,8 +189,8 @@ def test_verify_refuses_a_geometry_file_of_another_scene(capsys, tmp_path):
         code, _ = run_main(capsys, "capture", TINY_PATH if name == "tiny" else PLAZA, "--size",
                            "64x36", "--frames", "1", "--dump", "--out", tmp_path / name)
         assert code == 0
-    shutil.copy(tmp_path / "other" / "frame_0000.glb", tmp_path / "tiny" / "frame_0000.glb")
-    code, lines = run_main(capsys, "verify", tmp_path / "tiny")
+    shutil.copy(tmp_path / "tiny" / "frame_0000.glb", tmp_path / "other" / "frame_0000.glb")
+    code, lines = run_main(capsys, "verify", tmp_path / "other")
     assert code == 1 and len(lines) == 1 and "do not lie on the geometry" in lines[0], lines
 
 
