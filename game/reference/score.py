@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 import trimesh
 
+from game.errors import GameError
 from game.reference.dump_format import missing_to_score
 from game.reference.hard import (
     check_declared_sizes,
@@ -87,7 +88,7 @@ def score_dump_lights(npz_path: str | Path, lights: Sequence[Any]) -> dict[str, 
                          f"{len(lights)}")
     lights = list(lights)[:layers.shape[-1]]
     occluders = load_geometry(npz_path.with_suffix(".glb"))
-    check_same_frame(frame, occluders, npz_path.name)
+    check_same_frame(frame, occluders, str(npz_path))
     position, normal = frame["position"], frame["normal"]
     exact = hard_visibility_lights(occluders, position, normal, lights)
     # Pixels the reference cannot decide are left out of every light's error, and counted.
@@ -113,10 +114,10 @@ FLOAT32_STEP = 2.0 ** -20   # a float32's spacing, with room, as a share of its 
 
 
 def check_same_frame(frame: dict[str, Any], geometry: trimesh.Trimesh, name: str) -> None:
-    """Raise ValueError unless the frame's dumped surface points lie on ``geometry``: the
+    """Raise GameError unless the frame's dumped surface points lie on ``geometry``: the
     geometry file of another scene beside the npz scored the frame against the wrong
-    occluders, and gave a confident wrong error. (Another frame of the same scene moves only
-    its characters, which this does not tell apart.)"""
+    occluders, and gave a confident wrong error. (Another frame of the same scene differs in
+    its characters alone, which this tells apart only where they fill enough of the frame.)"""
     position = np.asarray(frame["position"], np.float64).reshape(-1, 3)
     normal = np.asarray(frame["normal"], np.float64).reshape(-1, 3)
     length = np.linalg.norm(normal, axis=1)
@@ -133,8 +134,8 @@ def check_same_frame(frame: dict[str, Any], geometry: trimesh.Trimesh, name: str
                                                          -normal, multiple_hits=False)
         hit[ray] = np.linalg.norm(where - (points + normal * step[:, None])[ray], axis=1)
     if (hit <= 2.0 * step).mean() < SAME_FRAME_SHARE:
-        raise ValueError(f"{name}: its surface points do not lie on the geometry of "
-                         f"{Path(name).with_suffix('.glb').name} (another scene's?)")
+        raise GameError(f"{name}: its surface points do not lie on the geometry of "
+                        f"{Path(name).with_suffix('.glb').name}: the geometry of another scene?")
 
 
 def recorded_scene(npz_path: str | Path) -> tuple[str, str, str] | None:
