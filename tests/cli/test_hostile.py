@@ -129,7 +129,7 @@ def test_scene_times_past_their_range(capsys, tmp_path, args):
     ("speed  = 1.5", "speed  = " + "9" * 400, "character[0].speed"),
     ("position = [1.5, 0.7, 0.8]", "position = [9e5, 0.7, 0.8]\nscale    = 5e5",
      "static[1].scale"),
-    # Collapsed to a point in float32: NaN normals, and a numpy warning on the way.
+    # Collapsed to a point: NaN normals, and a numpy warning on the way.
     ("radius   = 0.7", "radius   = 1e-300", "static[1].radius"),
     ("size     = [1.5, 2.0, 1.0]", "size     = [1.5, 1e-300, 1.0]", "static[0].size"),
     ("radius   = 0.7", "radius   = 0.7\nscale    = 1e-300", "static[1].scale"),
