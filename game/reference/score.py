@@ -128,11 +128,11 @@ def check_same_frame(frame: dict[str, Any], geometry: trimesh.Trimesh, name: str
     pick = np.linspace(0, len(points) - 1, min(SAME_FRAME_POINTS, len(points))).astype(np.int64)
     points, normal = points[pick], normal[pick]
     step = SAME_FRAME_STEP + FLOAT32_STEP * np.abs(points).max(axis=1)
+    above = points + normal * step[:, None]
     hit = np.full(len(points), np.inf)
     if len(geometry.faces):
-        where, ray, _ = geometry.ray.intersects_location(points + normal * step[:, None],
-                                                         -normal, multiple_hits=False)
-        hit[ray] = np.linalg.norm(where - (points + normal * step[:, None])[ray], axis=1)
+        where, ray, _ = geometry.ray.intersects_location(above, -normal, multiple_hits=False)
+        hit[ray] = np.linalg.norm(where - above[ray], axis=1)
     if (hit <= 2.0 * step).mean() < SAME_FRAME_SHARE:
         raise GameError(f"{name}: its surface points do not lie on the geometry of "
                         f"{Path(name).with_suffix('.glb').name}: the geometry of another scene?")

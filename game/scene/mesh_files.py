@@ -328,11 +328,10 @@ def _joined(pieces: list[trimesh.Trimesh], relative: str, fail: Callable[[str], 
     if not pieces:
         fail(f"no triangles in {relative} (not a mesh file?)")
     for piece in pieces:
-        f = np.asarray(piece.faces)
-        if f.min() < 0 or f.max() >= len(piece.vertices):
+        f, v = np.asarray(piece.faces), np.asarray(piece.vertices)
+        if f.min() < 0 or f.max() >= len(v):
             fail(f"face indices out of range in {relative}")
-    for piece in pieces:
-        if np.asarray(piece.vertices).ndim != 2 or np.asarray(piece.vertices).shape[1] != 3:
+        if v.ndim != 2 or v.shape[1] != 3:
             fail(f"vertices without three coordinates (x, y, z) in {relative}")
     offsets = np.cumsum([0] + [len(p.vertices) for p in pieces])
     vertices = np.concatenate([np.asarray(p.vertices, dtype=np.float64) for p in pieces])
